@@ -1,0 +1,72 @@
+// matfit info: layout, images, light distribution, conditioning, warnings.
+#include <CLI/CLI.hpp>
+#include <cstdio>
+
+#include "app/commands.h"
+#include "core/dataset/dataset.h"
+#include "core/dataset/info.h"
+#include "core/progress.h"
+
+namespace matfit::app {
+namespace {
+
+struct InfoArgs {
+  std::string path, layout = "auto", view, color_space = "auto";
+  bool json = false, quiet = false;
+};
+
+int RunInfo(const InfoArgs& a) {
+  ReadOptions ro;
+  if (!ParseLayout(a.layout, &ro.layout))
+    return Fail("info", ("--layout '" + a.layout +
+                         "' is not one of auto, bonn, utia, lp, "
+                         "diligent, lights-txt")
+                            .c_str());
+  if (!a.view.empty()) {
+    ViewAngles v;
+    if (!ParseViewArg(a.view.c_str(), &v.theta_deg, &v.phi_deg))
+      return Fail("info",
+                  ("--view '" + a.view + "' must be THETA,PHI in degrees, e.g. 0,0").c_str());
+    ro.view = v;
+  }
+  if (!ParseColorSpaceChoice(a.color_space, &ro.color_space))
+    return Fail("info",
+                ("--color-space '" + a.color_space + "' must be auto, srgb or linear").c_str());
+  std::string reason;
+  if (ro.layout == Layout::kAuto) {
+    auto detected = DetectLayout(a.path, &reason);
+    if (!detected.ok()) return Fail("info", detected.status().message().c_str());
+    ro.layout = *detected;
+  }
+  ProgressReporter progress(
+      "reading", stderr,
+      a.quiet ? ProgressReporter::Style::kQuiet : ProgressReporter::Style::kAuto);
+  ro.progress = progress.Callback();
+  auto stack = ReadDataset(a.path, ro);
+  if (!stack.ok()) return Fail("info", stack.status().message().c_str());
+  DatasetInfo info = ComputeDatasetInfo(*stack);
+  info.detection_reason = reason;
+  const std::string text = a.json ? DatasetInfoJson(info) : FormatDatasetInfo(info);
+  std::fputs(text.c_str(), stdout);
+  return 0;
+}
+
+}  // namespace
+
+void RegisterInfo(CLI::App& app, int* exit_code) {
+  auto args = std::make_shared<InfoArgs>();
+  CLI::App* sub = app.add_subcommand("info",
+                                     "Describe a dataset: layout, images, lights, "
+                                     "conditioning, colour space, warnings");
+  sub->add_option("DIR", args->path, "dataset folder (or .lp file)")->required();
+  sub->add_option("--layout", args->layout, "auto, bonn, utia, lp, diligent, lights-txt")
+      ->capture_default_str();
+  sub->add_option("--view", args->view, "BTF view THETA,PHI in degrees (default: most frontal)");
+  sub->add_option("--color-space", args->color_space, "auto, srgb or linear")
+      ->capture_default_str();
+  sub->add_flag("--json", args->json, "print JSON instead of text");
+  sub->add_flag("--quiet", args->quiet, "no progress output");
+  sub->callback([args, exit_code] { *exit_code = RunInfo(*args); });
+}
+
+}  // namespace matfit::app

@@ -1,0 +1,43 @@
+// matfit: measurement-to-material fitting. `matfit --help` lists the subcommands.
+#include <CLI/CLI.hpp>
+#include <cstdio>
+#include <cstdlib>
+#include <string>
+
+#include "app/commands.h"
+#include "core/version.h"
+
+namespace matfit::app {
+
+bool ParseViewArg(const char* text, double* theta, double* phi) {
+  char* end = nullptr;
+  *theta = std::strtod(text, &end);
+  if (end == text || *end != ',') return false;
+  const char* p = end + 1;
+  *phi = std::strtod(p, &end);
+  return end != p && *end == '\0';
+}
+
+int Fail(const char* command, const char* message) {
+  std::fprintf(stderr, "matfit %s: error: %s\n", command, message);
+  return 1;
+}
+
+}  // namespace matfit::app
+
+int main(int argc, char** argv) {
+  CLI::App app{
+      "matfit: fit materials (normals, albedo, specular, translucency) to multi-light "
+      "measurements"};
+  app.set_version_flag("--version", std::string("matfit ") + matfit::kMatfitVersion);
+  app.require_subcommand(1);
+  int exit_code = 0;
+  matfit::app::RegisterSynth(app, &exit_code);
+  matfit::app::RegisterInfo(app, &exit_code);
+  try {
+    app.parse(argc, argv);
+  } catch (const CLI::ParseError& e) {
+    return app.exit(e);
+  }
+  return exit_code;
+}

@@ -1,0 +1,49 @@
+// Atomic replacement of files and folders: write under a temporary name in the same folder,
+// then rename over the final name, so readers never see a half-written result.
+#pragma once
+
+#include <string>
+
+#include "core/status.h"
+
+namespace matfit {
+
+class AtomicFile {
+ public:
+  // The temporary keeps the final extension so that format-by-extension writers work.
+  explicit AtomicFile(std::string final_path);
+  ~AtomicFile();  // removes the temporary unless committed
+  AtomicFile(const AtomicFile&) = delete;
+  AtomicFile& operator=(const AtomicFile&) = delete;
+
+  const std::string& temp_path() const { return temp_; }
+  Status Commit();  // rename(temp, final)
+
+ private:
+  std::string final_, temp_;
+  bool committed_ = false;
+};
+
+// Writes `contents` to `path` atomically.
+Status WriteFileAtomic(const std::string& path, const std::string& contents);
+
+// A folder built under a temporary name beside `final_path`, then moved into place.
+class AtomicDir {
+ public:
+  explicit AtomicDir(std::string final_path);
+  ~AtomicDir();  // removes the temporary tree unless committed
+  AtomicDir(const AtomicDir&) = delete;
+  AtomicDir& operator=(const AtomicDir&) = delete;
+
+  // Creates the temporary folder. Fails if `final_path` exists and !overwrite.
+  Status Begin(bool overwrite);
+  const std::string& temp_path() const { return temp_; }
+  // Moves the finished tree to the final name (replacing an old one when overwrite was set).
+  Status Commit();
+
+ private:
+  std::string final_, temp_;
+  bool overwrite_ = false, committed_ = false;
+};
+
+}  // namespace matfit

@@ -1,0 +1,37 @@
+// Transfer functions. Linear values are in [0, 1] relative to full scale.
+#pragma once
+
+#include <cstdint>
+#include <string>
+
+namespace matfit {
+
+// IEC 61966-2-1 sRGB decode/encode (piecewise: linear toe below 0.04045 / 0.0031308).
+float SrgbToLinear(float encoded);
+float LinearToSrgb(float linear);
+// Exact decode of all 256 8-bit sRGB codes (table, computed once in double precision).
+const float* Srgb8ToLinearTable();
+// Nearest 8-bit code of an sRGB-encoded linear value, clamped to [0, 255].
+uint8_t LinearToSrgb8(float linear);
+
+// How the stored values of an image relate to linear light.
+enum class TransferFunction {
+  kLinear,  // stored value = linear value
+  kSrgb,    // IEC 61966-2-1
+  kGamma,   // pure power law: linear = stored^gamma (e.g. a PNG gAMA chunk of 1/2.2)
+};
+
+struct ColorEncoding {
+  TransferFunction transfer = TransferFunction::kLinear;
+  float gamma = 1.0f;            // exponent for kGamma, > 0
+  std::string ToString() const;  // "linear", "sRGB", "gamma 2.2"
+};
+
+// Stored value in [0, 1] → linear.
+float DecodeToLinear(float stored, const ColorEncoding& enc);
+
+// What the user asked for on the command line (--color-space auto|srgb|linear).
+enum class ColorSpaceChoice { kAuto, kSrgb, kLinear };
+bool ParseColorSpaceChoice(const std::string& text, ColorSpaceChoice* out);
+
+}  // namespace matfit

@@ -1,0 +1,166 @@
+// Layout names, detection and dispatch.
+#include "core/dataset/dataset.h"
+
+#include <filesystem>
+
+#include "core/dataset/btf_names.h"
+#include "core/dataset/stack_loader.h"
+
+namespace matfit {
+namespace {
+
+namespace fs = std::filesystem;
+
+bool AnyMatching(const fs::path& dir, bool (*parse)(const std::string&, BtfName*)) {
+  std::error_code ec;
+  BtfName a;
+  for (const auto& e : fs::directory_iterator(dir, ec)) {
+    if (e.is_regular_file(ec) && parse(e.path().filename().string(), &a)) return true;
+    if (e.is_directory(ec))
+      for (const auto& f : fs::directory_iterator(e.path(), ec))
+        if (f.is_regular_file(ec) && parse(f.path().filename().string(), &a)) return true;
+  }
+  return false;
+}
+
+}  // namespace
+
+const char* LayoutName(Layout layout) {
+  switch (layout) {
+    case Layout::kAuto:
+      return "auto";
+    case Layout::kBonn:
+      return "bonn";
+    case Layout::kUtia:
+      return "utia";
+    case Layout::kLp:
+      return "lp";
+    case Layout::kDiligent:
+      return "diligent";
+    case Layout::kLightsTxt:
+      return "lights-txt";
+  }
+  return "?";
+}
+
+std::vector<std::string> LayoutNames() { return {"bonn", "utia", "lp", "diligent", "lights-txt"}; }
+
+bool ParseLayout(const std::string& name, Layout* out) {
+  for (Layout l : {Layout::kAuto, Layout::kBonn, Layout::kUtia, Layout::kLp, Layout::kDiligent,
+                   Layout::kLightsTxt})
+    if (name == LayoutName(l)) {
+      *out = l;
+      return true;
+    }
+  if (name == "psm") {  // the UW course sets use lights.txt
+    *out = Layout::kLightsTxt;
+    return true;
+  }
+  return false;
+}
+
+bool ReadOptions::Check(std::string* why) const {
+  if (view && !(view->theta_deg >= 0 && view->theta_deg < 90)) {
+    *why = "--view: θ must be in [0, 90) degrees, got " + std::to_string(view->theta_deg);
+    return false;
+  }
+  if (view && !(view->phi_deg >= 0 && view->phi_deg < 360)) {
+    *why = "--view: φ must be in [0, 360) degrees, got " + std::to_string(view->phi_deg);
+    return false;
+  }
+  return true;
+}
+
+StatusOr<Layout> DetectLayout(const std::string& path, std::string* reason) {
+  std::error_code ec;
+  const fs::path p(path);
+  if (!fs::exists(p, ec)) return NotFound("'" + path + "' does not exist");
+  if (fs::is_regular_file(p, ec)) {
+    if (p.extension() == ".lp") {
+      *reason = "a .lp light file";
+      return Layout::kLp;
+    }
+    return InvalidArgument("'" + path +
+                           "' is a file but not a .lp light file; pass the dataset "
+                           "folder instead");
+  }
+  if (fs::is_empty(p, ec))
+    return DataError("dataset folder '" + path + "' is empty: expected images and a light file");
+  if (fs::exists(p / "filenames.txt", ec) && fs::exists(p / "light_directions.txt", ec)) {
+    *reason = "filenames.txt and light_directions.txt (DiLiGenT)";
+    return Layout::kDiligent;
+  }
+  std::vector<std::string> lps;
+  for (const auto& e : fs::directory_iterator(p, ec))
+    if (e.is_regular_file(ec) && e.path().extension() == ".lp") lps.push_back(e.path().filename());
+  if (lps.size() == 1) {
+    *reason = "one .lp light file (" + lps[0] + ")";
+    return Layout::kLp;
+  }
+  if (lps.size() > 1) {
+    std::string list;
+    for (const auto& s : lps) list += (list.empty() ? "" : ", ") + s;
+    return InvalidArgument("'" + path + "' holds several .lp files (" + list +
+                           "); pass the one to read, e.g. '" + (p / lps[0]).string() + "'");
+  }
+  const std::string name = p.filename().string();
+  const std::string lights = FindLightsTxt(path);
+  if (!lights.empty()) {
+    for (const auto& e : fs::directory_iterator(p, ec))
+      if (e.path().stem() == name + ".0") {
+        *reason = "'" + lights + "' and numbered images " + name + ".N";
+        return Layout::kLightsTxt;
+      }
+  }
+  if (AnyMatching(p, ParseBonnName)) {
+    *reason = "image names like 'NNNNN tlAAA plBBB tvCCC pvDDD' (Bonn UBO2003)";
+    return Layout::kBonn;
+  }
+  if (AnyMatching(p, ParseUtiaName)) {
+    *reason = "image names like 'tl000_pl000_tv000_pv000' (UTIA)";
+    return Layout::kUtia;
+  }
+  return DataError("cannot tell the layout of '" + path +
+                   "': found no filenames.txt (DiLiGenT), no .lp file, no lights.txt with images "
+                   "named " +
+                   name +
+                   ".0.*, and no BTF-named images; see docs/formats.md or pass "
+                   "--layout");
+}
+
+StatusOr<LightStack> ReadDataset(const std::string& path, const ReadOptions& options) {
+  std::string why;
+  if (!options.Check(&why)) return InvalidArgument(why);
+  Layout layout = options.layout;
+  if (layout == Layout::kAuto) {
+    auto detected = DetectLayout(path, &why);
+    if (!detected.ok()) return detected.status();
+    layout = *detected;
+  }
+  std::error_code ec;
+  switch (layout) {
+    case Layout::kBonn:
+    case Layout::kUtia:
+      return ReadBtfFolder(path, layout, options);
+    case Layout::kDiligent:
+      return ReadDiligent(path, options);
+    case Layout::kLightsTxt:
+      return ReadLightsTxt(path, options);
+    case Layout::kLp: {
+      if (fs::is_regular_file(path, ec)) return ReadLp(path, options);
+      std::vector<std::string> lps;
+      for (const auto& e : fs::directory_iterator(path, ec))
+        if (e.is_regular_file(ec) && e.path().extension() == ".lp")
+          lps.push_back(e.path().string());
+      if (lps.size() != 1)
+        return DataError("--layout lp: '" + path + "' must contain exactly one .lp file (found " +
+                         std::to_string(lps.size()) + "); or pass the .lp file itself");
+      return ReadLp(lps[0], options);
+    }
+    case Layout::kAuto:
+      break;
+  }
+  return InvalidArgument("no reader for layout");
+}
+
+}  // namespace matfit

@@ -1,0 +1,50 @@
+// Dataset readers: every multi-light layout users have, each returning a LightStack.
+// Layouts (docs/formats.md): Bonn UBO2003 BTF folders, UTIA BTF naming, RTI `.lp`,
+// DiLiGenT, and `lights.txt` + numbered images (the UW psm sets).
+#pragma once
+
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "core/color.h"
+#include "core/light_stack.h"
+#include "core/progress.h"
+#include "core/status.h"
+
+namespace matfit {
+
+enum class Layout { kAuto, kBonn, kUtia, kLp, kDiligent, kLightsTxt };
+
+const char* LayoutName(Layout layout);  // "bonn", "utia", "lp", "diligent", "lights-txt"
+bool ParseLayout(const std::string& name, Layout* out);
+std::vector<std::string> LayoutNames();  // every concrete layout name
+
+struct ViewAngles {
+  double theta_deg = 0;  // polar angle of the view direction, [0, 90)
+  double phi_deg = 0;    // azimuth, [0, 360)
+};
+
+struct ReadOptions {
+  Layout layout = Layout::kAuto;  // kAuto: detect from the folder's contents
+  // BTF layouts: which view to load; unset = the most frontal view present.
+  std::optional<ViewAngles> view;
+  ColorSpaceChoice color_space = ColorSpaceChoice::kAuto;  // override of the image rules
+  ProgressFn progress;  // called as images are decoded; may be empty
+
+  bool Check(std::string* why) const;
+};
+
+// Which layout `path` (a folder, or a `.lp` file) is in, with the evidence in *reason.
+StatusOr<Layout> DetectLayout(const std::string& path, std::string* reason);
+
+// Reads a dataset. Errors name the file (and line) that was wrong and what would fix it.
+StatusOr<LightStack> ReadDataset(const std::string& path, const ReadOptions& options = {});
+
+// Per-layout readers (ReadDataset dispatches to these).
+StatusOr<LightStack> ReadBtfFolder(const std::string& dir, Layout layout, const ReadOptions& o);
+StatusOr<LightStack> ReadLp(const std::string& path, const ReadOptions& o);
+StatusOr<LightStack> ReadDiligent(const std::string& dir, const ReadOptions& o);
+StatusOr<LightStack> ReadLightsTxt(const std::string& dir, const ReadOptions& o);
+
+}  // namespace matfit

@@ -1,0 +1,219 @@
+#include "core/dataset/info.h"
+
+#include <Eigen/SVD>
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <limits>
+#include <map>
+#include <nlohmann/json.hpp>
+
+namespace matfit {
+namespace {
+
+std::string Fmt(const char* f, double v) {
+  char buf[64];
+  std::snprintf(buf, sizeof buf, f, v);
+  return buf;
+}
+
+std::string HumanBytes(double b) {
+  const char* units[] = {"B", "KiB", "MiB", "GiB", "TiB"};
+  int u = 0;
+  while (b >= 1024 && u < 4) b /= 1024, ++u;
+  return Fmt(u == 0 ? "%.0f" : "%.1f", b) + " " + units[u];
+}
+
+}  // namespace
+
+DatasetInfo ComputeDatasetInfo(const LightStack& s) {
+  DatasetInfo info;
+  info.layout = s.layout;
+  info.source = s.source;
+  info.object_name = s.object_name;
+  info.images = s.num_images();
+  info.width = s.width(), info.height = s.height(), info.channels = s.channels();
+  info.memory_bytes = s.MemoryBytes();
+  info.view_theta_deg = s.view_theta_deg, info.view_phi_deg = s.view_phi_deg;
+  info.has_mask = s.has_mask();
+  info.masked_texels = s.MaskedTexels();
+  const int n = s.num_images();
+
+  // Light distribution.
+  std::map<int, int> groups;
+  std::vector<double> phis;
+  info.theta_min = 1e9, info.theta_max = -1e9;
+  info.intensity_min = 1e300, info.intensity_max = -1e300;
+  int below = 0;
+  Eigen::MatrixXd L(n, 3);
+  for (int i = 0; i < n; ++i) {
+    const LightSample& l = s.lights()[i];
+    groups[int(std::lround(l.theta_deg / 15.0)) * 15]++;
+    info.theta_min = std::min(info.theta_min, l.theta_deg);
+    info.theta_max = std::max(info.theta_max, l.theta_deg);
+    if (l.theta_deg > 1e-6) phis.push_back(l.phi_deg);
+    if (l.direction.z <= 0) ++below;
+    for (int c = 0; c < 3; ++c) {
+      info.intensity_min = std::min(info.intensity_min, l.intensity[c]);
+      info.intensity_max = std::max(info.intensity_max, l.intensity[c]);
+    }
+    L.row(i) << l.direction.x, l.direction.y, l.direction.z;
+    info.mean_light += l.direction / double(std::max(1, n));
+  }
+  for (auto [t, c] : groups) info.theta_groups.push_back({t, c});
+  std::sort(phis.begin(), phis.end());
+  if (phis.size() >= 2) {
+    double gap = 360.0 - phis.back() + phis.front();
+    for (size_t i = 1; i < phis.size(); ++i) gap = std::max(gap, phis[i] - phis[i - 1]);
+    info.max_azimuth_gap_deg = gap;
+  } else {
+    info.max_azimuth_gap_deg = 360;
+  }
+  if (n > 0) {
+    Eigen::JacobiSVD<Eigen::MatrixXd> svd(L);
+    const auto sv = svd.singularValues();
+    for (int k = 0; k < 3 && k < sv.size(); ++k) info.singular_values[k] = sv[k];
+    const double tol = 1e-9 * std::max(1.0, info.singular_values[0]);
+    info.rank = int((sv.array() > tol).count());
+    info.condition_number = info.rank == 3 ? info.singular_values[0] / info.singular_values[2]
+                                           : std::numeric_limits<double>::infinity();
+  }
+
+  // Encodings.
+  std::map<std::string, int> enc;
+  for (size_t i = 0; i < s.encodings.size(); ++i)
+    enc[s.encodings[i].ToString() + " (" +
+        (i < s.encoding_reasons.size() ? s.encoding_reasons[i] : "") + ")"]++;
+  for (auto& [k, c] : enc) info.encodings.push_back(k + " x " + std::to_string(c));
+
+  // Clipping and non-finite samples.
+  int64_t sat = 0;
+  for (size_t i = 0; i < s.saturated_pixels.size(); ++i) {
+    sat += s.saturated_pixels[i];
+    const double f = double(s.saturated_pixels[i]) / double(std::max<int64_t>(1, s.plane_size()));
+    if (f > info.worst_saturated_fraction) {
+      info.worst_saturated_fraction = f;
+      info.worst_saturated_file = i < s.image_files.size() ? s.image_files[i] : std::to_string(i);
+    }
+  }
+  info.saturated_fraction = double(sat) / double(std::max<int64_t>(1, s.plane_size() * n));
+  for (int64_t v : s.nonfinite_samples) info.nonfinite_samples += v;
+
+  // Black images.
+  std::vector<int> black;
+  for (int i = 0; i < n; ++i) {
+    float mx = 0;
+    for (int c = 0; c < s.channels(); ++c)
+      for (float v : s.Plane(i, c)) mx = std::max(mx, std::isfinite(v) ? v : 0.0f);
+    if (mx < 1e-4f) black.push_back(i);
+  }
+
+  // Warnings.
+  auto& w = info.warnings;
+  if (n < 3)
+    w.push_back("only " + std::to_string(n) +
+                " light(s): photometric stereo needs at least 3 "
+                "non-coplanar lights");
+  else if (info.rank < 3)
+    w.push_back("the lights are coplanar (light matrix rank " + std::to_string(info.rank) +
+                "): normals cannot be recovered; add lights out of that plane");
+  else if (info.condition_number > 30)
+    w.push_back("ill-conditioned light matrix (condition number " +
+                Fmt("%.1f", info.condition_number) +
+                "): lights are nearly coplanar, fitted normals will amplify noise");
+  if (below > 0)
+    w.push_back(std::to_string(below) + " light(s) at or below the surface plane (θ ≥ 90°)");
+  for (int i = 0; i < n; ++i)
+    for (int j = i + 1; j < n; ++j)
+      if (AngleBetweenDeg(s.lights()[i].direction, s.lights()[j].direction) < 0.05) {
+        w.push_back("lights " + std::to_string(i) + " and " + std::to_string(j) +
+                    " have the same direction");
+        i = j = n;
+      }
+  if (info.saturated_fraction > 0.001)
+    w.push_back(Fmt("%.2f", 100 * info.saturated_fraction) +
+                "% of pixels are clipped at the maximum code (worst: '" +
+                info.worst_saturated_file + "', " +
+                Fmt("%.2f", 100 * info.worst_saturated_fraction) +
+                "%); lower the exposure or bracket to HDR");
+  if (info.nonfinite_samples > 0)
+    w.push_back(std::to_string(info.nonfinite_samples) + " NaN/Inf samples in the images");
+  if (!black.empty())
+    w.push_back(std::to_string(black.size()) + " image(s) are black (max < 1e-4), first: '" +
+                (size_t(black[0]) < s.image_files.size() ? s.image_files[black[0]]
+                                                         : std::to_string(black[0])) +
+                "'");
+  if (info.has_mask && info.masked_texels == 0) w.push_back("the mask selects no texel");
+  return info;
+}
+
+std::string FormatDatasetInfo(const DatasetInfo& d) {
+  std::string o;
+  o += "dataset      " + d.source + "\n";
+  o += "layout       " + d.layout +
+       (d.detection_reason.empty() ? "" : "  (detected: " + d.detection_reason + ")") + "\n";
+  if (!d.object_name.empty()) o += "object       " + d.object_name + "\n";
+  o += "images       " + std::to_string(d.images) + " x " + std::to_string(d.width) + "x" +
+       std::to_string(d.height) + ", " + std::to_string(d.channels) + " channel(s), " +
+       HumanBytes(double(d.memory_bytes)) + " as float32\n";
+  o += "view         θv=" + Fmt("%.1f", d.view_theta_deg) + "° φv=" + Fmt("%.1f", d.view_phi_deg) +
+       "°\n";
+  for (const auto& e : d.encodings) o += "colour       " + e + "\n";
+  o += "mask         " +
+       (d.has_mask ? std::to_string(d.masked_texels) + " of " +
+                         std::to_string(int64_t(d.width) * d.height) + " texels"
+                   : std::string("none (all texels)")) +
+       "\n";
+  o += "lights       θl " + Fmt("%.1f", d.theta_min) + "°..." + Fmt("%.1f", d.theta_max) +
+       "°, largest azimuth gap " + Fmt("%.0f", d.max_azimuth_gap_deg) + "°, intensity " +
+       Fmt("%.3g", d.intensity_min) + "..." + Fmt("%.3g", d.intensity_max) + "\n";
+  o += "θl groups   ";
+  for (const auto& g : d.theta_groups)
+    o += " " + std::to_string(g.theta_deg) + "°:" + std::to_string(g.count);
+  o += "\n";
+  o += "mean light   (" + Fmt("%.4f", d.mean_light.x) + ", " + Fmt("%.4f", d.mean_light.y) + ", " +
+       Fmt("%.4f", d.mean_light.z) + ")\n";
+  o += "light matrix singular values " + Fmt("%.4g", d.singular_values[0]) + " " +
+       Fmt("%.4g", d.singular_values[1]) + " " + Fmt("%.4g", d.singular_values[2]) + ", rank " +
+       std::to_string(d.rank) + ", condition number " +
+       (std::isfinite(d.condition_number) ? Fmt("%.3f", d.condition_number) : std::string("inf")) +
+       "\n";
+  o += "clipped      " + Fmt("%.3f", 100 * d.saturated_fraction) + "% of pixels\n";
+  if (d.warnings.empty()) o += "warnings     none\n";
+  for (const auto& w : d.warnings) o += "warning      " + w + "\n";
+  return o;
+}
+
+std::string DatasetInfoJson(const DatasetInfo& d) {
+  nlohmann::json groups = nlohmann::json::array();
+  for (const auto& g : d.theta_groups)
+    groups.push_back({{"theta_deg", g.theta_deg}, {"count", g.count}});
+  nlohmann::json j = {
+      {"source", d.source},
+      {"layout", d.layout},
+      {"detection_reason", d.detection_reason},
+      {"object", d.object_name},
+      {"images", d.images},
+      {"width", d.width},
+      {"height", d.height},
+      {"channels", d.channels},
+      {"memory_bytes", d.memory_bytes},
+      {"view", {{"theta_deg", d.view_theta_deg}, {"phi_deg", d.view_phi_deg}}},
+      {"encodings", d.encodings},
+      {"mask_texels", d.has_mask ? nlohmann::json(d.masked_texels) : nlohmann::json()},
+      {"theta_groups", groups},
+      {"theta_min_deg", d.theta_min},
+      {"theta_max_deg", d.theta_max},
+      {"max_azimuth_gap_deg", d.max_azimuth_gap_deg},
+      {"mean_light", {d.mean_light.x, d.mean_light.y, d.mean_light.z}},
+      {"singular_values", {d.singular_values[0], d.singular_values[1], d.singular_values[2]}},
+      {"rank", d.rank},
+      {"condition_number",
+       std::isfinite(d.condition_number) ? nlohmann::json(d.condition_number) : nlohmann::json()},
+      {"saturated_fraction", d.saturated_fraction},
+      {"nonfinite_samples", d.nonfinite_samples},
+      {"warnings", d.warnings}};
+  return j.dump(2) + "\n";
+}
+
+}  // namespace matfit

@@ -1,0 +1,43 @@
+// `matfit info`: what a dataset holds and what is wrong with it (computed, no I/O).
+#pragma once
+
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include "core/light_stack.h"
+
+namespace matfit {
+
+struct ThetaGroup {
+  int theta_deg = 0;  // nominal θ_l of the group (nearest multiple of 15°)
+  int count = 0;
+};
+
+struct DatasetInfo {
+  std::string layout, detection_reason, source, object_name;
+  int images = 0, width = 0, height = 0, channels = 0;
+  size_t memory_bytes = 0;
+  double view_theta_deg = 0, view_phi_deg = 0;
+  std::vector<ThetaGroup> theta_groups;  // light count per θ_l group
+  double theta_min = 0, theta_max = 0, max_azimuth_gap_deg = 0;
+  double singular_values[3] = {0, 0, 0};  // of the N × 3 light matrix, descending
+  double condition_number = 0;            // σ1 / σ3 (inf when rank < 3)
+  int rank = 0;                           // numerical rank of the light matrix
+  Vec3 mean_light;                        // mean light direction
+  double intensity_min = 0, intensity_max = 0;
+  std::vector<std::string> encodings;  // "sRGB (8-bit default (sRGB)) × 12"
+  int64_t masked_texels = 0;           // texels inside the mask
+  bool has_mask = false;
+  double saturated_fraction = 0;  // of all pixels of all images
+  std::string worst_saturated_file;
+  double worst_saturated_fraction = 0;
+  int64_t nonfinite_samples = 0;
+  std::vector<std::string> warnings;
+};
+
+DatasetInfo ComputeDatasetInfo(const LightStack& stack);
+std::string FormatDatasetInfo(const DatasetInfo& info);  // human-readable report
+std::string DatasetInfoJson(const DatasetInfo& info);    // the same as JSON
+
+}  // namespace matfit

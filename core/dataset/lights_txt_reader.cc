@@ -1,0 +1,91 @@
+// `lights.txt` + numbered images (UW psm sets): lights.txt (first line N, then N lines
+// "x y z") in the folder or its parent; images NAME.0.ext ... NAME.(N-1).ext with NAME the
+// folder name; optional NAME.mask.ext.
+#include <filesystem>
+
+#include "core/dataset/btf_names.h"
+#include "core/dataset/dataset.h"
+#include "core/dataset/stack_loader.h"
+#include "core/text_file.h"
+
+namespace matfit {
+namespace {
+
+namespace fs = std::filesystem;
+
+// NAME.<index> with any image extension, or empty.
+std::string FindNumbered(const fs::path& dir, const std::string& stem) {
+  std::error_code ec;
+  for (const char* ext : {".tga", ".png", ".jpg", ".tif", ".tiff", ".exr", ".bmp", ".jpeg"}) {
+    const fs::path p = dir / (stem + ext);
+    if (fs::is_regular_file(p, ec)) return p.string();
+  }
+  return {};
+}
+
+}  // namespace
+
+std::string FindLightsTxt(const std::string& dir) {
+  std::error_code ec;
+  for (const fs::path& p :
+       {fs::path(dir) / "lights.txt", fs::path(dir).parent_path() / "lights.txt"})
+    if (fs::is_regular_file(p, ec)) return p.string();
+  return {};
+}
+
+StatusOr<LightStack> ReadLightsTxt(const std::string& dir_in, const ReadOptions& o) {
+  std::string dir = dir_in;
+  while (dir.size() > 1 && dir.back() == '/') dir.pop_back();
+  const std::string lights_path = FindLightsTxt(dir);
+  if (lights_path.empty()) return NotFound("no lights.txt in '" + dir + "' or its parent folder");
+  auto lines = ReadTextLines(lights_path);
+  if (!lines.ok()) return lines.status();
+  if (lines->empty()) return DataError("'" + lights_path + "' is empty; expected a light count");
+  int count = 0;
+  const TextLine& header = lines->front();
+  if (header.tokens.size() != 1 || !ParseInt(header.tokens[0], &count) || count <= 0)
+    return DataError(AtLine(
+        lights_path, header.number,
+        "expected the number of lights alone on the first line, found '" + header.text + "'"));
+  if (int(lines->size()) - 1 != count)
+    return DataError("'" + lights_path + "': the first line says " + std::to_string(count) +
+                     " lights but " + std::to_string(lines->size() - 1) +
+                     " direction lines follow");
+  const std::string name = fs::path(dir).filename().string();
+  std::vector<std::string> files;
+  std::vector<LightSample> lights;
+  for (int i = 0; i < count; ++i) {
+    const TextLine& l = (*lines)[i + 1];
+    Vec3 d;
+    if (l.tokens.size() != 3 || !ParseFiniteDouble(l.tokens[0], &d.x) ||
+        !ParseFiniteDouble(l.tokens[1], &d.y) || !ParseFiniteDouble(l.tokens[2], &d.z))
+      return DataError(AtLine(lights_path, l.number,
+                              "expected three finite numbers 'x y z', found '" + l.text + "'"));
+    auto light = MakeLight(d, lights_path + ":" + std::to_string(l.number));
+    if (!light.ok()) return light.status();
+    const std::string file = FindNumbered(dir, name + "." + std::to_string(i));
+    if (file.empty())
+      return NotFound("image " + std::to_string(i) + " of '" + lights_path +
+                      "' not found: expected '" +
+                      (fs::path(dir) / (name + "." + std::to_string(i))).string() +
+                      ".tga' (or .png, .jpg, ...)");
+    files.push_back(file);
+    lights.push_back(*light);
+  }
+  ImageReadOptions io;
+  io.color_space = o.color_space;
+  auto stack = LoadStack(files, std::move(lights), io, o.progress);
+  if (!stack.ok()) return stack.status();
+  const std::string mask = FindNumbered(dir, name + ".mask");
+  if (!mask.empty()) {
+    auto m = ReadMaskImage(mask, stack->width(), stack->height());
+    if (!m.ok()) return m.status();
+    stack->mask = std::move(*m);
+  }
+  stack->layout = LayoutName(Layout::kLightsTxt);
+  stack->source = dir;
+  stack->object_name = name;
+  return stack;
+}
+
+}  // namespace matfit

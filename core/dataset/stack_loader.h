@@ -1,0 +1,36 @@
+// Shared by the readers: decode a list of images into one LightStack, read masks,
+// validate light directions.
+#pragma once
+
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include "core/image_io.h"
+#include "core/light_stack.h"
+#include "core/progress.h"
+
+namespace matfit {
+
+// Decodes `files` (in parallel) into a stack with `lights` (same count). All images must
+// have the same size and channel count; the first one that differs is named in the error.
+StatusOr<LightStack> LoadStack(const std::vector<std::string>& files,
+                               std::vector<LightSample> lights, const ImageReadOptions& options,
+                               const ProgressFn& progress);
+
+// Reads a mask image (white = sample): first channel > 0.5 after linearisation. Its size
+// must be width × height.
+StatusOr<std::vector<uint8_t>> ReadMaskImage(const std::string& path, int width, int height);
+
+// Checks a light direction read from `where` (e.g. "lights.txt:3"): finite, non-zero;
+// returns the unit vector and fills theta/phi.
+StatusOr<LightSample> MakeLight(const Vec3& direction, const std::string& where);
+
+}  // namespace matfit
+
+namespace matfit {
+// Last component of a folder path, ignoring trailing slashes ("a/b/" → "b").
+std::string FolderName(const std::string& dir);
+// lights.txt in `dir` or its parent folder, or empty.
+std::string FindLightsTxt(const std::string& dir);
+}  // namespace matfit

@@ -1,0 +1,167 @@
+#include "core/dataset/writer.h"
+
+#include <cmath>
+#include <cstdio>
+#include <filesystem>
+#include <functional>
+
+#include "core/atomic_file.h"
+#include "core/dataset/btf_names.h"
+#include "core/image_io.h"
+#include "core/parallel.h"
+
+namespace matfit {
+namespace {
+
+namespace fs = std::filesystem;
+
+std::string Num(double v) {
+  char buf[40];
+  std::snprintf(buf, sizeof buf, "%.9g", v);
+  return buf;
+}
+
+ImageWriteOptions ImageOptions(int bits) {
+  if (bits == 8) return {PixelFormat::kUint8, TransferFunction::kSrgb};
+  if (bits == 16) return {PixelFormat::kUint16, TransferFunction::kLinear};
+  return {PixelFormat::kFloat, TransferFunction::kLinear};
+}
+
+std::string Extension(int bits) { return bits == 32 ? ".exr" : ".png"; }
+
+Image ImageOf(const LightStack& s, int i) {
+  Image img(s.width(), s.height(), s.channels());
+  for (int c = 0; c < s.channels(); ++c) {
+    auto src = s.Plane(i, c);
+    std::copy(src.begin(), src.end(), img.Plane(c).begin());
+  }
+  return img;
+}
+
+Status WriteMask(const LightStack& s, const std::string& path) {
+  Image m(s.width(), s.height(), 1, 1.0f);
+  if (s.has_mask())
+    for (int64_t p = 0; p < s.plane_size(); ++p) m.data()[p] = s.mask[p] ? 1.0f : 0.0f;
+  return WriteImage(path, m, {PixelFormat::kUint8, TransferFunction::kLinear});
+}
+
+// Writes every image to the path given by name(i), in parallel; first error wins.
+Status WriteImages(const LightStack& s, int bits, const std::function<std::string(int)>& name) {
+  std::vector<Status> errors(s.num_images());
+  ParallelFor(0, s.num_images(), [&](int64_t b, int64_t e) {
+    for (int64_t i = b; i < e; ++i)
+      errors[i] = WriteImage(name(int(i)), ImageOf(s, int(i)), ImageOptions(bits));
+  });
+  for (auto& st : errors) MATFIT_RETURN_IF_ERROR(st);
+  return Status::Ok();
+}
+
+}  // namespace
+
+bool DatasetWriteOptions::Check(std::string* why) const {
+  if (bits != 8 && bits != 16 && bits != 32) {
+    *why = "--bits must be 8, 16 or 32, got " + std::to_string(bits);
+    return false;
+  }
+  if (layout == Layout::kAuto) {
+    *why = "--layout must name a layout to write (bonn, utia, lp, diligent, lights-txt)";
+    return false;
+  }
+  if (layout == Layout::kLightsTxt &&
+      (object_name.empty() || object_name.find('/') != std::string::npos)) {
+    *why = "lights-txt layout needs a plain object name, got '" + object_name + "'";
+    return false;
+  }
+  return true;
+}
+
+Status WriteDataset(const LightStack& s, const DatasetWriteOptions& o, const std::string& dir) {
+  std::string why;
+  if (!o.Check(&why)) return InvalidArgument(why);
+  const fs::path d(dir);
+  const std::string ext = Extension(o.bits);
+  const int n = s.num_images();
+  switch (o.layout) {
+    case Layout::kBonn:
+    case Layout::kUtia: {
+      const bool bonn = o.layout == Layout::kBonn;
+      std::vector<BtfName> names(n);
+      for (int i = 0; i < n; ++i) {
+        const LightSample& l = s.lights()[i];
+        names[i] = {i, l.theta_deg, l.phi_deg, s.view_theta_deg, s.view_phi_deg};
+        const bool integral = std::abs(l.theta_deg - std::round(l.theta_deg)) < 1e-6 &&
+                              std::abs(l.phi_deg - std::round(l.phi_deg)) < 1e-6;
+        if (!integral)
+          return InvalidArgument(std::string("the ") + (bonn ? "Bonn" : "UTIA") +
+                                 " layout stores light angles in integer degrees but light " +
+                                 std::to_string(i) + " is at θ=" + Num(l.theta_deg) + "°, φ=" +
+                                 Num(l.phi_deg) + "°; quantise the lights or use --layout lp");
+      }
+      fs::path folder = d;
+      if (bonn) {
+        folder = d / MakeBonnViewFolder(s.view_theta_deg, s.view_phi_deg);
+        std::error_code ec;
+        fs::create_directories(folder, ec);
+        if (ec) return IoError("cannot create '" + folder.string() + "': " + ec.message());
+      }
+      return WriteImages(s, o.bits, [&](int i) {
+        return (folder / (bonn ? MakeBonnName(i, names[i], ext) : MakeUtiaName(names[i], ext)))
+            .string();
+      });
+    }
+    case Layout::kLp: {
+      std::string lp = std::to_string(n) + "\n";
+      for (int i = 0; i < n; ++i) {
+        const Vec3& l = s.lights()[i].direction;
+        char name[32];
+        std::snprintf(name, sizeof name, "img_%03d%s", i, ext.c_str());
+        lp += std::string(name) + " " + Num(l.x) + " " + Num(l.y) + " " + Num(l.z) + "\n";
+      }
+      MATFIT_RETURN_IF_ERROR(WriteImages(s, o.bits, [&](int i) {
+        char name[32];
+        std::snprintf(name, sizeof name, "img_%03d%s", i, ext.c_str());
+        return (d / name).string();
+      }));
+      if (s.has_mask()) MATFIT_RETURN_IF_ERROR(WriteMask(s, (d / "mask.png").string()));
+      return WriteFileAtomic((d / "lights.lp").string(), lp);
+    }
+    case Layout::kDiligent: {
+      std::string names, dirs, ints;
+      for (int i = 0; i < n; ++i) {
+        char name[32];
+        std::snprintf(name, sizeof name, "%03d%s", i + 1, ext.c_str());
+        names += std::string(name) + "\n";
+        const LightSample& l = s.lights()[i];
+        dirs += Num(l.direction.x) + " " + Num(l.direction.y) + " " + Num(l.direction.z) + "\n";
+        ints += Num(l.intensity.x) + " " + Num(l.intensity.y) + " " + Num(l.intensity.z) + "\n";
+      }
+      MATFIT_RETURN_IF_ERROR(WriteImages(s, o.bits, [&](int i) {
+        char name[32];
+        std::snprintf(name, sizeof name, "%03d%s", i + 1, ext.c_str());
+        return (d / name).string();
+      }));
+      MATFIT_RETURN_IF_ERROR(WriteMask(s, (d / "mask.png").string()));
+      MATFIT_RETURN_IF_ERROR(WriteFileAtomic((d / "filenames.txt").string(), names));
+      MATFIT_RETURN_IF_ERROR(WriteFileAtomic((d / "light_directions.txt").string(), dirs));
+      return WriteFileAtomic((d / "light_intensities.txt").string(), ints);
+    }
+    case Layout::kLightsTxt: {
+      std::string txt = std::to_string(n) + "\n";
+      for (int i = 0; i < n; ++i) {
+        const Vec3& l = s.lights()[i].direction;
+        txt += Num(l.x) + " " + Num(l.y) + " " + Num(l.z) + "\n";
+      }
+      MATFIT_RETURN_IF_ERROR(WriteImages(s, o.bits, [&](int i) {
+        return (d / (o.object_name + "." + std::to_string(i) + ext)).string();
+      }));
+      if (s.has_mask())
+        MATFIT_RETURN_IF_ERROR(WriteMask(s, (d / (o.object_name + ".mask.png")).string()));
+      return WriteFileAtomic((d / "lights.txt").string(), txt);
+    }
+    case Layout::kAuto:
+      break;
+  }
+  return InvalidArgument("no writer for this layout");
+}
+
+}  // namespace matfit

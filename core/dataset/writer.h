@@ -1,0 +1,25 @@
+// Writes a LightStack as a dataset folder in any layout the readers accept.
+#pragma once
+
+#include <string>
+
+#include "core/dataset/dataset.h"
+
+namespace matfit {
+
+struct DatasetWriteOptions {
+  Layout layout = Layout::kLp;
+  // 8: 8-bit sRGB PNG (quantised, like camera JPEG/PNG data); 16: 16-bit linear PNG;
+  // 32: float EXR (lossless).
+  int bits = 16;
+  // Base name of the images for the lights-txt layout (must equal the final folder name).
+  std::string object_name = "object";
+
+  bool Check(std::string* why) const;
+};
+
+// Writes into the existing folder `dir`. Bonn needs every light at integer degrees.
+Status WriteDataset(const LightStack& stack, const DatasetWriteOptions& options,
+                    const std::string& dir);
+
+}  // namespace matfit

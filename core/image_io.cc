@@ -1,0 +1,212 @@
+#include "core/image_io.h"
+
+#include <OpenImageIO/imageio.h>
+
+#include <algorithm>
+#include <cmath>
+#include <filesystem>
+#include <vector>
+
+#include "core/atomic_file.h"
+
+namespace matfit {
+namespace {
+
+namespace fs = std::filesystem;
+
+std::string LastOiioError(OIIO::ImageInput* in) {
+  std::string e = in ? in->geterror() : std::string();
+  if (e.empty()) e = OIIO::geterror();
+  if (e.empty()) e = "unknown decoder error";
+  // Keep one line: decoders sometimes append newlines.
+  std::replace(e.begin(), e.end(), '\n', ' ');
+  return e;
+}
+
+// Decides the transfer function of a file being read.
+ColorEncoding ChooseEncoding(const OIIO::ImageSpec& spec, const ImageReadOptions& opt,
+                             std::string* reason) {
+  auto from_choice = [](ColorSpaceChoice c) {
+    return ColorEncoding{
+        c == ColorSpaceChoice::kSrgb ? TransferFunction::kSrgb : TransferFunction::kLinear, 1.0f};
+  };
+  if (opt.color_space != ColorSpaceChoice::kAuto) {
+    *reason = "user override";
+    return from_choice(opt.color_space);
+  }
+  if (opt.layout_default != ColorSpaceChoice::kAuto) {
+    *reason = "layout default";
+    return from_choice(opt.layout_default);
+  }
+  const std::string cs = spec.get_string_attribute("oiio:ColorSpace");
+  if (!cs.empty()) {
+    *reason = "file metadata (" + cs + ")";
+    if (cs == "Linear" || cs == "linear" || cs == "scene_linear") return {};
+    if (cs == "sRGB") return {TransferFunction::kSrgb, 1.0f};
+    if (cs.rfind("Gamma", 0) == 0) {
+      const float g = spec.get_float_attribute("oiio:Gamma", 0.0f);
+      if (g > 0.0f && std::isfinite(g)) {
+        if (std::abs(g - 1.0f) < 1e-3f) return {};
+        return {TransferFunction::kGamma, g};
+      }
+    }
+  }
+  if (spec.format.basetype == OIIO::TypeDesc::UINT8) {
+    *reason = "8-bit default (sRGB)";
+    return {TransferFunction::kSrgb, 1.0f};
+  }
+  *reason = "default for high bit depth (linear)";
+  return {};
+}
+
+template <typename T>
+void DecodeInteger(const std::vector<T>& raw, int file_ch, int keep_ch, const ColorEncoding& enc,
+                   Image* out, int64_t* saturated) {
+  constexpr int kCodes = 1 << (8 * sizeof(T));
+  std::vector<float> lut(kCodes);
+  for (int i = 0; i < kCodes; ++i) lut[i] = DecodeToLinear(float(i) / float(kCodes - 1), enc);
+  const int64_t n = out->plane_size();
+  int64_t sat = 0;
+  for (int64_t p = 0; p < n; ++p) {
+    bool clipped = false;
+    for (int c = 0; c < keep_ch; ++c) {
+      const T code = raw[p * file_ch + c];
+      clipped |= (code == T(kCodes - 1));
+      out->Plane(c)[p] = lut[code];
+    }
+    sat += clipped;
+  }
+  *saturated = sat;
+}
+
+}  // namespace
+
+StatusOr<Image> ReadImage(const std::string& path, const ImageReadOptions& options,
+                          ImageFileInfo* info) {
+  std::error_code ec;
+  if (!fs::is_regular_file(path, ec)) return NotFound("image file '" + path + "' does not exist");
+  auto in = OIIO::ImageInput::open(path);
+  if (!in) return DataError("cannot open image '" + path + "': " + LastOiioError(nullptr));
+  const OIIO::ImageSpec spec = in->spec();
+  if (spec.width <= 0 || spec.height <= 0 || spec.nchannels <= 0 || spec.depth > 1)
+    return DataError("image '" + path + "' has an unsupported size or layout");
+  const int file_ch = spec.nchannels;
+  const int keep_ch = file_ch >= 3 ? 3 : 1;  // grey(+alpha) → 1, RGB(A) → 3
+  ImageFileInfo local;
+  ImageFileInfo& fi = info ? *info : local;
+  fi = {};
+  fi.file_channels = file_ch;
+  fi.encoding = ChooseEncoding(spec, options, &fi.encoding_reason);
+
+  Image img(spec.width, spec.height, keep_ch);
+  const int64_t n = int64_t(spec.width) * spec.height;
+  const auto base = spec.format.basetype;
+  bool ok = false;
+  if (base == OIIO::TypeDesc::UINT8 || base == OIIO::TypeDesc::INT8) {
+    fi.pixel_format = "uint8";
+    std::vector<uint8_t> raw(size_t(n) * file_ch);
+    ok = in->read_image(0, 0, 0, file_ch, OIIO::TypeDesc::UINT8, raw.data());
+    if (ok) DecodeInteger(raw, file_ch, keep_ch, fi.encoding, &img, &fi.saturated_pixels);
+  } else if (base == OIIO::TypeDesc::UINT16 || base == OIIO::TypeDesc::INT16) {
+    fi.pixel_format = "uint16";
+    std::vector<uint16_t> raw(size_t(n) * file_ch);
+    ok = in->read_image(0, 0, 0, file_ch, OIIO::TypeDesc::UINT16, raw.data());
+    if (ok) DecodeInteger(raw, file_ch, keep_ch, fi.encoding, &img, &fi.saturated_pixels);
+  } else {
+    fi.pixel_format = base == OIIO::TypeDesc::HALF ? "half" : "float";
+    std::vector<float> raw(size_t(n) * file_ch);
+    ok = in->read_image(0, 0, 0, file_ch, OIIO::TypeDesc::FLOAT, raw.data());
+    if (ok) {
+      for (int64_t p = 0; p < n; ++p)
+        for (int c = 0; c < keep_ch; ++c) {
+          const float v = raw[p * file_ch + c];
+          fi.nonfinite_samples += !std::isfinite(v);
+          img.Plane(c)[p] = std::isfinite(v) ? DecodeToLinear(v, fi.encoding) : v;
+        }
+    }
+  }
+  if (!ok || in->has_error()) {
+    return DataError("cannot decode image '" + path +
+                     "' (truncated or corrupt file?): " + LastOiioError(in.get()));
+  }
+  in->close();
+  return img;
+}
+
+Status ReadImageSize(const std::string& path, int* width, int* height, int* channels) {
+  std::error_code ec;
+  if (!fs::is_regular_file(path, ec)) return NotFound("image file '" + path + "' does not exist");
+  auto in = OIIO::ImageInput::open(path);
+  if (!in) return DataError("cannot open image '" + path + "': " + LastOiioError(nullptr));
+  const auto& spec = in->spec();
+  *width = spec.width;
+  *height = spec.height;
+  *channels = spec.nchannels >= 3 ? 3 : 1;
+  return Status::Ok();
+}
+
+Status WriteImage(const std::string& path, const Image& image, const ImageWriteOptions& options) {
+  if (image.empty()) return InvalidArgument("refusing to write empty image '" + path + "'");
+  auto out = OIIO::ImageOutput::create(path);
+  if (!out)
+    return InvalidArgument("cannot write '" + path + "': no image format for this extension (" +
+                           OIIO::geterror() + ")");
+  OIIO::TypeDesc type = OIIO::TypeDesc::UINT16;
+  switch (options.format) {
+    case PixelFormat::kUint8:
+      type = OIIO::TypeDesc::UINT8;
+      break;
+    case PixelFormat::kUint16:
+      type = OIIO::TypeDesc::UINT16;
+      break;
+    case PixelFormat::kHalf:
+      type = OIIO::TypeDesc::HALF;
+      break;
+    case PixelFormat::kFloat:
+      type = OIIO::TypeDesc::FLOAT;
+      break;
+  }
+  const int ch = image.channels();
+  OIIO::ImageSpec spec(image.width(), image.height(), ch, type);
+  const bool srgb = options.transfer == TransferFunction::kSrgb;
+  spec.attribute("oiio:ColorSpace", srgb ? "sRGB" : "Linear");
+  if (!srgb) spec.attribute("oiio:Gamma", 1.0f);
+  // Quantise ourselves (round to nearest) so that 8-bit sRGB codes are exact.
+  const int64_t n = image.plane_size();
+  std::vector<uint8_t> q8;
+  std::vector<uint16_t> q16;
+  std::vector<float> f32;
+  const void* pixels = nullptr;
+  OIIO::TypeDesc buffer_type = type;
+  auto encoded = [&](int c, int64_t p) {
+    const float v = image.Plane(c)[p];
+    return srgb ? LinearToSrgb(std::clamp(v, 0.0f, 1.0f)) : v;
+  };
+  if (options.format == PixelFormat::kUint8) {
+    q8.resize(size_t(n) * ch);
+    for (int c = 0; c < ch; ++c)
+      for (int64_t p = 0; p < n; ++p)
+        q8[p * ch + c] = uint8_t(std::lround(std::clamp(encoded(c, p), 0.0f, 1.0f) * 255.0f));
+    pixels = q8.data();
+  } else if (options.format == PixelFormat::kUint16) {
+    q16.resize(size_t(n) * ch);
+    for (int c = 0; c < ch; ++c)
+      for (int64_t p = 0; p < n; ++p)
+        q16[p * ch + c] = uint16_t(std::lround(std::clamp(encoded(c, p), 0.0f, 1.0f) * 65535.0f));
+    pixels = q16.data();
+  } else {
+    f32.resize(size_t(n) * ch);
+    for (int c = 0; c < ch; ++c)
+      for (int64_t p = 0; p < n; ++p) f32[p * ch + c] = encoded(c, p);
+    pixels = f32.data();
+    buffer_type = OIIO::TypeDesc::FLOAT;
+  }
+  AtomicFile file(path);
+  if (!out->open(file.temp_path(), spec))
+    return IoError("cannot create '" + file.temp_path() + "': " + out->geterror());
+  if (!out->write_image(buffer_type, pixels) || !out->close())
+    return IoError("writing '" + path + "' failed: " + out->geterror());
+  return file.Commit();
+}
+
+}  // namespace matfit

@@ -1,0 +1,54 @@
+// Image files in and out through OpenImageIO: PNG (8/16-bit), JPEG, TGA, TIFF, EXR, ...
+// Reading yields linear float planes; writing encodes linear planes. Writes are atomic.
+#pragma once
+
+#include <cstdint>
+#include <string>
+
+#include "core/color.h"
+#include "core/image.h"
+#include "core/status.h"
+
+namespace matfit {
+
+struct ImageReadOptions {
+  // User override of the transfer function; kAuto applies the rules below.
+  ColorSpaceChoice color_space = ColorSpaceChoice::kAuto;
+  // Used when color_space is kAuto and the layout documents its encoding (DiLiGenT: linear).
+  ColorSpaceChoice layout_default = ColorSpaceChoice::kAuto;
+};
+
+// What reading a file found out, for `matfit info` and warnings.
+struct ImageFileInfo {
+  int file_channels = 0;          // channels in the file (alpha is dropped on read)
+  std::string pixel_format;       // "uint8", "uint16", "half", "float"
+  ColorEncoding encoding;         // transfer function used to linearise
+  std::string encoding_reason;    // "user override", "layout default", "file metadata", ...
+  int64_t saturated_pixels = 0;   // integer formats: pixels with a channel at the max code
+  int64_t nonfinite_samples = 0;  // float formats: NaN / Inf samples
+};
+
+// Reads `path` as linear float: 1 channel for grey files, 3 for colour; alpha dropped.
+// Transfer function (first match): options.color_space; options.layout_default; the file's
+// colour-space metadata (e.g. PNG gAMA/sRGB chunks as OIIO reports them); 8-bit → sRGB;
+// otherwise linear. Integer codes map to [0, 1].
+StatusOr<Image> ReadImage(const std::string& path, const ImageReadOptions& options = {},
+                          ImageFileInfo* info = nullptr);
+
+// Reads only the header: size and channel count as ReadImage would return them.
+Status ReadImageSize(const std::string& path, int* width, int* height, int* channels);
+
+enum class PixelFormat { kUint8, kUint16, kHalf, kFloat };
+
+struct ImageWriteOptions {
+  PixelFormat format = PixelFormat::kUint16;
+  // kSrgb encodes linear values with the sRGB curve (albedo maps, 8-bit datasets);
+  // kLinear stores values as they are (normals, data maps, 16-bit datasets, EXR).
+  TransferFunction transfer = TransferFunction::kLinear;
+};
+
+// Writes `image` (values clamped to [0, 1] for integer formats) to `path`, format from the
+// extension. Atomic: the data goes to a temporary file in the same folder, renamed on success.
+Status WriteImage(const std::string& path, const Image& image, const ImageWriteOptions& options);
+
+}  // namespace matfit

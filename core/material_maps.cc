@@ -1,0 +1,17 @@
+#include "core/material_maps.h"
+
+namespace matfit {
+
+const char* ShadingModelName(ShadingModel m) {
+  switch (m) {
+    case ShadingModel::kLambert:
+      return "lambert";
+    case ShadingModel::kBlinnPhong:
+      return "blinn-phong";
+    case ShadingModel::kCookTorrance:
+      return "cook-torrance";
+  }
+  return "?";
+}
+
+}  // namespace matfit

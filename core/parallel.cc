@@ -1,0 +1,58 @@
+#include "core/parallel.h"
+
+#include <tbb/blocked_range.h>
+#include <tbb/parallel_for.h>
+#include <tbb/task_arena.h>
+
+#include <algorithm>
+#include <atomic>
+#include <memory>
+#include <mutex>
+#include <thread>
+
+namespace matfit {
+namespace {
+
+std::atomic<int> g_threads{0};  // 0 = hardware default
+std::mutex g_arena_mutex;
+std::shared_ptr<tbb::task_arena> g_arena;
+int g_arena_threads = 0;
+
+int HardwareThreads() { return std::max(1u, std::thread::hardware_concurrency()); }
+
+std::shared_ptr<tbb::task_arena> Arena(int threads) {
+  std::lock_guard<std::mutex> lock(g_arena_mutex);
+  if (!g_arena || g_arena_threads != threads) {
+    g_arena = std::make_shared<tbb::task_arena>(threads);
+    g_arena_threads = threads;
+  }
+  return g_arena;
+}
+
+}  // namespace
+
+int NumThreads() {
+  const int n = g_threads.load();
+  return n > 0 ? n : HardwareThreads();
+}
+
+void SetNumThreads(int n) { g_threads.store(n > 0 ? n : 0); }
+
+void ParallelFor(int64_t begin, int64_t end, const std::function<void(int64_t, int64_t)>& fn,
+                 int64_t grain) {
+  if (end <= begin) return;
+  grain = std::max<int64_t>(1, grain);
+  const int threads = NumThreads();
+  if (threads == 1 || end - begin <= grain) {
+    fn(begin, end);
+    return;
+  }
+  // More threads than cores only adds contention (and TBB caps it anyway).
+  auto arena = Arena(std::min(threads, HardwareThreads()));
+  arena->execute([&] {
+    tbb::parallel_for(tbb::blocked_range<int64_t>(begin, end, grain),
+                      [&](const tbb::blocked_range<int64_t>& r) { fn(r.begin(), r.end()); });
+  });
+}
+
+}  // namespace matfit

@@ -1,0 +1,80 @@
+// CPU shading functions: the single source of truth for every model's forward evaluation.
+// The synthetic generator, the fitters and the renderers all call these.
+//
+// Units: every function returns a reflectance factor R = π · f_r · (n·l)⁺, so a pixel value is
+// p = I · R for a light of intensity I, and a white Lambertian surface lit head-on reads 1.
+// Vectors are unit, in the tangent frame, pointing away from the surface (METHODS.md §0).
+// Templates on the scalar so that autodiff types can differentiate them.
+#pragma once
+
+#include <cmath>
+
+#include "core/vec3.h"
+
+namespace matfit::shading {
+
+template <typename T>
+inline T Clamp0(const T& x) {
+  return x > T(0) ? x : T(0);
+}
+
+// Lambert (METHODS.md §3): R = ρ · max(0, n·l).
+template <typename T>
+inline T Lambert(const T& albedo, const Vec3T<T>& n, const Vec3T<T>& l) {
+  return albedo * Clamp0(Dot(n, l));
+}
+
+// Blinn–Phong specular lobe (METHODS.md §4), not energy-normalised, π folded into k_s:
+// R_s = k_s · max(0, n·h)^e · max(0, n·l), h = normalize(l + v).
+template <typename T>
+inline T BlinnPhongSpecular(const T& ks, const T& exponent, const Vec3T<T>& n, const Vec3T<T>& l,
+                            const Vec3T<T>& v) {
+  using std::pow;
+  const T nl = Dot(n, l);
+  if (!(nl > T(0))) return T(0);
+  const T nh = Clamp0(Dot(n, Normalize(l + v)));
+  if (!(nh > T(0))) return T(0);
+  return ks * pow(nh, exponent) * nl;
+}
+
+// GGX / Trowbridge–Reitz normal distribution, α = r².
+template <typename T>
+inline T GgxD(const T& nh, const T& alpha) {
+  const T a2 = alpha * alpha;
+  const T d = nh * nh * (a2 - T(1)) + T(1);
+  return a2 / (T(M_PI) * d * d);
+}
+
+// Smith G1 for GGX (separable masking-shadowing).
+template <typename T>
+inline T GgxG1(const T& nx, const T& alpha) {
+  using std::sqrt;
+  const T a2 = alpha * alpha;
+  return T(2) * nx / (nx + sqrt(a2 + (T(1) - a2) * nx * nx));
+}
+
+// Schlick Fresnel: F = F0 + (1 − F0)(1 − v·h)^5; F0 = ((η − 1)/(η + 1))².
+template <typename T>
+inline T SchlickFresnel(const T& f0, const T& vh) {
+  const T m = T(1) - Clamp0(vh);
+  const T m2 = m * m;
+  return f0 + (T(1) - f0) * m2 * m2 * m;
+}
+inline double F0FromIor(double eta) { return ((eta - 1) / (eta + 1)) * ((eta - 1) / (eta + 1)); }
+
+// Cook–Torrance specular (METHODS.md §4), GGX D, Smith G, Schlick F:
+// R_s = π · D G F / (4 (n·l)(n·v)) · (n·l).
+template <typename T>
+inline T CookTorranceSpecular(const T& f0, const T& roughness, const Vec3T<T>& n, const Vec3T<T>& l,
+                              const Vec3T<T>& v) {
+  const T nl = Dot(n, l), nv = Dot(n, v);
+  if (!(nl > T(0)) || !(nv > T(0))) return T(0);
+  const Vec3T<T> h = Normalize(l + v);
+  const T nh = Clamp0(Dot(n, h));
+  const T alpha = roughness * roughness;
+  const T dgf =
+      GgxD(nh, alpha) * GgxG1(nl, alpha) * GgxG1(nv, alpha) * SchlickFresnel(f0, Dot(v, h));
+  return T(M_PI) * dgf / (T(4) * nv);
+}
+
+}  // namespace matfit::shading

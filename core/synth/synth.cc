@@ -1,0 +1,177 @@
+#include "core/synth/synth.h"
+
+#include <filesystem>
+#include <nlohmann/json.hpp>
+
+#include "core/atomic_file.h"
+#include "core/dataset/writer.h"
+#include "core/image_io.h"
+#include "core/synth/light_sets.h"
+#include "core/synth/materials.h"
+#include "core/synth/render_stack.h"
+#include "core/version.h"
+
+namespace matfit::synth {
+namespace {
+
+namespace fs = std::filesystem;
+using nlohmann::json;
+
+json LightsJson(const std::vector<LightSample>& lights) {
+  json arr = json::array();
+  for (const auto& l : lights)
+    arr.push_back({{"direction", {l.direction.x, l.direction.y, l.direction.z}},
+                   {"theta_deg", l.theta_deg},
+                   {"phi_deg", l.phi_deg},
+                   {"intensity", {l.intensity.x, l.intensity.y, l.intensity.z}}});
+  return arr;
+}
+
+std::string ParamsJson(const SynthOptions& o, const SynthResult& r) {
+  const MaterialInfo* info = FindMaterial(o.material);
+  json model = {{"name", ShadingModelName(r.truth.model)},
+                {"reflectance_units", "R = pi * f_r * max(0, n.l); pixel = intensity * R"}};
+  if (r.truth.model == ShadingModel::kBlinnPhong)
+    model["specular"] = "k_s * max(0, n.h)^e * max(0, n.l), not energy-normalised";
+  if (r.truth.model == ShadingModel::kCookTorrance)
+    model["specular"] = "pi * D_GGX * G_Smith * F_Schlick / (4 n.l n.v) * n.l, alpha = roughness^2";
+  json maps = {{"normal", "normal.exr (xyz, +Y up) / normal.png (16-bit, n*0.5+0.5)"},
+               {"albedo", "albedo.exr (linear) / albedo.png (sRGB)"},
+               {"height", "height.exr (texel units)"},
+               {"mask", "mask.png"}};
+  if (!r.truth.specular.empty())
+    maps["specular"] =
+        r.truth.model == ShadingModel::kBlinnPhong ? "specular.exr (k_s)" : "specular.exr (F0)";
+  if (!r.truth.exponent.empty()) maps["exponent"] = "exponent.exr";
+  if (!r.truth.roughness.empty()) maps["roughness"] = "roughness.exr (perceptual, alpha = r^2)";
+  if (!r.truth.thickness.empty()) maps["thickness"] = "thickness.exr (mm)";
+  if (!r.truth.translucency.empty()) maps["translucency"] = "translucency.exr (linear RGB)";
+  json j = {
+      {"generator", {{"name", "matfit synth"}, {"version", kMatfitVersion}}},
+      {"material", {{"name", o.material}, {"description", info ? info->description : ""}}},
+      {"model", model},
+      {"maps", maps},
+      {"size", o.size},
+      {"seed", o.seed},
+      {"light_set", o.lights},
+      {"layout", LayoutName(o.layout)},
+      {"bits", o.bits},
+      {"encoding", o.bits == 8    ? "sRGB 8-bit PNG"
+                   : o.bits == 16 ? "linear 16-bit PNG"
+                                  : "linear float EXR"},
+      {"view_direction", {0, 0, 1}},
+      {"perturbations",
+       {{"cast_shadows", r.cast_shadows},
+        {"gaussian_sigma", o.perturb.gaussian_sigma},
+        {"shot_photons", o.perturb.shot_photons},
+        {"clip", o.perturb.clip},
+        {"clipped_samples", r.perturb.clipped_samples},
+        {"misregister_px", o.perturb.misregister_px},
+        {"shift_x_px", r.perturb.shift_x},
+        {"shift_y_px", r.perturb.shift_y}}},
+      {"lights", LightsJson(r.stack.lights())},
+  };
+  if (r.truth.model == ShadingModel::kBlinnPhong && !r.truth.exponent.empty())
+    j["model"]["exponent"] = r.truth.exponent.data()[0];
+  if (r.truth.model == ShadingModel::kCookTorrance && !r.truth.roughness.empty())
+    j["model"]["roughness"] = r.truth.roughness.data()[0];
+  return j.dump(2) + "\n";
+}
+
+Image NormalAsColour(const Image& n) {
+  Image out(n.width(), n.height(), 3);
+  for (size_t i = 0; i < n.data().size(); ++i) out.data()[i] = n.data()[i] * 0.5f + 0.5f;
+  return out;
+}
+
+Status WriteTruth(const MaterialMaps& m, const std::string& dir) {
+  std::error_code ec;
+  fs::create_directories(dir, ec);
+  if (ec) return IoError("cannot create '" + dir + "': " + ec.message());
+  const ImageWriteOptions exr{PixelFormat::kFloat, TransferFunction::kLinear};
+  auto put = [&](const char* name, const Image& img) {
+    return img.empty() ? Status::Ok() : WriteImage((fs::path(dir) / name).string(), img, exr);
+  };
+  MATFIT_RETURN_IF_ERROR(put("normal.exr", m.normal));
+  MATFIT_RETURN_IF_ERROR(put("albedo.exr", m.albedo));
+  MATFIT_RETURN_IF_ERROR(put("height.exr", m.height_map));
+  MATFIT_RETURN_IF_ERROR(put("specular.exr", m.specular));
+  MATFIT_RETURN_IF_ERROR(put("exponent.exr", m.exponent));
+  MATFIT_RETURN_IF_ERROR(put("roughness.exr", m.roughness));
+  MATFIT_RETURN_IF_ERROR(put("thickness.exr", m.thickness));
+  MATFIT_RETURN_IF_ERROR(put("translucency.exr", m.translucency));
+  MATFIT_RETURN_IF_ERROR(WriteImage((fs::path(dir) / "normal.png").string(),
+                                    NormalAsColour(m.normal),
+                                    {PixelFormat::kUint16, TransferFunction::kLinear}));
+  MATFIT_RETURN_IF_ERROR(WriteImage((fs::path(dir) / "albedo.png").string(), m.albedo,
+                                    {PixelFormat::kUint8, TransferFunction::kSrgb}));
+  return WriteImage((fs::path(dir) / "mask.png").string(), m.mask,
+                    {PixelFormat::kUint8, TransferFunction::kLinear});
+}
+
+}  // namespace
+
+bool SynthOptions::Check(std::string* why) const {
+  if (!FindMaterial(material)) {
+    std::string list;
+    for (const auto& m : Materials()) list += (list.empty() ? "" : ", ") + m.name;
+    *why = "--material '" + material + "' is unknown; choose one of: " + list;
+    return false;
+  }
+  if (size < 4 || size > 8192) {
+    *why = "--size must be in [4, 8192], got " + std::to_string(size);
+    return false;
+  }
+  if (bits != 8 && bits != 16 && bits != 32) {
+    *why = "--bits must be 8, 16 or 32, got " + std::to_string(bits);
+    return false;
+  }
+  if (layout == Layout::kAuto) {
+    *why = "--layout must be one of bonn, utia, lp, diligent, lights-txt";
+    return false;
+  }
+  return perturb.Check(why);
+}
+
+StatusOr<SynthResult> Synthesize(const SynthOptions& o) {
+  std::string why;
+  if (!o.Check(&why)) return InvalidArgument(why);
+  auto lights = MakeLightSet(o.lights, o.seed);
+  if (!lights.ok()) return lights.status();
+  // BTF layouts store the angles in the file names: quantise so names and pixels agree.
+  if (o.layout == Layout::kBonn || o.layout == Layout::kUtia) QuantizeToIntegerDegrees(&*lights);
+  auto maps = MakeMaterial(o.material, o.size, o.seed);
+  if (!maps.ok()) return maps.status();
+  SynthResult r;
+  r.truth = std::move(*maps);
+  r.cast_shadows = o.shadows || FindMaterial(o.material)->self_shadowing;
+  RenderOptions ro;
+  ro.cast_shadows = r.cast_shadows;
+  r.stack = RenderStack(r.truth, *lights, ro);
+  PerturbOptions po = o.perturb;
+  po.seed = o.seed;
+  r.perturb = ApplyPerturbations(po, &r.stack);
+  r.stack.layout = LayoutName(o.layout);
+  r.stack.object_name = o.material;
+  r.params_json = ParamsJson(o, r);
+  return r;
+}
+
+Status WriteSynthDataset(const SynthResult& r, const SynthOptions& o, const std::string& out_dir,
+                         bool overwrite) {
+  AtomicDir dir(out_dir);
+  MATFIT_RETURN_IF_ERROR(dir.Begin(overwrite));
+  DatasetWriteOptions wo;
+  wo.layout = o.layout;
+  wo.bits = o.bits;
+  wo.object_name = fs::path(out_dir).filename().string();
+  if (wo.object_name.empty()) wo.object_name = fs::path(out_dir).parent_path().filename().string();
+  MATFIT_RETURN_IF_ERROR(WriteDataset(r.stack, wo, dir.temp_path()));
+  const std::string truth = (fs::path(dir.temp_path()) / "truth").string();
+  MATFIT_RETURN_IF_ERROR(WriteTruth(r.truth, truth));
+  MATFIT_RETURN_IF_ERROR(
+      WriteFileAtomic((fs::path(truth) / "params.json").string(), r.params_json));
+  return dir.Commit();
+}
+
+}  // namespace matfit::synth

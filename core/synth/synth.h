@@ -1,0 +1,42 @@
+// `matfit synth`: a procedural material rendered under a light set with optional
+// perturbations, written as a dataset plus truth/ (maps + params.json).
+#pragma once
+
+#include <cstdint>
+#include <string>
+
+#include "core/dataset/dataset.h"
+#include "core/material_maps.h"
+#include "core/synth/perturb.h"
+
+namespace matfit::synth {
+
+struct SynthOptions {
+  std::string material = "plaster";  // see Materials()
+  std::string lights = "bonn81";     // see light_sets.h
+  int size = 64;                     // texels per side, [4, 8192]
+  bool shadows = false;              // cast shadows from the height field (always on for fabrics)
+  PerturbOptions perturb;            // noise, shot noise, clipping, misregistration
+  uint64_t seed = 1;                 // everything is a function of the seed
+  Layout layout = Layout::kBonn;     // output layout
+  int bits = 16;                     // 8 (sRGB PNG), 16 (linear PNG), 32 (EXR)
+
+  bool Check(std::string* why) const;
+};
+
+struct SynthResult {
+  MaterialMaps truth;
+  LightStack stack;       // perturbed, linear, as it will be written (before quantisation)
+  PerturbRecord perturb;  // what the perturbations did
+  bool cast_shadows = false;
+  std::string params_json;  // truth/params.json contents
+};
+
+// Pure computation (no I/O).
+StatusOr<SynthResult> Synthesize(const SynthOptions& options);
+
+// Writes dataset + truth/ atomically to `out_dir` (fails if it exists unless overwrite).
+Status WriteSynthDataset(const SynthResult& result, const SynthOptions& options,
+                         const std::string& out_dir, bool overwrite);
+
+}  // namespace matfit::synth

@@ -1,0 +1,52 @@
+// Tiles: rectangular pieces of the texel grid that parallel kernels process independently.
+#pragma once
+
+#include <cstdint>
+#include <vector>
+
+#include "core/light_stack.h"
+
+namespace matfit {
+
+struct Tile {
+  int x0 = 0, y0 = 0, width = 0, height = 0;
+  int64_t texels() const { return int64_t(width) * height; }
+};
+
+// Covers width × height with tiles of at most tile_size², row-major order; the last row and
+// column of tiles are clipped. tile_size must be > 0.
+std::vector<Tile> MakeTiles(int width, int height, int tile_size);
+
+// Read-only view of a LightStack restricted to one tile; coordinates are tile-local.
+class StackTileView {
+ public:
+  StackTileView(const LightStack& stack, const Tile& tile) : stack_(&stack), tile_(tile) {
+    MATFIT_CHECK(tile.x0 >= 0 && tile.y0 >= 0 && tile.x0 + tile.width <= stack.width() &&
+                 tile.y0 + tile.height <= stack.height());
+  }
+  const Tile& tile() const { return tile_; }
+  int width() const { return tile_.width; }
+  int height() const { return tile_.height; }
+  int num_images() const { return stack_->num_images(); }
+  int channels() const { return stack_->channels(); }
+  // Pointer to tile-local row y of (image, channel); width() contiguous floats.
+  const float* Row(int image, int channel, int y) const {
+    MATFIT_DCHECK(y >= 0 && y < tile_.height);
+    return stack_->Plane(image, channel).data() + int64_t(tile_.y0 + y) * stack_->width() +
+           tile_.x0;
+  }
+  float At(int image, int channel, int y, int x) const {
+    MATFIT_DCHECK(x >= 0 && x < tile_.width);
+    return Row(image, channel, y)[x];
+  }
+  // Texel index in the full plane of tile-local (y, x).
+  int64_t GlobalIndex(int y, int x) const {
+    return int64_t(tile_.y0 + y) * stack_->width() + tile_.x0 + x;
+  }
+
+ private:
+  const LightStack* stack_;
+  Tile tile_;
+};
+
+}  // namespace matfit

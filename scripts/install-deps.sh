@@ -1,0 +1,47 @@
+#!/usr/bin/env bash
+# Installs every Debian 12 package matfit needs to build, test and run.
+# Idempotent: when everything is already installed it only runs dpkg-query (< 1 s).
+# Usage: sudo scripts/install-deps.sh   (run as root; CI runs it from .ci/run)
+set -euo pipefail
+
+PACKAGES=(
+  # toolchain
+  build-essential cmake ninja-build pkg-config ccache clang-format git
+  # core: image I/O, JSON, CLI, logging, threading, math
+  libopenimageio-dev openimageio-tools nlohmann-json3-dev libcli11-dev
+  libspdlog-dev libfmt-dev libtbb-dev libeigen3-dev libglm-dev
+  # tests and benchmarks
+  libgtest-dev libgmock-dev libbenchmark-dev
+  # fit: nonlinear least squares, image processing
+  libceres-dev libopencv-core-dev libopencv-imgproc-dev
+  # server: HTTP, job store
+  libcpp-httplib-dev libsqlite3-dev
+  # render: headless EGL + GLES (Mesa llvmpipe)
+  libegl-dev libgles-dev libegl-mesa0 libgl1-mesa-dri
+  # capture: USB light rigs, V4L2 cameras
+  libusb-1.0-0-dev linux-libc-dev
+)
+
+missing=()
+for p in "${PACKAGES[@]}"; do
+  if ! dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q 'install ok installed'; then
+    missing+=("$p")
+  fi
+done
+
+if [ ${#missing[@]} -eq 0 ]; then
+  echo "install-deps: all ${#PACKAGES[@]} packages already installed"
+  exit 0
+fi
+
+if [ "$(id -u)" -ne 0 ]; then
+  echo "install-deps: missing packages: ${missing[*]}" >&2
+  echo "install-deps: run this script as root (sudo $0) to install them" >&2
+  exit 1
+fi
+
+echo "install-deps: installing ${#missing[@]} packages: ${missing[*]}"
+export DEBIAN_FRONTEND=noninteractive
+apt-get update -qq
+apt-get install -y -qq --no-install-recommends "${missing[@]}"
+echo "install-deps: done"

@@ -1,0 +1,70 @@
+#!/usr/bin/env bash
+# End-to-end: `matfit synth` writes every layout, `matfit info` reads each back (auto-detect),
+# bad input exits non-zero with a message naming the problem.
+# Usage: cli_test.sh MATFIT_BINARY SOURCE_DIR SHARED_DATA_DIR
+set -u
+bin=$1; src=$2; shared=$3
+tmp=$(mktemp -d); trap 'rm -rf "$tmp"' EXIT
+pass=0; fail=0
+ok()   { pass=$((pass+1)); }
+bad()  { fail=$((fail+1)); echo "FAIL: $*"; }
+expect_contains() { # name, haystack, needle
+  if grep -qF -- "$3" <<<"$2"; then ok; else bad "$1: output lacks '$3'"; echo "$2" | head -20; fi
+}
+
+for layout in bonn utia lp diligent lights-txt; do
+  out="$tmp/obj-$layout"
+  if "$bin" synth --material plastic --lights ring12 --size 16 --layout "$layout" --out "$out" >/dev/null; then ok; else bad "synth $layout"; continue; fi
+  info=$("$bin" info "$out" --quiet 2>&1) || bad "info $layout exited non-zero"
+  expect_contains "info $layout" "$info" "layout       $layout"
+  expect_contains "info $layout" "$info" "images       12 x 16x16"
+  expect_contains "info $layout" "$info" "warnings     none"
+done
+
+# Every named material renders; bonn81 reports its groups.
+for m in plaster plastic plastic-ct wool corduroy granite leaf; do
+  "$bin" synth --material $m --lights bonn81 --size 8 --noise 0.01 --shadows --clip 0.9 --seed 3 \
+    --layout bonn --bits 8 --out "$tmp/m-$m" >/dev/null && ok || bad "synth material $m"
+done
+info=$("$bin" info "$tmp/m-wool" --quiet)
+expect_contains "bonn groups" "$info" "0°:1 15°:6 30°:12 45°:18 60°:20 75°:24"
+expect_contains "bonn colour" "$info" "sRGB"
+json=$("$bin" info "$tmp/m-wool" --quiet --json)
+expect_contains "info json" "$json" '"images": 81'
+
+# Coplanar lights are reported.
+"$bin" synth --material plaster --lights ring:8:89 --size 8 --layout lp --out "$tmp/flat" >/dev/null
+expect_contains "ill-conditioned" "$("$bin" info "$tmp/flat" --quiet)" "ill-conditioned"
+
+# Errors: clear message, non-zero exit, nothing left behind.
+mkdir -p "$tmp/empty"
+msg=$("$bin" info "$tmp/empty" 2>&1); rc=$?
+[ $rc -ne 0 ] && ok || bad "info on empty folder should fail"
+expect_contains "empty folder" "$msg" "is empty"
+msg=$("$bin" synth --material velvet --out "$tmp/v" 2>&1); rc=$?
+[ $rc -ne 0 ] && ok || bad "unknown material should fail"
+expect_contains "unknown material" "$msg" "choose one of: plaster"
+[ ! -e "$tmp/v" ] && ok || bad "failed synth left output"
+msg=$("$bin" synth --material plaster --out "$tmp/obj-lp" 2>&1); rc=$?
+[ $rc -ne 0 ] && ok || bad "existing output should fail without --force"
+expect_contains "existing output" "$msg" "--force"
+msg=$("$bin" info "$tmp/obj-bonn" --view 45,10 2>&1); rc=$?
+[ $rc -ne 0 ] && ok || bad "missing view should fail"
+expect_contains "missing view" "$msg" "available views"
+"$bin" synth --help | grep -q -- "--material" && ok || bad "synth --help"
+"$bin" info --help | grep -q -- "--layout" && ok || bad "info --help"
+"$bin" --help | grep -q "synth" && ok || bad "--help"
+
+# Bundled fixtures and real data.
+for f in "$src"/fixtures/*/; do
+  "$bin" info "$f" --quiet >/dev/null && ok || bad "info fixture $f"
+done
+if [ -d "$shared/psm/cat" ]; then
+  expect_contains "psm cat" "$("$bin" info "$shared/psm/cat" --quiet)" "layout       lights-txt"
+  expect_contains "leaf sheet" "$("$bin" info "$shared/leaf-sheet" --quiet)" "gamma 2.2"
+else
+  echo "shared data not found at $shared: skipping real-data CLI checks"
+fi
+
+echo "$pass passed, $fail failed"
+[ $fail -eq 0 ]

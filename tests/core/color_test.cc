@@ -1,0 +1,40 @@
+#include <gtest/gtest.h>
+#include <cmath>
+
+#include "core/color.h"
+
+namespace matfit {
+namespace {
+
+TEST(Srgb, EveryEightBitCodeRoundTrips) {
+  const float* table = Srgb8ToLinearTable();
+  for (int code = 0; code < 256; ++code) EXPECT_EQ(LinearToSrgb8(table[code]), code) << code;
+}
+
+TEST(Srgb, KnownValues) {
+  EXPECT_NEAR(SrgbToLinear(0.5f), 0.21404f, 1e-5);
+  EXPECT_NEAR(SrgbToLinear(0.04045f), 0.04045f / 12.92f, 1e-7);  // end of the linear toe
+  EXPECT_FLOAT_EQ(SrgbToLinear(1.0f), 1.0f);
+  EXPECT_FLOAT_EQ(LinearToSrgb(0.0f), 0.0f);
+  EXPECT_NEAR(LinearToSrgb(0.18f), 0.46135f, 1e-4);
+}
+
+TEST(Srgb, EncodeDecodeInverse) {
+  for (int i = 0; i <= 1000; ++i) {
+    const float x = i / 1000.0f;
+    EXPECT_NEAR(SrgbToLinear(LinearToSrgb(x)), x, 2e-6f) << x;
+  }
+}
+
+TEST(ColorEncoding, GammaDecode) {
+  const ColorEncoding g22{TransferFunction::kGamma, 2.2f};
+  EXPECT_NEAR(DecodeToLinear(0.5f, g22), std::pow(0.5f, 2.2f), 1e-7);
+  EXPECT_EQ(g22.ToString(), "gamma 2.2");
+  ColorSpaceChoice c;
+  EXPECT_TRUE(ParseColorSpaceChoice("linear", &c));
+  EXPECT_EQ(c, ColorSpaceChoice::kLinear);
+  EXPECT_FALSE(ParseColorSpaceChoice("rec709", &c));
+}
+
+}  // namespace
+}  // namespace matfit

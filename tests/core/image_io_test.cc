@@ -1,0 +1,196 @@
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+
+#include "core/image_io.h"
+#include "tests/core/test_util.h"
+
+namespace matfit {
+namespace {
+
+namespace fs = std::filesystem;
+using testing::TempDir;
+
+Image Ramp(int w, int h, int ch) {
+  Image img(w, h, ch);
+  for (int c = 0; c < ch; ++c)
+    for (int y = 0; y < h; ++y)
+      for (int x = 0; x < w; ++x) img.At(c, y, x) = float((x + 3 * y + 7 * c) % 64) / 63.0f;
+  return img;
+}
+
+double MaxDiff(const Image& a, const Image& b) {
+  EXPECT_EQ(a.width(), b.width());
+  EXPECT_EQ(a.height(), b.height());
+  EXPECT_EQ(a.channels(), b.channels());
+  double m = 0;
+  for (size_t i = 0; i < a.data().size(); ++i)
+    m = std::max(m, double(std::abs(a.data()[i] - b.data()[i])));
+  return m;
+}
+
+// Half an 8-bit sRGB code in linear units near white: 0.5/255 · dL/dE(1) ≈ 0.0047.
+constexpr double kHalfSrgbCode = 0.0048;
+
+struct FormatCase {
+  const char* ext;
+  PixelFormat format;
+  TransferFunction transfer;
+  double tolerance;  // on linear values
+};
+
+const char* FormatName(PixelFormat f) {
+  switch (f) {
+    case PixelFormat::kUint8:
+      return "8";
+    case PixelFormat::kUint16:
+      return "16";
+    case PixelFormat::kHalf:
+      return "half";
+    case PixelFormat::kFloat:
+      return "float";
+  }
+  return "";
+}
+
+class ImageRoundTrip : public ::testing::TestWithParam<FormatCase> {};
+
+TEST_P(ImageRoundTrip, WriteThenReadGivesTheSameLinearValues) {
+  const FormatCase& f = GetParam();
+  TempDir tmp;
+  const Image img = Ramp(17, 9, 3);
+  const std::string path = tmp / (std::string("img") + f.ext);
+  ASSERT_TRUE(WriteImage(path, img, {f.format, f.transfer}).ok());
+  ImageFileInfo info;
+  auto back = ReadImage(path, {}, &info);
+  ASSERT_TRUE(back.ok()) << back.status().ToString();
+  EXPECT_LE(MaxDiff(img, *back), f.tolerance) << f.ext << " " << info.encoding.ToString();
+  EXPECT_EQ(info.encoding.transfer, f.transfer) << info.encoding_reason;
+}
+
+INSTANTIATE_TEST_SUITE_P(
+    Formats, ImageRoundTrip,
+    ::testing::Values(
+        FormatCase{".png", PixelFormat::kUint16, TransferFunction::kLinear, 0.5 / 65535 + 1e-7},
+        FormatCase{".png", PixelFormat::kUint8, TransferFunction::kSrgb, kHalfSrgbCode},
+        FormatCase{".exr", PixelFormat::kFloat, TransferFunction::kLinear, 0.0},
+        FormatCase{".exr", PixelFormat::kHalf, TransferFunction::kLinear, 1e-3},
+        FormatCase{".tif", PixelFormat::kUint16, TransferFunction::kLinear, 0.5 / 65535 + 1e-7},
+        FormatCase{".tga", PixelFormat::kUint8, TransferFunction::kSrgb, kHalfSrgbCode}),
+    [](const auto& param_info) {
+      return std::string(param_info.param.ext + 1) + FormatName(param_info.param.format);
+    });
+
+// 8-bit sRGB through OIIO must equal our exact table decode of the quantised codes.
+TEST(ImageIo, EightBitSrgbQuantisationIsExact) {
+  TempDir tmp;
+  Image img = Ramp(16, 4, 3);
+  ASSERT_TRUE(WriteImage(tmp / "a.png", img, {PixelFormat::kUint8, TransferFunction::kSrgb}).ok());
+  auto back = ReadImage(tmp / "a.png");
+  ASSERT_TRUE(back.ok());
+  const float* lut = Srgb8ToLinearTable();
+  for (size_t i = 0; i < img.data().size(); ++i)
+    EXPECT_EQ(back->data()[i], lut[LinearToSrgb8(img.data()[i])]);
+}
+
+TEST(ImageIo, JpegRoundTripIsCloseAndSrgb) {
+  TempDir tmp;
+  Image img(32, 32, 3, 0.2f);
+  ASSERT_TRUE(WriteImage(tmp / "a.jpg", img, {PixelFormat::kUint8, TransferFunction::kSrgb}).ok());
+  ImageFileInfo info;
+  auto back = ReadImage(tmp / "a.jpg", {}, &info);
+  ASSERT_TRUE(back.ok());
+  EXPECT_EQ(info.encoding.transfer, TransferFunction::kSrgb);
+  EXPECT_LT(MaxDiff(img, *back), 0.01);
+}
+
+TEST(ImageIo, UserOverrideWinsOverMetadata) {
+  TempDir tmp;
+  Image img(4, 4, 3, 0.5f);
+  ASSERT_TRUE(WriteImage(tmp / "a.png", img, {PixelFormat::kUint8, TransferFunction::kSrgb}).ok());
+  ImageReadOptions o;
+  o.color_space = ColorSpaceChoice::kLinear;
+  ImageFileInfo info;
+  auto back = ReadImage(tmp / "a.png", o, &info);
+  ASSERT_TRUE(back.ok());
+  EXPECT_EQ(info.encoding_reason, "user override");
+  // Stored code is the sRGB encoding of 0.5 (188), read back without decoding.
+  EXPECT_NEAR(back->At(0, 0, 0), 188 / 255.0, 1e-6);
+}
+
+TEST(ImageIo, GreyStaysOneChannelAndAlphaIsDropped) {
+  TempDir tmp;
+  ASSERT_TRUE(WriteImage(tmp / "g.png", Ramp(8, 8, 1), {}).ok());
+  ASSERT_TRUE(WriteImage(tmp / "rgba.png", Ramp(8, 8, 4), {}).ok());
+  auto g = ReadImage(tmp / "g.png");
+  auto rgba = ReadImage(tmp / "rgba.png");
+  ASSERT_TRUE(g.ok() && rgba.ok());
+  EXPECT_EQ(g->channels(), 1);
+  EXPECT_EQ(rgba->channels(), 3);
+  EXPECT_NEAR(rgba->At(2, 3, 5), Ramp(8, 8, 4).At(2, 3, 5), 1e-4);
+}
+
+TEST(ImageIo, CountsSaturatedPixels) {
+  TempDir tmp;
+  Image img(10, 10, 3, 0.3f);
+  for (int x = 0; x < 10; ++x) img.At(1, 0, x) = 1.5f;  // one row clipped in green
+  ASSERT_TRUE(WriteImage(tmp / "s.png", img, {PixelFormat::kUint8, TransferFunction::kSrgb}).ok());
+  ImageFileInfo info;
+  ASSERT_TRUE(ReadImage(tmp / "s.png", {}, &info).ok());
+  EXPECT_EQ(info.saturated_pixels, 10);
+}
+
+TEST(ImageIo, CountsNonFiniteSamplesInFloatFiles) {
+  TempDir tmp;
+  Image img(4, 4, 3, 0.3f);
+  img.At(0, 1, 1) = std::nanf("");
+  img.At(2, 2, 2) = INFINITY;
+  ASSERT_TRUE(
+      WriteImage(tmp / "n.exr", img, {PixelFormat::kFloat, TransferFunction::kLinear}).ok());
+  ImageFileInfo info;
+  auto back = ReadImage(tmp / "n.exr", {}, &info);
+  ASSERT_TRUE(back.ok());
+  EXPECT_EQ(info.nonfinite_samples, 2);
+}
+
+TEST(ImageIo, WriteIsAtomicAndLeavesNoTemporaries) {
+  TempDir tmp;
+  ASSERT_TRUE(WriteImage(tmp / "a.png", Ramp(8, 8, 3), {}).ok());
+  int files = 0;
+  for (const auto& e : fs::directory_iterator(tmp.path())) {
+    ++files;
+    EXPECT_EQ(e.path().filename(), "a.png");
+  }
+  EXPECT_EQ(files, 1);
+  // A folder that does not exist: a clear error, nothing written.
+  Status st = WriteImage(tmp / "missing/a.png", Ramp(8, 8, 3), {});
+  EXPECT_FALSE(st.ok());
+  EXPECT_NE(st.message().find("missing"), std::string::npos) << st.message();
+}
+
+TEST(ImageIo, TruncatedPngIsADataErrorNamingTheFile) {
+  TempDir tmp;
+  ASSERT_TRUE(WriteImage(tmp / "t.png", Ramp(64, 64, 3), {}).ok());
+  const auto size = fs::file_size(tmp / "t.png");
+  fs::resize_file(tmp / "t.png", size / 2);
+  auto r = ReadImage(tmp / "t.png");
+  ASSERT_FALSE(r.ok());
+  EXPECT_EQ(r.status().code(), StatusCode::kDataError);
+  EXPECT_NE(r.status().message().find("t.png"), std::string::npos) << r.status().message();
+}
+
+TEST(ImageIo, GarbageAndMissingFiles) {
+  TempDir tmp;
+  testing::WriteText(tmp / "x.png", "this is not a png");
+  auto r = ReadImage(tmp / "x.png");
+  ASSERT_FALSE(r.ok());
+  EXPECT_NE(r.status().message().find("x.png"), std::string::npos);
+  auto m = ReadImage(tmp / "nope.png");
+  ASSERT_FALSE(m.ok());
+  EXPECT_EQ(m.status().code(), StatusCode::kNotFound);
+}
+
+}  // namespace
+}  // namespace matfit

@@ -1,0 +1,50 @@
+#include <gtest/gtest.h>
+
+#include <set>
+
+#include "core/light_stack.h"
+#include "core/tiles.h"
+
+namespace matfit {
+namespace {
+
+TEST(LightStack, PlaneMajorLayout) {
+  LightStack s(5, 3, 3, 4);
+  s.At(2, 1, 2, 4) = 7.0f;
+  // data[((i*C + c)*H + y)*W + x]
+  EXPECT_EQ(s.data()[((2 * 3 + 1) * 3 + 2) * 5 + 4], 7.0f);
+  EXPECT_EQ(s.Plane(2, 1)[2 * 5 + 4], 7.0f);
+  EXPECT_EQ(s.MemoryBytes(), size_t(5 * 3 * 3 * 4 * 4));
+  EXPECT_EQ(s.lights().size(), 4u);
+  EXPECT_EQ(s.MaskedTexels(), 15);
+  s.mask.assign(15, 0);
+  s.mask[3] = 1;
+  EXPECT_EQ(s.MaskedTexels(), 1);
+}
+
+TEST(Tiles, CoverEveryTexelExactlyOnce) {
+  for (int tile : {1, 7, 16, 100}) {
+    const auto tiles = MakeTiles(37, 23, tile);
+    std::vector<int> hits(37 * 23, 0);
+    for (const Tile& t : tiles) {
+      EXPECT_LE(t.width, tile);
+      EXPECT_LE(t.height, tile);
+      for (int y = 0; y < t.height; ++y)
+        for (int x = 0; x < t.width; ++x) hits[(t.y0 + y) * 37 + t.x0 + x]++;
+    }
+    for (int h : hits) EXPECT_EQ(h, 1);
+  }
+}
+
+TEST(Tiles, ViewMapsLocalToGlobal) {
+  LightStack s(10, 8, 1, 2);
+  for (int y = 0; y < 8; ++y)
+    for (int x = 0; x < 10; ++x) s.At(1, 0, y, x) = float(100 * y + x);
+  StackTileView v(s, Tile{4, 3, 5, 4});
+  EXPECT_EQ(v.At(1, 0, 0, 0), 304.0f);
+  EXPECT_EQ(v.Row(1, 0, 2)[3], 507.0f);
+  EXPECT_EQ(v.GlobalIndex(2, 3), 5 * 10 + 7);
+}
+
+}  // namespace
+}  // namespace matfit

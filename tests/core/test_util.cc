@@ -1,0 +1,52 @@
+#include "tests/core/test_util.h"
+
+#include <unistd.h>
+
+#include <atomic>
+#include <cmath>
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+
+namespace matfit::testing {
+
+namespace fs = std::filesystem;
+
+TempDir::TempDir() {
+  static std::atomic<int> counter{0};
+  const auto* info = ::testing::UnitTest::GetInstance()->current_test_info();
+  std::string name = info ? std::string(info->test_suite_name()) + "." + info->name() : "test";
+  for (char& c : name)
+    if (c == '/') c = '_';
+  path_ = (fs::temp_directory_path() /
+           ("matfit-" + std::to_string(::getpid()) + "-" + std::to_string(counter++) + "-" + name))
+              .string();
+  fs::remove_all(path_);
+  fs::create_directories(path_);
+}
+
+TempDir::~TempDir() {
+  std::error_code ec;
+  fs::remove_all(path_, ec);
+}
+
+std::string SharedDataDir() {
+  if (const char* env = std::getenv("MATFIT_SHARED_DATA")) return env;
+  std::error_code ec;
+  return fs::is_directory(MATFIT_SHARED_DATA, ec) ? std::string(MATFIT_SHARED_DATA) : std::string();
+}
+
+double MaxAbsDiff(const LightStack& a, const LightStack& b) {
+  EXPECT_EQ(a.width(), b.width());
+  EXPECT_EQ(a.height(), b.height());
+  EXPECT_EQ(a.channels(), b.channels());
+  EXPECT_EQ(a.num_images(), b.num_images());
+  double m = 0;
+  const int64_t n = a.plane_size() * a.channels() * a.num_images();
+  for (int64_t i = 0; i < n; ++i) m = std::max(m, double(std::abs(a.data()[i] - b.data()[i])));
+  return m;
+}
+
+void WriteText(const std::string& path, const std::string& text) { std::ofstream(path) << text; }
+
+}  // namespace matfit::testing

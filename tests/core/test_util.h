@@ -1,0 +1,39 @@
+// Helpers shared by the core tests.
+#pragma once
+
+#include <gtest/gtest.h>
+
+#include <filesystem>
+#include <string>
+
+#include "core/light_stack.h"
+
+namespace matfit::testing {
+
+// A fresh empty folder under the system temp dir, removed by the destructor.
+class TempDir {
+ public:
+  TempDir();
+  ~TempDir();
+  const std::string& path() const { return path_; }
+  std::string operator/(const std::string& name) const { return path_ + "/" + name; }
+
+ private:
+  std::string path_;
+};
+
+// ../shared/data (or $MATFIT_SHARED_DATA); empty when absent.
+std::string SharedDataDir();
+
+// Skips the current test with a message when the shared data folder is absent.
+#define MATFIT_REQUIRE_SHARED_DATA(sub)                                         \
+  const std::string shared_dir = ::matfit::testing::SharedDataDir();            \
+  if (shared_dir.empty() || !std::filesystem::exists(shared_dir + "/" + (sub))) \
+  GTEST_SKIP() << "shared data '" << (sub) << "' not found (looked in ../shared/data); skipping"
+
+// Largest |a − b| over all samples of two stacks of equal shape.
+double MaxAbsDiff(const LightStack& a, const LightStack& b);
+
+void WriteText(const std::string& path, const std::string& text);
+
+}  // namespace matfit::testing
