@@ -2,6 +2,7 @@
 #include <CLI/CLI.hpp>
 #include <cstdio>
 #include <cstdlib>
+#include <exception>
 #include <string>
 
 #include "app/commands.h"
@@ -38,6 +39,10 @@ int main(int argc, char** argv) {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {
     return app.exit(e);
+  } catch (const std::exception& e) {
+    // Last line of defence: nothing a user's file does may end in a crash.
+    std::fprintf(stderr, "matfit: error: %s\n", e.what());
+    return 1;
   }
   return exit_code;
 }

@@ -90,6 +90,12 @@ StatusOr<Image> ReadImage(const std::string& path, const ImageReadOptions& optio
   const OIIO::ImageSpec spec = in->spec();
   if (spec.width <= 0 || spec.height <= 0 || spec.nchannels <= 0 || spec.depth > 1)
     return DataError("image '" + path + "' has an unsupported size or layout");
+  // Refuse absurd headers before allocating (a corrupt or hostile file must not exhaust memory).
+  constexpr int64_t kMaxSamples = int64_t(1) << 30;  // 4 GiB of float32
+  if (int64_t(spec.width) * spec.height * std::max(1, spec.nchannels) > kMaxSamples)
+    return DataError("image '" + path + "' claims " + std::to_string(spec.width) + "x" +
+                     std::to_string(spec.height) + "x" + std::to_string(spec.nchannels) +
+                     " samples, more than matfit reads at once (2^30); crop or tile it");
   const int file_ch = spec.nchannels;
   const int keep_ch = file_ch >= 3 ? 3 : 1;  // grey(+alpha) → 1, RGB(A) → 3
   ImageFileInfo local;

@@ -9,13 +9,15 @@
 namespace matfit {
 namespace {
 
+// Digit counts are bounded so that the numeric conversions below cannot overflow.
 const std::regex& BonnRegex() {
-  static const std::regex re(R"(^(\d+) tl(\d+) pl(\d+) tv(\d+) pv(\d+)\.[A-Za-z0-9]+$)");
+  static const std::regex re(
+      R"(^(\d{1,9}) tl(\d{1,3}) pl(\d{1,3}) tv(\d{1,3}) pv(\d{1,3})\.[A-Za-z0-9]+$)");
   return re;
 }
 const std::regex& UtiaRegex() {
   static const std::regex re(
-      R"(^tl(\d+(?:\.\d+)?)_pl(\d+(?:\.\d+)?)_tv(\d+(?:\.\d+)?)_pv(\d+(?:\.\d+)?)\.[A-Za-z0-9]+$)");
+      R"(^tl(\d{1,3}(?:\.\d{1,6})?)_pl(\d{1,3}(?:\.\d{1,6})?)_tv(\d{1,3}(?:\.\d{1,6})?)_pv(\d{1,3}(?:\.\d{1,6})?)\.[A-Za-z0-9]+$)");
   return re;
 }
 

@@ -19,6 +19,13 @@ StatusOr<LightStack> LoadStack(const std::vector<std::string>& files,
   if (!first.ok()) return first.status();
   const int w = first->width(), h = first->height(), ch = first->channels();
   const int n = int(files.size());
+  constexpr double kMaxStackBytes = 16.0 * (1ull << 30);  // 16 GiB: two thirds of this machine
+  const double bytes = double(w) * h * ch * n * sizeof(float);
+  if (bytes > kMaxStackBytes)
+    return DataError(
+        "the stack of " + std::to_string(n) + " images of " + std::to_string(w) + "x" +
+        std::to_string(h) + " needs " + std::to_string(int64_t(bytes / (1 << 20))) +
+        " MiB as float32, more than the 16 GiB limit; select one view or crop the images");
   LightStack stack(w, h, ch, n);
   stack.lights() = std::move(lights);
   stack.image_files = files;

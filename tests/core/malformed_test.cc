@@ -162,6 +162,27 @@ TEST(Malformed, BonnDuplicateAndNoMatchingNames) {
               {"tl000_pl000_tv000_pv000"});
 }
 
+TEST(Malformed, OverlongNumbersInNamesAreNotParsed) {
+  TempDir tmp;
+  ASSERT_TRUE(
+      WriteImage(tmp / "99999999999999999999 tl000 pl000 tv000 pv000.png", Image(4, 4, 3, 0.5f), {})
+          .ok());
+  ExpectError(ReadDataset(tmp.path()), StatusCode::kDataError, {"cannot tell the layout"});
+  ExpectError(ReadDataset(tmp.path(), {Layout::kBonn}), StatusCode::kDataError, {"NNNNN tlAAA"});
+}
+
+TEST(Malformed, BinaryJunkLightFile) {
+  TempDir tmp;
+  std::string junk;
+  for (int i = 0; i < 4096; ++i) junk += char((i * 7919) & 0xff);
+  WriteText(tmp / "x.lp", junk);
+  auto r = ReadDataset(tmp / "x.lp");
+  EXPECT_FALSE(r.ok());
+  EXPECT_NE(r.status().message().find("x.lp"), std::string::npos) << r.status().message();
+  WriteText(tmp / "x.lp", "99999999999999999999\n");
+  ExpectError(ReadDataset(tmp / "x.lp"), StatusCode::kDataError, {"x.lp:1"});
+}
+
 TEST(Malformed, BadViewOption) {
   ReadOptions o;
   o.view = ViewAngles{95, 0};
