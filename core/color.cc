@@ -33,22 +33,17 @@ uint8_t LinearToSrgb8(float linear) {
 
 float DecodeToLinear(float stored, const ColorEncoding& enc) {
   switch (enc.transfer) {
-    case TransferFunction::kLinear:
-      return stored;
-    case TransferFunction::kSrgb:
-      return SrgbToLinear(stored);
-    case TransferFunction::kGamma:
-      return stored > 0 ? std::pow(stored, enc.gamma) : stored;
+    case TransferFunction::kLinear: return stored;
+    case TransferFunction::kSrgb: return SrgbToLinear(stored);
+    case TransferFunction::kGamma: return stored > 0 ? std::pow(stored, enc.gamma) : stored;
   }
   return stored;
 }
 
 std::string ColorEncoding::ToString() const {
   switch (transfer) {
-    case TransferFunction::kLinear:
-      return "linear";
-    case TransferFunction::kSrgb:
-      return "sRGB";
+    case TransferFunction::kLinear: return "linear";
+    case TransferFunction::kSrgb: return "sRGB";
     case TransferFunction::kGamma: {
       char buf[32];
       std::snprintf(buf, sizeof buf, "gamma %.3g", gamma);

@@ -159,18 +159,10 @@ Status WriteImage(const std::string& path, const Image& image, const ImageWriteO
                            OIIO::geterror() + ")");
   OIIO::TypeDesc type = OIIO::TypeDesc::UINT16;
   switch (options.format) {
-    case PixelFormat::kUint8:
-      type = OIIO::TypeDesc::UINT8;
-      break;
-    case PixelFormat::kUint16:
-      type = OIIO::TypeDesc::UINT16;
-      break;
-    case PixelFormat::kHalf:
-      type = OIIO::TypeDesc::HALF;
-      break;
-    case PixelFormat::kFloat:
-      type = OIIO::TypeDesc::FLOAT;
-      break;
+    case PixelFormat::kUint8: type = OIIO::TypeDesc::UINT8; break;
+    case PixelFormat::kUint16: type = OIIO::TypeDesc::UINT16; break;
+    case PixelFormat::kHalf: type = OIIO::TypeDesc::HALF; break;
+    case PixelFormat::kFloat: type = OIIO::TypeDesc::FLOAT; break;
   }
   const int ch = image.channels();
   OIIO::ImageSpec spec(image.width(), image.height(), ch, type);

@@ -4,12 +4,11 @@ namespace matfit {
 
 const char* ShadingModelName(ShadingModel m) {
   switch (m) {
-    case ShadingModel::kLambert:
-      return "lambert";
-    case ShadingModel::kBlinnPhong:
-      return "blinn-phong";
-    case ShadingModel::kCookTorrance:
-      return "cook-torrance";
+    case ShadingModel::kMean: return "mean";
+    case ShadingModel::kLambert: return "lambert";
+    case ShadingModel::kBlinnPhong: return "blinn-phong";
+    case ShadingModel::kCookTorrance: return "cook-torrance";
+    case ShadingModel::kHeinrich: return "heinrich";
   }
   return "?";
 }

@@ -9,8 +9,10 @@
 namespace matfit {
 
 // Forward models of the CPU shading code (core/shading/shading.h).
-enum class ShadingModel { kLambert, kBlinnPhong, kCookTorrance };
-const char* ShadingModelName(ShadingModel m);  // "lambert", "blinn-phong", "cook-torrance"
+// kMean predicts the per-texel mean colour (albedo plane) under every light.
+enum class ShadingModel { kMean, kLambert, kBlinnPhong, kCookTorrance, kHeinrich };
+// "mean", "lambert", "blinn-phong", "cook-torrance", "heinrich"
+const char* ShadingModelName(ShadingModel m);
 
 struct MaterialMaps {
   int width = 0, height = 0;
@@ -24,6 +26,11 @@ struct MaterialMaps {
   Image thickness;     // 1 plane: leaf thickness in mm
   Image translucency;  // 3 planes: leaf translucency ρ_t (back-lit transmission factor)
   Image mask;          // 1 plane: 1 = sample, 0 = background
+  // Seed method A (METHODS.md §2): albedo holds the mean texture t_c, normal the unit normal.
+  Image ambient;                      // 3 planes: ambient factor a_c (grey for the seed fit)
+  Image normal_scale;                 // 1 plane: |n| of the fitted, unnormalised normal
+  Image specular_color;               // 3 planes: L_spec,c (residual of the θl = θv = 0 sample)
+  bool specular_flat_normal = false;  // n_s = (0,0,1) in the specular term (improved variant)
 };
 
 }  // namespace matfit

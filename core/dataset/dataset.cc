@@ -27,18 +27,12 @@ bool AnyMatching(const fs::path& dir, bool (*parse)(const std::string&, BtfName*
 
 const char* LayoutName(Layout layout) {
   switch (layout) {
-    case Layout::kAuto:
-      return "auto";
-    case Layout::kBonn:
-      return "bonn";
-    case Layout::kUtia:
-      return "utia";
-    case Layout::kLp:
-      return "lp";
-    case Layout::kDiligent:
-      return "diligent";
-    case Layout::kLightsTxt:
-      return "lights-txt";
+    case Layout::kAuto: return "auto";
+    case Layout::kBonn: return "bonn";
+    case Layout::kUtia: return "utia";
+    case Layout::kLp: return "lp";
+    case Layout::kDiligent: return "diligent";
+    case Layout::kLightsTxt: return "lights-txt";
   }
   return "?";
 }
@@ -140,12 +134,9 @@ StatusOr<LightStack> ReadDataset(const std::string& path, const ReadOptions& opt
   std::error_code ec;
   switch (layout) {
     case Layout::kBonn:
-    case Layout::kUtia:
-      return ReadBtfFolder(path, layout, options);
-    case Layout::kDiligent:
-      return ReadDiligent(path, options);
-    case Layout::kLightsTxt:
-      return ReadLightsTxt(path, options);
+    case Layout::kUtia: return ReadBtfFolder(path, layout, options);
+    case Layout::kDiligent: return ReadDiligent(path, options);
+    case Layout::kLightsTxt: return ReadLightsTxt(path, options);
     case Layout::kLp: {
       if (fs::is_regular_file(path, ec)) return ReadLp(path, options);
       std::vector<std::string> lps;
@@ -157,8 +148,7 @@ StatusOr<LightStack> ReadDataset(const std::string& path, const ReadOptions& opt
                          std::to_string(lps.size()) + "); or pass the .lp file itself");
       return ReadLp(lps[0], options);
     }
-    case Layout::kAuto:
-      break;
+    case Layout::kAuto: break;
   }
   return InvalidArgument("no reader for layout");
 }

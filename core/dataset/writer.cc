@@ -158,8 +158,7 @@ Status WriteDataset(const LightStack& s, const DatasetWriteOptions& o, const std
         MATFIT_RETURN_IF_ERROR(WriteMask(s, (d / (o.object_name + ".mask.png")).string()));
       return WriteFileAtomic((d / "lights.txt").string(), txt);
     }
-    case Layout::kAuto:
-      break;
+    case Layout::kAuto: break;
   }
   return InvalidArgument("no writer for this layout");
 }

@@ -77,4 +77,19 @@ inline T CookTorranceSpecular(const T& f0, const T& roughness, const Vec3T<T>& n
   return T(M_PI) * dgf / (T(4) * nv);
 }
 
+// Seed method A (METHODS.md §2), one channel: diffuse part t·a + t·(n·l) with the fitted,
+// unnormalised n and no clamp; specular part L_spec·max(0, n_s·h)^e with n_s the unit normal
+// (or (0,0,1) in the improved variant), h = normalize(l + v).
+template <typename T>
+inline T HeinrichDiffuse(const T& t, const T& ambient, const Vec3T<T>& n_raw, const Vec3T<T>& l) {
+  return t * ambient + t * Dot(n_raw, l);
+}
+template <typename T>
+inline T HeinrichSpecular(const T& l_spec, const T& exponent, const Vec3T<T>& n_s,
+                          const Vec3T<T>& l, const Vec3T<T>& v) {
+  using std::pow;
+  const T nh = Clamp0(Dot(n_s, Normalize(l + v)));
+  return l_spec * pow(nh, exponent);
+}
+
 }  // namespace matfit::shading

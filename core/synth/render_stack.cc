@@ -4,7 +4,7 @@
 #include <cmath>
 
 #include "core/parallel.h"
-#include "core/shading/shading.h"
+#include "core/shading/evaluate.h"
 
 namespace matfit::synth {
 namespace {
@@ -22,22 +22,6 @@ float Bilinear(const Image& h, double x, double y) {
 }
 
 }  // namespace
-
-float ShadeTexel(const MaterialMaps& m, int64_t i, int c, const Vec3f& l, const Vec3f& v) {
-  const Vec3f n(m.normal.Plane(0)[i], m.normal.Plane(1)[i], m.normal.Plane(2)[i]);
-  float r = shading::Lambert(m.albedo.Plane(c)[i], n, l);
-  switch (m.model) {
-    case ShadingModel::kLambert:
-      break;
-    case ShadingModel::kBlinnPhong:
-      r += shading::BlinnPhongSpecular(m.specular.Plane(0)[i], m.exponent.Plane(0)[i], n, l, v);
-      break;
-    case ShadingModel::kCookTorrance:
-      r += shading::CookTorranceSpecular(m.specular.Plane(0)[i], m.roughness.Plane(0)[i], n, l, v);
-      break;
-  }
-  return r;
-}
 
 Image CastShadowVisibility(const Image& h, const Vec3& light) {
   const int w = h.width(), ht = h.height();
@@ -89,7 +73,7 @@ LightStack RenderStack(const MaterialMaps& m, const std::vector<LightSample>& li
         const float intensity = float(ls.intensity[c]);
         for (int64_t p = 0; p < texels; ++p) {
           const float visible = options.cast_shadows ? vis.data()[p] : 1.0f;
-          out[p] = visible > 0 ? intensity * ShadeTexel(m, p, c, l, v) : 0.0f;
+          out[p] = visible > 0 ? intensity * EvaluateTexel(m, p, c, l, v) : 0.0f;
         }
       }
     }

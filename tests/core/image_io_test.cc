@@ -43,14 +43,10 @@ struct FormatCase {
 
 const char* FormatName(PixelFormat f) {
   switch (f) {
-    case PixelFormat::kUint8:
-      return "8";
-    case PixelFormat::kUint16:
-      return "16";
-    case PixelFormat::kHalf:
-      return "half";
-    case PixelFormat::kFloat:
-      return "float";
+    case PixelFormat::kUint8: return "8";
+    case PixelFormat::kUint16: return "16";
+    case PixelFormat::kHalf: return "half";
+    case PixelFormat::kFloat: return "float";
   }
   return "";
 }

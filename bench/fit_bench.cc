@@ -1,0 +1,59 @@
+// Fit speed on synthetic Bonn-like stacks (81 images). Compare rows of one run: the literal
+// per-texel Gauss–Jordan reference against the fast closed form, and lambert.
+#include <benchmark/benchmark.h>
+
+#include <map>
+#include <memory>
+
+#include "core/parallel.h"
+#include "core/synth/synth.h"
+#include "fit/methods.h"
+
+namespace {
+
+using namespace matfit;
+
+const LightStack& Stack(int size) {
+  static std::map<int, std::unique_ptr<LightStack>> cache;
+  auto& s = cache[size];
+  if (!s) {
+    synth::SynthOptions o;
+    o.material = "wool";
+    o.lights = "bonn81";
+    o.size = size;
+    o.layout = Layout::kBonn;
+    s = std::make_unique<LightStack>(std::move(synth::Synthesize(o)->stack));
+  }
+  return *s;
+}
+
+template <StatusOr<fit::FitResult> (*Fn)(const LightStack&, const fit::FitOptions&)>
+void BM_Fit(benchmark::State& state) {
+  const LightStack& s = Stack(int(state.range(0)));
+  SetNumThreads(int(state.range(1)));
+  fit::FitOptions o;
+  o.heinrich_specular = false;  // the linear solve only: the part the two variants differ in
+  for (auto _ : state) {
+    auto r = Fn(s, o);
+    benchmark::DoNotOptimize(r);
+  }
+  state.SetItemsProcessed(state.iterations() * s.texels());
+  state.counters["texels/s"] =
+      benchmark::Counter(double(s.texels()), benchmark::Counter::kIsIterationInvariantRate);
+  SetNumThreads(0);
+}
+
+void Args(benchmark::internal::Benchmark* b) {
+  for (int size : {64, 128, 256}) b->Args({size, 1});
+  b->Args({256, 2});
+  b->Unit(benchmark::kMillisecond)->UseRealTime();
+}
+
+BENCHMARK(BM_Fit<fit::FitHeinrichReference>)->Name("heinrich_reference")->Apply(Args);
+BENCHMARK(BM_Fit<fit::FitHeinrich>)->Name("heinrich_fast")->Apply(Args);
+BENCHMARK(BM_Fit<fit::FitLambert>)->Name("lambert_fast")->Apply(Args);
+BENCHMARK(BM_Fit<fit::FitMean>)->Name("mean")->Apply(Args);
+
+}  // namespace
+
+BENCHMARK_MAIN();

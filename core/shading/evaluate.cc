@@ -1,0 +1,33 @@
+#include "core/shading/evaluate.h"
+
+#include "core/shading/shading.h"
+
+namespace matfit {
+
+float EvaluateTexel(const MaterialMaps& m, int64_t i, int c, const Vec3f& l, const Vec3f& v) {
+  if (m.model == ShadingModel::kMean) return m.albedo.Plane(c)[i];
+  const Vec3f n(m.normal.Plane(0)[i], m.normal.Plane(1)[i], m.normal.Plane(2)[i]);
+  if (m.model == ShadingModel::kHeinrich) {
+    const float scale = m.normal_scale.empty() ? 1.0f : m.normal_scale.Plane(0)[i];
+    float r = shading::HeinrichDiffuse(m.albedo.Plane(c)[i], m.ambient.Plane(c)[i], n * scale, l);
+    if (!m.specular_color.empty()) {
+      const Vec3f ns = m.specular_flat_normal ? Vec3f(0, 0, 1) : n;
+      r +=
+          shading::HeinrichSpecular(m.specular_color.Plane(c)[i], m.exponent.Plane(0)[i], ns, l, v);
+    }
+    return r;
+  }
+  float r = shading::Lambert(m.albedo.Plane(c)[i], n, l);
+  switch (m.model) {
+    case ShadingModel::kBlinnPhong:
+      r += shading::BlinnPhongSpecular(m.specular.Plane(0)[i], m.exponent.Plane(0)[i], n, l, v);
+      break;
+    case ShadingModel::kCookTorrance:
+      r += shading::CookTorranceSpecular(m.specular.Plane(0)[i], m.roughness.Plane(0)[i], n, l, v);
+      break;
+    default: break;
+  }
+  return r;
+}
+
+}  // namespace matfit

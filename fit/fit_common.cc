@@ -1,0 +1,96 @@
+#include "fit/fit_common.h"
+
+#include <algorithm>
+#include <atomic>
+#include <map>
+#include <mutex>
+
+#include "core/parallel.h"
+
+namespace matfit::fit {
+
+const char* TexelStatusName(uint8_t s) {
+  switch (s) {
+    case kTexelOk: return "ok";
+    case kTexelMasked: return "masked";
+    case kTexelNoSignal: return "no signal";
+    case kTexelNonFinite: return "non-finite samples";
+    case kTexelTooFewLights: return "too few usable lights";
+    case kTexelIllConditioned: return "ill-conditioned lights";
+  }
+  return "unknown";
+}
+
+bool FitOptions::Check(std::string* why) const {
+  if (tile < 8 || tile > 4096) {
+    *why = "--tile must be in [8, 4096], got " + std::to_string(tile);
+    return false;
+  }
+  if (!(exponent_min >= 1 && exponent_max > exponent_min)) {
+    *why = "exponent range must satisfy 1 ≤ min < max";
+    return false;
+  }
+  return true;
+}
+
+std::vector<float> InverseIntensities(const LightStack& s) {
+  std::vector<float> inv(size_t(s.num_images()) * s.channels());
+  for (int i = 0; i < s.num_images(); ++i)
+    for (int c = 0; c < s.channels(); ++c) {
+      const double I = s.channels() == 1 ? (s.lights()[i].intensity.x + s.lights()[i].intensity.y +
+                                            s.lights()[i].intensity.z) /
+                                               3
+                                         : s.lights()[i].intensity[c];
+      inv[size_t(i) * s.channels() + c] = float(1.0 / I);
+    }
+  return inv;
+}
+
+void InitResult(const LightStack& s, ShadingModel model, const std::string& method, FitResult* r) {
+  r->method = method;
+  r->maps = {};
+  r->maps.width = s.width();
+  r->maps.height = s.height();
+  r->maps.model = model;
+  r->maps.normal = Image(s.width(), s.height(), 3);
+  r->maps.albedo = Image(s.width(), s.height(), 3);
+  r->maps.mask = Image(s.width(), s.height(), 1, 1.0f);
+  r->status.assign(size_t(s.plane_size()), kTexelOk);
+  if (s.has_mask())
+    for (int64_t p = 0; p < s.plane_size(); ++p)
+      if (!s.mask[p]) r->status[p] = kTexelMasked, r->maps.mask.data()[p] = 0.0f;
+}
+
+bool ForEachTile(const LightStack& s, const FitOptions& o,
+                 const std::function<void(const Tile&)>& fn) {
+  const std::vector<Tile> tiles = MakeTiles(s.width(), s.height(), o.tile);
+  std::atomic<int64_t> done{0};
+  std::atomic<bool> cancelled{false};
+  std::mutex progress_mutex;
+  ParallelFor(0, int64_t(tiles.size()), [&](int64_t b, int64_t e) {
+    for (int64_t t = b; t < e && !cancelled; ++t) {
+      fn(tiles[t]);
+      const int64_t d = ++done;
+      if (o.progress) {
+        std::lock_guard<std::mutex> lock(progress_mutex);
+        if (!o.progress(d, int64_t(tiles.size()))) cancelled = true;
+      }
+    }
+  });
+  return !cancelled;
+}
+
+void SummariseStatus(FitResult* r) {
+  std::map<uint8_t, int64_t> counts;
+  r->flagged_texels = 0;
+  for (uint8_t s : r->status)
+    if (s != kTexelOk && s != kTexelMasked) ++counts[s], ++r->flagged_texels;
+  if (r->flagged_texels > 0) {
+    auto most = std::max_element(counts.begin(), counts.end(),
+                                 [](const auto& a, const auto& b) { return a.second < b.second; });
+    r->warnings.push_back(std::to_string(r->flagged_texels) + " texel(s) flagged, mostly '" +
+                          TexelStatusName(most->first) + "'; see the status map");
+  }
+}
+
+}  // namespace matfit::fit

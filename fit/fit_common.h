@@ -1,0 +1,30 @@
+// Pieces shared by the fitting methods (not part of the public fit API).
+#pragma once
+
+#include <vector>
+
+#include "core/light_stack.h"
+#include "core/tiles.h"
+#include "fit/fit_types.h"
+
+namespace matfit::fit {
+
+// 1 / I_{i,c}, index i * C + c: every method divides samples by the light's intensity.
+std::vector<float> InverseIntensities(const LightStack& stack);
+
+// Allocates result.maps (normal 3, albedo C→3 planes) and status (masked texels marked).
+void InitResult(const LightStack& stack, ShadingModel model, const std::string& method,
+                FitResult* result);
+
+// Runs fn(tile) over the stack's tiles with ParallelFor; reports progress; false if cancelled.
+bool ForEachTile(const LightStack& stack, const FitOptions& options,
+                 const std::function<void(const Tile&)>& fn);
+
+// Counts status entries other than ok/masked into result->flagged_texels and adds a warning
+// naming the most common reason.
+void SummariseStatus(FitResult* result);
+
+// Rec. 709 luminance weights for linear RGB (1 channel: weight 1).
+inline constexpr float kLuma[3] = {0.2126f, 0.7152f, 0.0722f};
+
+}  // namespace matfit::fit

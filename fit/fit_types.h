@@ -1,0 +1,47 @@
+// What every fitting method takes and returns.
+#pragma once
+
+#include <cstdint>
+#include <map>
+#include <string>
+#include <vector>
+
+#include "core/material_maps.h"
+#include "core/progress.h"
+
+namespace matfit::fit {
+
+// Per-texel outcome, one byte per texel (an SoA plane): failures are visible as a map.
+enum TexelStatus : uint8_t {
+  kTexelOk = 0,
+  kTexelMasked = 1,          // outside the dataset mask: not fitted
+  kTexelNoSignal = 2,        // (near) black in every image: nothing to fit
+  kTexelNonFinite = 3,       // NaN/Inf among its samples
+  kTexelTooFewLights = 4,    // fewer than 3 usable (lit, unclipped) samples
+  kTexelIllConditioned = 5,  // usable lights nearly coplanar for this texel
+};
+const char* TexelStatusName(uint8_t status);
+
+struct FitOptions {
+  int tile = 64;  // tile edge in texels for the parallel loop, [8, 4096]
+  // heinrich: use n_s = (0,0,1) inside the specular term (METHODS.md §2 improved variant).
+  bool heinrich_flat_specular_normal = false;
+  // heinrich: fit the specular map and exponent (else the diffuse + ambient part only).
+  bool heinrich_specular = true;
+  double exponent_min = 1, exponent_max = 1024;  // heinrich exponent search range, 1 ≤ min < max
+  ProgressFn progress;                           // tiles done / total; returning false cancels
+
+  bool Check(std::string* why) const;
+};
+
+struct FitResult {
+  MaterialMaps maps;
+  std::vector<uint8_t> status;  // TexelStatus per texel (row-major)
+  std::string method;
+  double fit_seconds = 0;
+  int64_t flagged_texels = 0;                // status not ok and not masked
+  std::map<std::string, double> parameters;  // model-wide values (e.g. "exponent")
+  std::vector<std::string> warnings;
+};
+
+}  // namespace matfit::fit

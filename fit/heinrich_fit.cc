@@ -1,0 +1,116 @@
+// `heinrich` (seed method A, METHODS.md §2), fast form.
+//
+// Per texel the 6-unknown normal equations share their structure across texels: with
+// t_c the mean texture, q_c = Σ_i p_ci l_i, S = Σ_i l_i, m = S/N, M = Σ_i l_i l_iᵀ,
+// eliminating the ambient gives a_c = 1 − m·n (grey) and
+//   (M − N m mᵀ) n = Σ_c t_c q_c / Σ_c t_c² − S,
+// so one 3 × 3 inverse serves every texel and a fit costs one pass over the planes.
+#include <Eigen/Dense>
+#include <chrono>
+#include <cmath>
+
+#include "fit/fit_common.h"
+#include "fit/heinrich_specular.h"
+#include "fit/methods.h"
+
+namespace matfit::fit {
+
+namespace {
+
+// K = (Σ_i (l_i − m)(l_i − m)ᵀ)⁻¹; fails when the lights have no spread in some direction
+// (e.g. a ring at one elevation: n_z and the ambient are then inseparable).
+StatusOr<Eigen::Matrix3d> ScatterInverse(const LightStack& s, Vec3* sum) {
+  const int n = s.num_images();
+  Eigen::Vector3d S = Eigen::Vector3d::Zero();
+  Eigen::Matrix3d M = Eigen::Matrix3d::Zero();
+  for (const auto& l : s.lights()) {
+    const Eigen::Vector3d d(l.direction.x, l.direction.y, l.direction.z);
+    S += d;
+    M += d * d.transpose();
+  }
+  const Eigen::Vector3d m = S / n;
+  const Eigen::Matrix3d scatter = M - n * m * m.transpose();
+  Eigen::JacobiSVD<Eigen::Matrix3d> svd(scatter);
+  const auto sv = svd.singularValues();
+  if (n < 4 || !(sv[2] > 1e-9 * std::max(1.0, sv[0])))
+    return InvalidArgument(
+        "heinrich: the light directions do not spread in all three axes "
+        "around their mean (e.g. every light at one elevation), so the normal's "
+        "z and the ambient term are inseparable; use lights at several θ "
+        "(such as the Bonn 81-light set) or the lambert model");
+  *sum = {S.x(), S.y(), S.z()};
+  return Eigen::Matrix3d(scatter.inverse());
+}
+
+}  // namespace
+
+StatusOr<FitResult> FitHeinrich(const LightStack& s, const FitOptions& o) {
+  std::string why;
+  if (!o.Check(&why)) return InvalidArgument(why);
+  Vec3 S;
+  auto K = ScatterInverse(s, &S);
+  if (!K.ok()) return K.status();
+  const auto t0 = std::chrono::steady_clock::now();
+  FitResult r;
+  InitResult(s, ShadingModel::kHeinrich, "heinrich", &r);
+  MaterialMaps& maps = r.maps;
+  maps.ambient = Image(s.width(), s.height(), 3);
+  maps.normal_scale = Image(s.width(), s.height(), 1);
+  const std::vector<float> inv = InverseIntensities(s);
+  const int n = s.num_images(), C = s.channels(), W = s.width();
+  const Vec3 mean = S / double(n);
+  std::vector<Vec3> dirs(n);
+  for (int i = 0; i < n; ++i) dirs[i] = s.lights()[i].direction;
+  const Eigen::Matrix3d k = *K;
+
+  const bool ok = ForEachTile(s, o, [&](const Tile& t) {
+    for (int y = t.y0; y < t.y0 + t.height; ++y)
+      for (int x = t.x0; x < t.x0 + t.width; ++x) {
+        const int64_t p = int64_t(y) * W + x;
+        if (r.status[p] == kTexelMasked) continue;
+        double tc[3] = {0, 0, 0};
+        Vec3 q[3];
+        for (int i = 0; i < n; ++i)
+          for (int c = 0; c < C; ++c) {
+            const double v = double(s.Plane(i, c)[p]) * inv[i * C + c];
+            tc[c] += v;
+            q[c] += dirs[i] * v;
+          }
+        double t2 = 0;
+        Vec3 u;
+        for (int c = 0; c < C; ++c) {
+          tc[c] /= n;
+          t2 += tc[c] * tc[c];
+          u += q[c] * tc[c];
+        }
+        if (!std::isfinite(t2) || !IsFinite(u)) {
+          r.status[p] = kTexelNonFinite;
+          continue;
+        }
+        if (!(t2 > 1e-12)) {
+          r.status[p] = kTexelNoSignal;
+          continue;
+        }
+        u = u / t2 - S;
+        const Eigen::Vector3d nn = k * Eigen::Vector3d(u.x, u.y, u.z);
+        const Vec3 nraw(nn.x(), nn.y(), nn.z());
+        const double ambient = 1.0 - Dot(mean, nraw);
+        const double len = Length(nraw);
+        const Vec3 unit = len > 0 ? nraw / len : Vec3(0, 0, 1);
+        for (int c = 0; c < 3; ++c) {
+          maps.albedo.Plane(c)[p] = float(tc[C == 1 ? 0 : c]);
+          maps.ambient.Plane(c)[p] = float(ambient);
+        }
+        maps.normal.Plane(0)[p] = float(unit.x), maps.normal.Plane(1)[p] = float(unit.y);
+        maps.normal.Plane(2)[p] = float(unit.z);
+        maps.normal_scale.Plane(0)[p] = float(len);
+      }
+  });
+  if (!ok) return Status(StatusCode::kCancelled, "fit cancelled");
+  if (o.heinrich_specular) AddHeinrichSpecular(s, o, &r);
+  SummariseStatus(&r);
+  r.fit_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  return r;
+}
+
+}  // namespace matfit::fit

@@ -1,0 +1,19 @@
+// Seed method A, specular step (METHODS.md §2), shared by the fast and reference fits:
+// L_spec = residual of sample #1 (θl = θv) after the diffuse reconstruction, then one exponent
+// per material minimising the total deviation over e ∈ [exponent_min, exponent_max].
+#pragma once
+
+#include "core/light_stack.h"
+#include "fit/fit_types.h"
+
+namespace matfit::fit {
+
+// Σ over valid texels, images, channels of (p − p*)² for the maps as they are (p* from
+// EvaluateTexel), and the sample count. Used by the exponent search and the tests.
+double HeinrichSquaredError(const LightStack& stack, const FitResult& result, int64_t* samples);
+
+// Fills specular_color, exponent, parameters["exponent"]; no-op with a warning when the stack
+// has no sample along the view direction.
+void AddHeinrichSpecular(const LightStack& stack, const FitOptions& options, FitResult* result);
+
+}  // namespace matfit::fit

@@ -1,0 +1,86 @@
+// `lambert`: classic photometric stereo with one precomputed pseudo-inverse.
+#include <chrono>
+#include <cmath>
+#include <vector>
+
+#include "fit/fit_common.h"
+#include "fit/light_matrix.h"
+#include "fit/methods.h"
+
+namespace matfit::fit {
+
+StatusOr<FitResult> FitLambert(const LightStack& s, const FitOptions& o) {
+  std::string why;
+  if (!o.Check(&why)) return InvalidArgument(why);
+  auto lm = MakeLightMatrix(s.lights());
+  if (!lm.ok()) return Status(lm.status().code(), "lambert: " + lm.status().message());
+  const auto t0 = std::chrono::steady_clock::now();
+  FitResult r;
+  InitResult(s, ShadingModel::kLambert, "lambert", &r);
+  r.parameters["light_condition_number"] = lm->condition;
+  const std::vector<float> inv = InverseIntensities(s);
+  const int n = s.num_images(), C = s.channels(), W = s.width();
+  std::vector<float> pinv(lm->pinv.begin(), lm->pinv.end());
+  std::vector<Vec3f> dirs(n);
+  for (int i = 0; i < n; ++i) dirs[i] = Vec3f(s.lights()[i].direction);
+
+  const bool ok = ForEachTile(s, o, [&](const Tile& t) {
+    const int tw = t.width;
+    const int64_t m = t.texels();
+    std::vector<float> gx(m, 0.0f), gy(m, 0.0f), gz(m, 0.0f), y(m);
+    // Pass 1: g = P · luminance, streaming one image plane row at a time.
+    for (int i = 0; i < n; ++i) {
+      const float px = pinv[i], py = pinv[n + i], pz = pinv[2 * n + i];
+      for (int yy = 0; yy < t.height; ++yy) {
+        const int64_t row = int64_t(t.y0 + yy) * W + t.x0;
+        float* yl = y.data() + int64_t(yy) * tw;
+        for (int xx = 0; xx < tw; ++xx) yl[xx] = 0.0f;
+        for (int c = 0; c < C; ++c) {
+          const float w = (C == 1 ? 1.0f : kLuma[c]) * inv[i * C + c];
+          const float* src = s.Plane(i, c).data() + row;
+          for (int xx = 0; xx < tw; ++xx) yl[xx] += w * src[xx];
+        }
+        for (int xx = 0; xx < tw; ++xx) {
+          const int64_t k = int64_t(yy) * tw + xx;
+          gx[k] += px * yl[xx], gy[k] += py * yl[xx], gz[k] += pz * yl[xx];
+        }
+      }
+    }
+    // Normal, then albedo per channel by 1-D least squares on s_i = max(0, n·l_i).
+    for (int yy = 0; yy < t.height; ++yy)
+      for (int xx = 0; xx < tw; ++xx) {
+        const int64_t k = int64_t(yy) * tw + xx, p = int64_t(t.y0 + yy) * W + t.x0 + xx;
+        if (r.status[p] == kTexelMasked) continue;
+        const Vec3f g(gx[k], gy[k], gz[k]);
+        const float len = Length(g);
+        if (!IsFinite(g)) {
+          r.status[p] = kTexelNonFinite;
+          continue;
+        }
+        if (!(len > 1e-6f)) {
+          r.status[p] = kTexelNoSignal;
+          continue;
+        }
+        const Vec3f nn = g / len;
+        r.maps.normal.Plane(0)[p] = nn.x, r.maps.normal.Plane(1)[p] = nn.y,
+        r.maps.normal.Plane(2)[p] = nn.z;
+        float num[3] = {0, 0, 0}, den = 0;
+        for (int i = 0; i < n; ++i) {
+          const float si = std::max(0.0f, Dot(nn, dirs[i]));
+          den += si * si;
+          for (int c = 0; c < C; ++c) num[c] += s.Plane(i, c)[p] * inv[i * C + c] * si;
+        }
+        if (!(den > 1e-8f)) {
+          r.status[p] = kTexelTooFewLights;
+          continue;
+        }
+        for (int c = 0; c < 3; ++c) r.maps.albedo.Plane(c)[p] = num[C == 1 ? 0 : c] / den;
+      }
+  });
+  if (!ok) return Status(StatusCode::kCancelled, "fit cancelled");
+  SummariseStatus(&r);
+  r.fit_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  return r;
+}
+
+}  // namespace matfit::fit

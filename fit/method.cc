@@ -1,0 +1,53 @@
+#include "fit/method.h"
+
+#include <functional>
+
+#include "fit/methods.h"
+
+namespace matfit::fit {
+namespace {
+
+using FitFn = std::function<StatusOr<FitResult>(const LightStack&, const FitOptions&)>;
+
+class FunctionMethod : public FitMethod {
+ public:
+  FunctionMethod(std::string name, std::string description, int params, int bytes, FitFn fn)
+      : name_(std::move(name)),
+        description_(std::move(description)),
+        params_(params),
+        bytes_(bytes),
+        fn_(std::move(fn)) {}
+  std::string name() const override { return name_; }
+  std::string description() const override { return description_; }
+  int parameters_per_texel() const override { return params_; }
+  int bytes_per_texel() const override { return bytes_; }
+  StatusOr<FitResult> Fit(const LightStack& s, const FitOptions& o) const override {
+    return fn_(s, o);
+  }
+
+ private:
+  std::string name_, description_;
+  int params_, bytes_;
+  FitFn fn_;
+};
+
+}  // namespace
+
+std::vector<std::string> MethodNames() { return {"mean", "lambert", "heinrich"}; }
+
+std::unique_ptr<FitMethod> MakeMethod(const std::string& name) {
+  // Bytes per texel as packed: 8-bit sRGB colour (3), 16-bit normal (6), 8-bit ambient (3),
+  // 16-bit normal scale (2), 8-bit specular colour (3); the exponent is one per material.
+  if (name == "mean")
+    return std::make_unique<FunctionMethod>(name, "per-texel mean colour", 3, 3, FitMean);
+  if (name == "lambert")
+    return std::make_unique<FunctionMethod>(name, "photometric stereo: normal + albedo", 5, 9,
+                                            FitLambert);
+  if (name == "heinrich")
+    return std::make_unique<FunctionMethod>(
+        name, "seed method A: mean texture, unnormalised normal, grey ambient, specular map", 12,
+        17, FitHeinrich);
+  return nullptr;
+}
+
+}  // namespace matfit::fit

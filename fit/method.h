@@ -1,0 +1,28 @@
+// The fitting ladder behind one interface: fit(stack, options) → maps + per-texel status.
+#pragma once
+
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "core/light_stack.h"
+#include "core/status.h"
+#include "fit/fit_types.h"
+
+namespace matfit::fit {
+
+class FitMethod {
+ public:
+  virtual ~FitMethod() = default;
+  virtual std::string name() const = 0;
+  virtual std::string description() const = 0;
+  virtual int parameters_per_texel() const = 0;  // fitted scalars per texel
+  virtual int bytes_per_texel() const = 0;       // as stored in a pack
+  virtual StatusOr<FitResult> Fit(const LightStack& stack, const FitOptions& options) const = 0;
+};
+
+std::vector<std::string> MethodNames();  // the ladder, simplest first
+// nullptr when `name` is not a method.
+std::unique_ptr<FitMethod> MakeMethod(const std::string& name);
+
+}  // namespace matfit::fit

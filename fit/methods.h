@@ -1,0 +1,26 @@
+// The methods of the ladder as plain functions (method.cc wraps them in FitMethod).
+#pragma once
+
+#include "core/light_stack.h"
+#include "core/status.h"
+#include "fit/fit_types.h"
+
+namespace matfit::fit {
+
+// mean: t_c = mean_i p_ci / I_ci.
+StatusOr<FitResult> FitMean(const LightStack& stack, const FitOptions& options);
+
+// lambert (METHODS.md §3): g = (LᵀL)⁻¹Lᵀ y on luminance y, n = g/|g|, then per channel
+// ρ_c = Σ p_ci s_i / Σ s_i² with s_i = max(0, n·l_i). One pseudo-inverse for all texels.
+StatusOr<FitResult> FitLambert(const LightStack& stack, const FitOptions& options);
+
+// heinrich (METHODS.md §2), fast: exploits the shared structure of the 6 × 6 normal equations
+// (closed form: a_c = 1 − m·n, n = (Σ_i (l_i − m)(l_i − m)ᵀ)⁻¹ (Σ_c t_c q_c / Σ_c t_c² − Σ_i l_i),
+// q_c = Σ_i p_ci l_i), then the seed specular map and the exponent search.
+StatusOr<FitResult> FitHeinrich(const LightStack& stack, const FitOptions& options);
+
+// heinrich reference: the literal per-texel 6-unknown normal equations AᵀA x = Aᵀb inverted
+// by Gauss–Jordan, as the seed does. Fills normal (unit), normal_scale, ambient, albedo (t).
+StatusOr<FitResult> FitHeinrichReference(const LightStack& stack, const FitOptions& options);
+
+}  // namespace matfit::fit

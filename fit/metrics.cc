@@ -1,0 +1,83 @@
+#include "fit/metrics.h"
+
+#include <algorithm>
+#include <cmath>
+#include <mutex>
+
+#include "core/parallel.h"
+#include "core/shading/evaluate.h"
+
+namespace matfit::fit {
+
+ReconstructionMetrics Reconstruction(const LightStack& s, const MaterialMaps& maps,
+                                     const std::vector<uint8_t>& status) {
+  const int n = s.num_images(), C = s.channels();
+  const Vec3f v(s.view_direction);
+  std::vector<double> sum(n, 0.0);
+  std::vector<int64_t> count(n, 0);
+  ParallelFor(0, n, [&](int64_t b, int64_t e) {
+    for (int64_t i = b; i < e; ++i) {
+      const Vec3f l(s.lights()[i].direction);
+      double acc = 0;
+      int64_t k = 0;
+      for (int64_t p = 0; p < s.plane_size(); ++p) {
+        if (!status.empty() && status[p] != 0) continue;
+        for (int c = 0; c < C; ++c) {
+          const double pred =
+              s.lights()[i].intensity[C == 1 ? 0 : c] * EvaluateTexel(maps, p, c, l, v);
+          const double d = s.Plane(int(i), c)[p] - pred;
+          acc += d * d;
+          ++k;
+        }
+      }
+      sum[i] = acc, count[i] = k;
+    }
+  });
+  ReconstructionMetrics m;
+  std::map<int, std::pair<double, int64_t>> groups;
+  double total = 0;
+  for (int i = 0; i < n; ++i) {
+    total += sum[i];
+    m.samples += count[i];
+    auto& g = groups[int(std::lround(s.lights()[i].theta_deg / 15.0)) * 15];
+    g.first += sum[i], g.second += count[i];
+  }
+  const double mse = m.samples ? total / m.samples : 0;
+  m.deviation_percent = 100 * mse;
+  m.rmse = std::sqrt(mse);
+  m.psnr_db = mse > 0 ? 10 * std::log10(1.0 / mse) : INFINITY;
+  for (auto& [t, g] : groups)
+    m.deviation_percent_by_theta[t] = g.second ? 100 * g.first / g.second : 0;
+  return m;
+}
+
+TruthMetrics CompareToTruth(const MaterialMaps& f, const MaterialMaps& t,
+                            const std::vector<uint8_t>& status) {
+  TruthMetrics m;
+  std::vector<double> angles;
+  double a2 = 0;
+  int64_t ac = 0;
+  for (int64_t p = 0; p < int64_t(t.width) * t.height; ++p) {
+    if (!status.empty() && status[p] != 0) continue;
+    if (!t.mask.empty() && t.mask.data()[p] < 0.5f) continue;
+    const Vec3 nf(f.normal.Plane(0)[p], f.normal.Plane(1)[p], f.normal.Plane(2)[p]);
+    const Vec3 nt(t.normal.Plane(0)[p], t.normal.Plane(1)[p], t.normal.Plane(2)[p]);
+    angles.push_back(AngleBetweenDeg(nf, nt));
+    for (int c = 0; c < 3; ++c) {
+      const double d = f.albedo.Plane(c)[p] - t.albedo.Plane(c)[p];
+      a2 += d * d, ++ac;
+    }
+  }
+  m.texels = int64_t(angles.size());
+  if (angles.empty()) return m;
+  double sum = 0;
+  for (double a : angles) sum += a;
+  m.normal_mae_deg = sum / angles.size();
+  const size_t k = std::min(angles.size() - 1, size_t(std::ceil(0.95 * angles.size())) - 1);
+  std::nth_element(angles.begin(), angles.begin() + k, angles.end());
+  m.normal_p95_deg = angles[k];
+  m.albedo_rmse = std::sqrt(a2 / ac);
+  return m;
+}
+
+}  // namespace matfit::fit

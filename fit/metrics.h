@@ -1,0 +1,38 @@
+// Scores of a fit: reconstruction error against the measured stack (METHODS.md §2 deviation)
+// and, on synthetic data, errors against the ground-truth maps.
+#pragma once
+
+#include <cstdint>
+#include <map>
+#include <vector>
+
+#include "core/light_stack.h"
+#include "core/material_maps.h"
+
+namespace matfit::fit {
+
+struct ReconstructionMetrics {
+  // dev% = 100 · mean over texels, samples, channels of (p − p*)², values in [0, 1].
+  double deviation_percent = 0;
+  std::map<int, double> deviation_percent_by_theta;  // θl groups (nearest multiple of 15°)
+  double rmse = 0;
+  double psnr_db = 0;  // 10 log10(1 / MSE)
+  int64_t samples = 0;
+};
+
+// Compares the stack with the maps' forward evaluation at the stack's own lights, over texels
+// whose status is 0 (status may be empty: all texels).
+ReconstructionMetrics Reconstruction(const LightStack& stack, const MaterialMaps& maps,
+                                     const std::vector<uint8_t>& status);
+
+struct TruthMetrics {
+  double normal_mae_deg = 0, normal_p95_deg = 0;  // angle between fitted and true normals
+  double albedo_rmse = 0;                         // over channels (diffuse albedo)
+  int64_t texels = 0;
+};
+
+// Over texels with status 0 inside the truth mask.
+TruthMetrics CompareToTruth(const MaterialMaps& fitted, const MaterialMaps& truth,
+                            const std::vector<uint8_t>& status);
+
+}  // namespace matfit::fit

@@ -1,0 +1,129 @@
+#include <gtest/gtest.h>
+
+#include <cmath>
+
+#include "core/synth/synth.h"
+#include "fit/method.h"
+#include "fit/methods.h"
+#include "fit/metrics.h"
+
+namespace matfit::fit {
+namespace {
+
+synth::SynthResult Synth(const std::string& material, const std::string& lights, int size,
+                         double noise = 0) {
+  synth::SynthOptions o;
+  o.material = material;
+  o.lights = lights;
+  o.size = size;
+  o.layout = Layout::kLp;
+  o.bits = 32;
+  o.perturb.gaussian_sigma = noise;
+  auto r = synth::Synthesize(o);
+  EXPECT_TRUE(r.ok()) << r.status().ToString();
+  return std::move(*r);
+}
+
+TEST(Lambert, NoiseFreePlasterBonn81) {
+  const auto data = Synth("plaster", "bonn81", 64);
+  auto fit = FitLambert(data.stack, {});
+  ASSERT_TRUE(fit.ok()) << fit.status().ToString();
+  const TruthMetrics t = CompareToTruth(fit->maps, data.truth, fit->status);
+  EXPECT_EQ(t.texels, 64 * 64);
+  EXPECT_LT(t.normal_mae_deg, 0.1);
+  EXPECT_LT(t.albedo_rmse, 0.002);
+  EXPECT_EQ(fit->flagged_texels, 0);
+  const ReconstructionMetrics rec = Reconstruction(data.stack, fit->maps, fit->status);
+  EXPECT_LT(rec.rmse, 0.002);
+}
+
+TEST(Lambert, OnePercentNoise) {
+  const auto data = Synth("plaster", "bonn81", 64, 0.01);
+  auto fit = FitLambert(data.stack, {});
+  ASSERT_TRUE(fit.ok());
+  const TruthMetrics t = CompareToTruth(fit->maps, data.truth, fit->status);
+  EXPECT_LT(t.normal_mae_deg, 1.0);
+  EXPECT_GT(t.normal_mae_deg, 0.05);  // the noise is really there
+}
+
+TEST(Lambert, LightIntensitiesAreDividedOut) {
+  auto data = Synth("plaster", "dome:20", 16);
+  LightStack brighter = data.stack;
+  for (int i = 0; i < brighter.num_images(); ++i) {
+    brighter.lights()[i].intensity = {2.0, 2.0, 2.0};
+    for (int c = 0; c < 3; ++c)
+      for (float& v : brighter.Plane(i, c)) v *= 2.0f;
+  }
+  auto a = FitLambert(data.stack, {}), b = FitLambert(brighter, {});
+  ASSERT_TRUE(a.ok() && b.ok());
+  for (size_t k = 0; k < a->maps.albedo.data().size(); ++k)
+    EXPECT_NEAR(a->maps.albedo.data()[k], b->maps.albedo.data()[k], 1e-5);
+}
+
+TEST(Lambert, DegenerateLightsAreRejectedWithAReason) {
+  auto data = Synth("plaster", "ring:8:45", 8);
+  LightStack two = data.stack;
+  two.lights().resize(2);
+  // Coplanar: every light in the x–z plane.
+  LightStack flat = data.stack;
+  for (int i = 0; i < flat.num_images(); ++i) {
+    const double t = 10.0 + 10 * i;
+    flat.lights()[i].direction = DirectionFromAnglesDeg(t, i % 2 ? 0 : 180);
+  }
+  auto r = FitLambert(flat, {});
+  ASSERT_FALSE(r.ok());
+  EXPECT_NE(r.status().message().find("coplanar"), std::string::npos) << r.status().message();
+  LightStack three(8, 8, 3, 2);
+  auto q = FitLambert(three, {});
+  ASSERT_FALSE(q.ok());
+  EXPECT_NE(q.status().message().find("at least 3"), std::string::npos);
+}
+
+TEST(Lambert, BlackAndNaNTexelsAreFlaggedNotGuessed) {
+  auto data = Synth("plaster", "dome:12", 8);
+  for (int i = 0; i < 12; ++i)
+    for (int c = 0; c < 3; ++c) data.stack.At(i, c, 2, 3) = 0.0f;
+  data.stack.At(4, 1, 5, 5) = std::nanf("");
+  auto fit = FitLambert(data.stack, {});
+  ASSERT_TRUE(fit.ok());
+  EXPECT_EQ(fit->status[2 * 8 + 3], kTexelNoSignal);
+  EXPECT_EQ(fit->status[5 * 8 + 5], kTexelNonFinite);
+  EXPECT_EQ(fit->flagged_texels, 2);
+  ASSERT_FALSE(fit->warnings.empty());
+}
+
+TEST(Mean, IsThePerTexelAverage) {
+  const auto data = Synth("granite", "ring12", 8);
+  auto fit = FitMean(data.stack, {});
+  ASSERT_TRUE(fit.ok());
+  double sum = 0;
+  for (int i = 0; i < 12; ++i) sum += data.stack.At(i, 1, 3, 4);
+  EXPECT_NEAR(fit->maps.albedo.At(1, 3, 4), sum / 12, 1e-6);
+  // Its forward model predicts that average under every light.
+  const ReconstructionMetrics rec = Reconstruction(data.stack, fit->maps, fit->status);
+  EXPECT_GT(rec.deviation_percent, 0.0);
+}
+
+TEST(Metrics, TruthReconstructsNoiseFreeDataExactly) {
+  const auto data = Synth("plastic-ct", "dome:16", 16);
+  const ReconstructionMetrics rec = Reconstruction(data.stack, data.truth, {});
+  EXPECT_EQ(rec.deviation_percent, 0.0);
+  EXPECT_EQ(rec.samples, 16 * 16 * 3 * 16);
+  const TruthMetrics t = CompareToTruth(data.truth, data.truth, {});
+  EXPECT_LT(t.normal_mae_deg, 1e-5);  // acos near 1 is only this precise
+  EXPECT_EQ(t.albedo_rmse, 0.0);
+}
+
+TEST(Ladder, RegistryListsTheImplementedMethods) {
+  for (const std::string& name : MethodNames()) {
+    auto m = MakeMethod(name);
+    ASSERT_NE(m, nullptr) << name;
+    EXPECT_EQ(m->name(), name);
+    EXPECT_GT(m->parameters_per_texel(), 0);
+    EXPECT_GT(m->bytes_per_texel(), 0);
+  }
+  EXPECT_EQ(MakeMethod("nonsense"), nullptr);
+}
+
+}  // namespace
+}  // namespace matfit::fit
