@@ -32,6 +32,7 @@ void BM_Fit(benchmark::State& state) {
   const LightStack& s = Stack(int(state.range(0)));
   SetNumThreads(int(state.range(1)));
   fit::FitOptions o;
+  o.tile = int(state.range(2));
   o.heinrich_specular = false;  // the linear solve only: the part the two variants differ in
   for (auto _ : state) {
     auto r = Fn(s, o);
@@ -44,8 +45,10 @@ void BM_Fit(benchmark::State& state) {
 }
 
 void Args(benchmark::internal::Benchmark* b) {
-  for (int size : {64, 128, 256}) b->Args({size, 1});
-  b->Args({256, 2});
+  // {size, threads, tile}
+  for (int size : {64, 128, 256}) b->Args({size, 1, 64});
+  b->Args({256, 1, 16});
+  b->Args({256, 2, 64});
   b->Unit(benchmark::kMillisecond)->UseRealTime();
 }
 

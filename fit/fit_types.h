@@ -23,7 +23,7 @@ enum TexelStatus : uint8_t {
 const char* TexelStatusName(uint8_t status);
 
 struct FitOptions {
-  int tile = 64;  // tile edge in texels for the parallel loop, [8, 4096]
+  int tile = 64;  // work unit ≈ tile² texels (as full-width row strips), [8, 4096]
   // heinrich: use n_s = (0,0,1) inside the specular term (METHODS.md §2 improved variant).
   bool heinrich_flat_specular_normal = false;
   // heinrich: fit the specular map and exponent (else the diffuse + ambient part only).

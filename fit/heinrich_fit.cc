@@ -6,8 +6,10 @@
 //   (M − N m mᵀ) n = Σ_c t_c q_c / Σ_c t_c² − S,
 // so one 3 × 3 inverse serves every texel and a fit costs one pass over the planes.
 #include <Eigen/Dense>
+#include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <vector>
 
 #include "fit/fit_common.h"
 #include "fit/heinrich_specular.h"
@@ -61,27 +63,39 @@ StatusOr<FitResult> FitHeinrich(const LightStack& s, const FitOptions& o) {
   const Vec3 mean = S / double(n);
   std::vector<Vec3> dirs(n);
   for (int i = 0; i < n; ++i) dirs[i] = s.lights()[i].direction;
-  const Eigen::Matrix3d k = *K;
+  const Eigen::Matrix3d k3 = *K;
 
+  // One row segment of a tile at a time: accumulate t_c and q_c image by image (streaming
+  // contiguous plane rows, vectorisable), then solve each texel of the segment.
   const bool ok = ForEachTile(s, o, [&](const Tile& t) {
-    for (int y = t.y0; y < t.y0 + t.height; ++y)
-      for (int x = t.x0; x < t.x0 + t.width; ++x) {
-        const int64_t p = int64_t(y) * W + x;
-        if (r.status[p] == kTexelMasked) continue;
-        double tc[3] = {0, 0, 0};
-        Vec3 q[3];
-        for (int i = 0; i < n; ++i)
-          for (int c = 0; c < C; ++c) {
-            const double v = double(s.Plane(i, c)[p]) * inv[i * C + c];
-            tc[c] += v;
-            q[c] += dirs[i] * v;
+    const int tw = t.width;
+    std::vector<double> acc(size_t(12) * tw);  // [c][0..3] × tw: t_c, q_c.x, q_c.y, q_c.z
+    for (int y = t.y0; y < t.y0 + t.height; ++y) {
+      std::fill(acc.begin(), acc.end(), 0.0);
+      const int64_t row = int64_t(y) * W + t.x0;
+      for (int i = 0; i < n; ++i) {
+        const double lx = dirs[i].x, ly = dirs[i].y, lz = dirs[i].z;
+        for (int c = 0; c < C; ++c) {
+          const float* src = s.Plane(i, c).data() + row;
+          const double w = inv[i * C + c];
+          double* at = acc.data() + size_t(4 * c) * tw;
+          double *ax = at + tw, *ay = at + 2 * tw, *az = at + 3 * tw;
+          for (int k = 0; k < tw; ++k) {
+            const double v = src[k] * w;
+            at[k] += v, ax[k] += lx * v, ay[k] += ly * v, az[k] += lz * v;
           }
-        double t2 = 0;
+        }
+      }
+      for (int k = 0; k < tw; ++k) {
+        const int64_t p = row + k;
+        if (r.status[p] == kTexelMasked) continue;
+        double tc[3] = {0, 0, 0}, t2 = 0;
         Vec3 u;
         for (int c = 0; c < C; ++c) {
-          tc[c] /= n;
+          const double* at = acc.data() + size_t(4 * c) * tw;
+          tc[c] = at[k] / n;
           t2 += tc[c] * tc[c];
-          u += q[c] * tc[c];
+          u += Vec3(at[tw + k], at[2 * tw + k], at[3 * tw + k]) * tc[c];
         }
         if (!std::isfinite(t2) || !IsFinite(u)) {
           r.status[p] = kTexelNonFinite;
@@ -92,7 +106,7 @@ StatusOr<FitResult> FitHeinrich(const LightStack& s, const FitOptions& o) {
           continue;
         }
         u = u / t2 - S;
-        const Eigen::Vector3d nn = k * Eigen::Vector3d(u.x, u.y, u.z);
+        const Eigen::Vector3d nn = k3 * Eigen::Vector3d(u.x, u.y, u.z);
         const Vec3 nraw(nn.x(), nn.y(), nn.z());
         const double ambient = 1.0 - Dot(mean, nraw);
         const double len = Length(nraw);
@@ -105,6 +119,7 @@ StatusOr<FitResult> FitHeinrich(const LightStack& s, const FitOptions& o) {
         maps.normal.Plane(2)[p] = float(unit.z);
         maps.normal_scale.Plane(0)[p] = float(len);
       }
+    }
   });
   if (!ok) return Status(StatusCode::kCancelled, "fit cancelled");
   if (o.heinrich_specular) AddHeinrichSpecular(s, o, &r);

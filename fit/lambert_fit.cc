@@ -1,4 +1,5 @@
 // `lambert`: classic photometric stereo with one precomputed pseudo-inverse.
+#include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <vector>
@@ -46,36 +47,55 @@ StatusOr<FitResult> FitLambert(const LightStack& s, const FitOptions& o) {
         }
       }
     }
-    // Normal, then albedo per channel by 1-D least squares on s_i = max(0, n·l_i).
-    for (int yy = 0; yy < t.height; ++yy)
+    // Normal, then albedo per channel by 1-D least squares on s_i = max(0, n·l_i), again
+    // image by image over contiguous rows.
+    std::vector<float> num(size_t(3) * tw), den(tw);
+    for (int yy = 0; yy < t.height; ++yy) {
+      const int64_t row = int64_t(t.y0 + yy) * W + t.x0;
+      float* nx = gx.data() + int64_t(yy) * tw;
+      float* ny = gy.data() + int64_t(yy) * tw;
+      float* nz = gz.data() + int64_t(yy) * tw;
       for (int xx = 0; xx < tw; ++xx) {
-        const int64_t k = int64_t(yy) * tw + xx, p = int64_t(t.y0 + yy) * W + t.x0 + xx;
-        if (r.status[p] == kTexelMasked) continue;
-        const Vec3f g(gx[k], gy[k], gz[k]);
+        const int64_t p = row + xx;
+        const Vec3f g(nx[xx], ny[xx], nz[xx]);
         const float len = Length(g);
-        if (!IsFinite(g)) {
+        if (r.status[p] == kTexelMasked) continue;
+        if (!IsFinite(g))
           r.status[p] = kTexelNonFinite;
-          continue;
-        }
-        if (!(len > 1e-6f)) {
+        else if (!(len > 1e-6f))
           r.status[p] = kTexelNoSignal;
-          continue;
+        const Vec3f u = r.status[p] == kTexelOk ? g / len : Vec3f(0, 0, 0);
+        nx[xx] = u.x, ny[xx] = u.y, nz[xx] = u.z;
+      }
+      std::fill(num.begin(), num.end(), 0.0f);
+      std::fill(den.begin(), den.end(), 0.0f);
+      for (int i = 0; i < n; ++i) {
+        const Vec3f l = dirs[i];
+        for (int xx = 0; xx < tw; ++xx) {
+          const float si = std::max(0.0f, nx[xx] * l.x + ny[xx] * l.y + nz[xx] * l.z);
+          y[xx] = si;  // reuse as s_i for this row
+          den[xx] += si * si;
         }
-        const Vec3f nn = g / len;
-        r.maps.normal.Plane(0)[p] = nn.x, r.maps.normal.Plane(1)[p] = nn.y,
-        r.maps.normal.Plane(2)[p] = nn.z;
-        float num[3] = {0, 0, 0}, den = 0;
-        for (int i = 0; i < n; ++i) {
-          const float si = std::max(0.0f, Dot(nn, dirs[i]));
-          den += si * si;
-          for (int c = 0; c < C; ++c) num[c] += s.Plane(i, c)[p] * inv[i * C + c] * si;
+        for (int c = 0; c < C; ++c) {
+          const float* src = s.Plane(i, c).data() + row;
+          const float w = inv[i * C + c];
+          float* acc = num.data() + size_t(c) * tw;
+          for (int xx = 0; xx < tw; ++xx) acc[xx] += src[xx] * w * y[xx];
         }
-        if (!(den > 1e-8f)) {
+      }
+      for (int xx = 0; xx < tw; ++xx) {
+        const int64_t p = row + xx;
+        if (r.status[p] != kTexelOk) continue;
+        if (!(den[xx] > 1e-8f)) {
           r.status[p] = kTexelTooFewLights;
           continue;
         }
-        for (int c = 0; c < 3; ++c) r.maps.albedo.Plane(c)[p] = num[C == 1 ? 0 : c] / den;
+        r.maps.normal.Plane(0)[p] = nx[xx], r.maps.normal.Plane(1)[p] = ny[xx];
+        r.maps.normal.Plane(2)[p] = nz[xx];
+        for (int c = 0; c < 3; ++c)
+          r.maps.albedo.Plane(c)[p] = num[size_t(C == 1 ? 0 : c) * tw + xx] / den[xx];
       }
+    }
   });
   if (!ok) return Status(StatusCode::kCancelled, "fit cancelled");
   SummariseStatus(&r);

@@ -36,6 +36,19 @@ TEST(Tiles, CoverEveryTexelExactlyOnce) {
   }
 }
 
+TEST(Tiles, RowStripsCoverEveryRowOnce) {
+  const auto strips = MakeRowStrips(37, 23, 5);
+  ASSERT_EQ(strips.size(), 5u);
+  int rows = 0;
+  for (const Tile& t : strips) {
+    EXPECT_EQ(t.x0, 0);
+    EXPECT_EQ(t.width, 37);
+    EXPECT_EQ(t.y0, rows);
+    rows += t.height;
+  }
+  EXPECT_EQ(rows, 23);
+}
+
 TEST(Tiles, ViewMapsLocalToGlobal) {
   LightStack s(10, 8, 1, 2);
   for (int y = 0; y < 8; ++y)
