@@ -16,7 +16,8 @@ std::vector<float> InverseIntensities(const LightStack& stack);
 void InitResult(const LightStack& stack, ShadingModel model, const std::string& method,
                 FitResult* result);
 
-// Runs fn(tile) over full-width strips of ≈ tile² texels with ParallelFor; reports progress; false if cancelled.
+// Runs fn(tile) over full-width strips of ≈ tile² texels with ParallelFor; reports progress; false
+// if cancelled.
 bool ForEachTile(const LightStack& stack, const FitOptions& options,
                  const std::function<void(const Tile&)>& fn);
 
