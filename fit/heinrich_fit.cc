@@ -108,16 +108,9 @@ StatusOr<FitResult> FitHeinrich(const LightStack& s, const FitOptions& o) {
         u = u / t2 - S;
         const Eigen::Vector3d nn = k3 * Eigen::Vector3d(u.x, u.y, u.z);
         const Vec3 nraw(nn.x(), nn.y(), nn.z());
-        const double ambient = 1.0 - Dot(mean, nraw);
-        const double len = Length(nraw);
-        const Vec3 unit = len > 0 ? nraw / len : Vec3(0, 0, 1);
-        for (int c = 0; c < 3; ++c) {
-          maps.albedo.Plane(c)[p] = float(tc[C == 1 ? 0 : c]);
-          maps.ambient.Plane(c)[p] = float(ambient);
-        }
-        maps.normal.Plane(0)[p] = float(unit.x), maps.normal.Plane(1)[p] = float(unit.y);
-        maps.normal.Plane(2)[p] = float(unit.z);
-        maps.normal_scale.Plane(0)[p] = float(len);
+        const double a = 1.0 - Dot(mean, nraw);  // grey ambient
+        const double ambient[3] = {a, a, a};
+        StoreHeinrichTexel(&maps, p, C, tc, ambient, nraw);
       }
     }
   });

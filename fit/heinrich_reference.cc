@@ -89,14 +89,7 @@ StatusOr<FitResult> FitHeinrichReference(const LightStack& s, const FitOptions& 
         double xs[6] = {};
         for (int j = 0; j < 6; ++j)
           for (int k = 0; k < 6; ++k) xs[j] += ata[j * 6 + k] * atb[k];
-        const double len = std::sqrt(xs[0] * xs[0] + xs[1] * xs[1] + xs[2] * xs[2]);
-        for (int c = 0; c < 3; ++c) {
-          maps.albedo.Plane(c)[p] = float(tc[C == 1 ? 0 : c]);
-          maps.ambient.Plane(c)[p] = float(xs[3 + (C == 1 ? 0 : c)]);
-        }
-        for (int k = 0; k < 3; ++k)
-          maps.normal.Plane(k)[p] = float(len > 0 ? xs[k] / len : (k == 2));
-        maps.normal_scale.Plane(0)[p] = float(len);
+        StoreHeinrichTexel(&maps, p, C, tc, xs + 3, Vec3(xs[0], xs[1], xs[2]));
       }
   });
   if (!ok) return Status(StatusCode::kCancelled, "fit cancelled");

@@ -11,6 +11,18 @@
 
 namespace matfit::fit {
 
+void StoreHeinrichTexel(MaterialMaps* maps, int64_t p, int C, const double t[3],
+                        const double ambient[3], const Vec3& n_raw) {
+  const double len = Length(n_raw);
+  const Vec3 unit = len > 0 ? n_raw / len : Vec3(0, 0, 1);
+  for (int c = 0; c < 3; ++c) {
+    maps->albedo.Plane(c)[p] = float(t[C == 1 ? 0 : c]);
+    maps->ambient.Plane(c)[p] = float(ambient[C == 1 ? 0 : c]);
+    maps->normal.Plane(c)[p] = float(unit[c]);
+  }
+  maps->normal_scale.Plane(0)[p] = float(len);
+}
+
 double HeinrichSquaredError(const LightStack& s, const FitResult& r, int64_t* samples) {
   const std::vector<float> inv = InverseIntensities(s);
   const int n = s.num_images(), C = s.channels(), W = s.width(), H = s.height();

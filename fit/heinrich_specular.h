@@ -8,6 +8,11 @@
 
 namespace matfit::fit {
 
+// Writes one fitted texel: mean texture t (C values), ambient per channel (C values), the
+// unnormalised normal n_raw (stored as unit normal + |n|). C = 1 fills all three planes.
+void StoreHeinrichTexel(MaterialMaps* maps, int64_t p, int channels, const double t[3],
+                        const double ambient[3], const Vec3& n_raw);
+
 // Σ over valid texels, images, channels of (p − p*)² for the maps as they are (p* from
 // EvaluateTexel), and the sample count. Used by the exponent search and the tests.
 double HeinrichSquaredError(const LightStack& stack, const FitResult& result, int64_t* samples);
