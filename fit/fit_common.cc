@@ -55,6 +55,10 @@ void InitResult(const LightStack& s, ShadingModel model, const std::string& meth
   r->maps.normal = Image(s.width(), s.height(), 3);
   r->maps.albedo = Image(s.width(), s.height(), 3);
   r->maps.mask = Image(s.width(), s.height(), 1, 1.0f);
+  if (model == ShadingModel::kHeinrich) {
+    r->maps.ambient = Image(s.width(), s.height(), 3);
+    r->maps.normal_scale = Image(s.width(), s.height(), 1);
+  }
   r->status.assign(size_t(s.plane_size()), kTexelOk);
   if (s.has_mask())
     for (int64_t p = 0; p < s.plane_size(); ++p)

@@ -12,7 +12,8 @@ namespace matfit::fit {
 // 1 / I_{i,c}, index i * C + c: every method divides samples by the light's intensity.
 std::vector<float> InverseIntensities(const LightStack& stack);
 
-// Allocates result.maps (normal 3, albedo C→3 planes) and status (masked texels marked).
+// Allocates result.maps (normal 3, albedo 3; heinrich also ambient 3, normal_scale 1) and the
+// status plane with masked texels marked.
 void InitResult(const LightStack& stack, ShadingModel model, const std::string& method,
                 FitResult* result);
 

@@ -56,8 +56,6 @@ StatusOr<FitResult> FitHeinrich(const LightStack& s, const FitOptions& o) {
   FitResult r;
   InitResult(s, ShadingModel::kHeinrich, "heinrich", &r);
   MaterialMaps& maps = r.maps;
-  maps.ambient = Image(s.width(), s.height(), 3);
-  maps.normal_scale = Image(s.width(), s.height(), 1);
   const std::vector<float> inv = InverseIntensities(s);
   const int n = s.num_images(), C = s.channels(), W = s.width();
   const Vec3 mean = S / double(n);

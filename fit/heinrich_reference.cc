@@ -47,8 +47,6 @@ StatusOr<FitResult> FitHeinrichReference(const LightStack& s, const FitOptions& 
   FitResult r;
   InitResult(s, ShadingModel::kHeinrich, "heinrich-reference", &r);
   MaterialMaps& maps = r.maps;
-  maps.ambient = Image(s.width(), s.height(), 3);
-  maps.normal_scale = Image(s.width(), s.height(), 1);
   const std::vector<float> inv = InverseIntensities(s);
   const int n = s.num_images(), C = s.channels(), W = s.width();
 
