@@ -55,6 +55,7 @@ void Args(benchmark::internal::Benchmark* b) {
 BENCHMARK(BM_Fit<fit::FitHeinrichReference>)->Name("heinrich_reference")->Apply(Args);
 BENCHMARK(BM_Fit<fit::FitHeinrich>)->Name("heinrich_fast")->Apply(Args);
 BENCHMARK(BM_Fit<fit::FitLambert>)->Name("lambert_fast")->Apply(Args);
+BENCHMARK(BM_Fit<fit::FitPtm>)->Name("ptm_fast")->Apply(Args);
 BENCHMARK(BM_Fit<fit::FitMean>)->Name("mean")->Apply(Args);
 
 }  // namespace

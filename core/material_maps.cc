@@ -9,6 +9,7 @@ const char* ShadingModelName(ShadingModel m) {
     case ShadingModel::kBlinnPhong: return "blinn-phong";
     case ShadingModel::kCookTorrance: return "cook-torrance";
     case ShadingModel::kHeinrich: return "heinrich";
+    case ShadingModel::kPtm: return "ptm";
   }
   return "?";
 }

@@ -33,11 +33,12 @@ class FunctionMethod : public FitMethod {
 
 }  // namespace
 
-std::vector<std::string> MethodNames() { return {"mean", "lambert", "heinrich"}; }
+std::vector<std::string> MethodNames() { return {"mean", "lambert", "heinrich", "ptm"}; }
 
 std::unique_ptr<FitMethod> MakeMethod(const std::string& name) {
   // Bytes per texel as packed: 8-bit sRGB colour (3), 16-bit normal (6), 8-bit ambient (3),
-  // 16-bit normal scale (2), 8-bit specular colour (3); the exponent is one per material.
+  // 16-bit normal scale (2), 8-bit specular colour (3); the exponent is one per material;
+  // PTM coefficients as 16-bit half floats (18 × 2).
   if (name == "mean")
     return std::make_unique<FunctionMethod>(name, "per-texel mean colour", 3, 3, FitMean);
   if (name == "lambert")
@@ -47,6 +48,9 @@ std::unique_ptr<FitMethod> MakeMethod(const std::string& name) {
     return std::make_unique<FunctionMethod>(
         name, "seed method A: mean texture, unnormalised normal, grey ambient, specular map", 12,
         17, FitHeinrich);
+  if (name == "ptm")
+    return std::make_unique<FunctionMethod>(
+        name, "polynomial texture map, 6 coefficients per channel", 18, 36, FitPtm);
   return nullptr;
 }
 

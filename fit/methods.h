@@ -14,6 +14,10 @@ StatusOr<FitResult> FitMean(const LightStack& stack, const FitOptions& options);
 // ρ_c = Σ p_ci s_i / Σ s_i² with s_i = max(0, n·l_i). One pseudo-inverse for all texels.
 StatusOr<FitResult> FitLambert(const LightStack& stack, const FitOptions& options);
 
+// ptm (METHODS.md §4): 6 polynomial coefficients per channel in (u, v) = (l_x, l_y), one
+// pseudo-inverse for all texels. Coefficients in maps.coefficients (plane c·6 + j).
+StatusOr<FitResult> FitPtm(const LightStack& stack, const FitOptions& options);
+
 // heinrich (METHODS.md §2), fast: exploits the shared structure of the 6 × 6 normal equations
 // (closed form: a_c = 1 − m·n, n = (Σ_i (l_i − m)(l_i − m)ᵀ)⁻¹ (Σ_c t_c q_c / Σ_c t_c² − Σ_i l_i),
 // q_c = Σ_i p_ci l_i), then the seed specular map and the exponent search.

@@ -6,6 +6,14 @@ namespace matfit {
 
 float EvaluateTexel(const MaterialMaps& m, int64_t i, int c, const Vec3f& l, const Vec3f& v) {
   if (m.model == ShadingModel::kMean) return m.albedo.Plane(c)[i];
+  if (m.model == ShadingModel::kPtm) {
+    float b[shading::kPtmTerms];
+    shading::PtmBasis(l, b);
+    const int base = (m.coefficients.channels() == shading::kPtmTerms ? 0 : c) * shading::kPtmTerms;
+    float r = 0;
+    for (int j = 0; j < shading::kPtmTerms; ++j) r += b[j] * m.coefficients.Plane(base + j)[i];
+    return r;
+  }
   const Vec3f n(m.normal.Plane(0)[i], m.normal.Plane(1)[i], m.normal.Plane(2)[i]);
   if (m.model == ShadingModel::kHeinrich) {
     const float scale = m.normal_scale.empty() ? 1.0f : m.normal_scale.Plane(0)[i];

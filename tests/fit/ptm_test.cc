@@ -1,0 +1,67 @@
+#include <gtest/gtest.h>
+
+#include "core/synth/light_sets.h"
+#include "core/synth/random.h"
+#include "core/synth/render_stack.h"
+#include "core/synth/synth.h"
+#include "fit/methods.h"
+#include "fit/metrics.h"
+
+namespace matfit::fit {
+namespace {
+
+// A PTM material with random coefficients, rendered through the shared forward model.
+MaterialMaps RandomPtm(int size) {
+  MaterialMaps m;
+  m.width = m.height = size;
+  m.model = ShadingModel::kPtm;
+  m.normal = Image(size, size, 3);
+  m.albedo = Image(size, size, 3);
+  m.mask = Image(size, size, 1, 1.0f);
+  m.height_map = Image(size, size, 1);
+  m.coefficients = Image(size, size, 18);
+  for (int q = 0; q < 18; ++q)
+    for (int64_t p = 0; p < int64_t(size) * size; ++p)
+      m.coefficients.Plane(q)[p] = float(synth::HashUniform(9, q, p) - 0.3);
+  return m;
+}
+
+TEST(Ptm, ReconstructsDataFromItsOwnBasisExactly) {
+  for (const char* lights : {"bonn81", "dome:30"}) {
+    const MaterialMaps truth = RandomPtm(16);
+    const LightStack s = synth::RenderStack(truth, *synth::MakeLightSet(lights, 1), {});
+    auto fit = FitPtm(s, {});
+    ASSERT_TRUE(fit.ok()) << fit.status().ToString();
+    double worst = 0;
+    for (size_t k = 0; k < truth.coefficients.data().size(); ++k)
+      worst = std::max(
+          worst, double(std::abs(fit->maps.coefficients.data()[k] - truth.coefficients.data()[k])));
+    EXPECT_LT(worst, 2e-4) << lights;
+    const ReconstructionMetrics rec = Reconstruction(s, fit->maps, fit->status);
+    EXPECT_LT(rec.rmse, 1e-5) << lights;
+  }
+}
+
+TEST(Ptm, FitsAGlossyMaterialBetterThanTheMean) {
+  synth::SynthOptions o;
+  o.material = "plastic";
+  o.lights = "bonn81";
+  o.size = 32;
+  auto data = synth::Synthesize(o);
+  ASSERT_TRUE(data.ok());
+  auto ptm = FitPtm(data->stack, {}), mean = FitMean(data->stack, {});
+  ASSERT_TRUE(ptm.ok() && mean.ok());
+  EXPECT_LT(Reconstruction(data->stack, ptm->maps, ptm->status).deviation_percent,
+            0.5 * Reconstruction(data->stack, mean->maps, mean->status).deviation_percent);
+}
+
+TEST(Ptm, OneElevationRingIsRejected) {
+  const MaterialMaps truth = RandomPtm(4);
+  const LightStack s = synth::RenderStack(truth, *synth::MakeLightSet("ring12", 1), {});
+  auto fit = FitPtm(s, {});
+  ASSERT_FALSE(fit.ok());
+  EXPECT_NE(fit.status().message().find("rank < 6"), std::string::npos);
+}
+
+}  // namespace
+}  // namespace matfit::fit
