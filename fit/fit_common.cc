@@ -99,4 +99,12 @@ void SummariseStatus(FitResult* r) {
   }
 }
 
+StatusOr<FitResult> FinishFit(bool completed, std::chrono::steady_clock::time_point t0,
+                              FitResult r) {
+  if (!completed) return Status(StatusCode::kCancelled, r.method + ": fit cancelled");
+  SummariseStatus(&r);
+  r.fit_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  return r;
+}
+
 }  // namespace matfit::fit

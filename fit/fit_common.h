@@ -1,9 +1,11 @@
 // Pieces shared by the fitting methods (not part of the public fit API).
 #pragma once
 
+#include <chrono>
 #include <vector>
 
 #include "core/light_stack.h"
+#include "core/status.h"
 #include "core/tiles.h"
 #include "fit/fit_types.h"
 
@@ -25,6 +27,11 @@ bool ForEachTile(const LightStack& stack, const FitOptions& options,
 // Counts status entries other than ok/masked into result->flagged_texels and adds a warning
 // naming the most common reason.
 void SummariseStatus(FitResult* result);
+
+// Common epilogue: cancelled → kCancelled; else summarise the status plane, stamp the time
+// since t0 and return the result.
+StatusOr<FitResult> FinishFit(bool completed, std::chrono::steady_clock::time_point t0,
+                              FitResult r);
 
 // Rec. 709 luminance weights for linear RGB (1 channel: weight 1).
 inline constexpr float kLuma[3] = {0.2126f, 0.7152f, 0.0722f};

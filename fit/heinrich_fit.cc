@@ -112,11 +112,8 @@ StatusOr<FitResult> FitHeinrich(const LightStack& s, const FitOptions& o) {
       }
     }
   });
-  if (!ok) return Status(StatusCode::kCancelled, "fit cancelled");
-  if (o.heinrich_specular) AddHeinrichSpecular(s, o, &r);
-  SummariseStatus(&r);
-  r.fit_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-  return r;
+  if (ok && o.heinrich_specular) AddHeinrichSpecular(s, o, &r);
+  return FinishFit(ok, t0, std::move(r));
 }
 
 }  // namespace matfit::fit

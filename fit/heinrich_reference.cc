@@ -90,11 +90,8 @@ StatusOr<FitResult> FitHeinrichReference(const LightStack& s, const FitOptions& 
         StoreHeinrichTexel(&maps, p, C, tc, xs + 3, Vec3(xs[0], xs[1], xs[2]));
       }
   });
-  if (!ok) return Status(StatusCode::kCancelled, "fit cancelled");
-  if (o.heinrich_specular) AddHeinrichSpecular(s, o, &r);
-  SummariseStatus(&r);
-  r.fit_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-  return r;
+  if (ok && o.heinrich_specular) AddHeinrichSpecular(s, o, &r);
+  return FinishFit(ok, t0, std::move(r));
 }
 
 }  // namespace matfit::fit

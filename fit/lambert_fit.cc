@@ -97,10 +97,7 @@ StatusOr<FitResult> FitLambert(const LightStack& s, const FitOptions& o) {
       }
     }
   });
-  if (!ok) return Status(StatusCode::kCancelled, "fit cancelled");
-  SummariseStatus(&r);
-  r.fit_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-  return r;
+  return FinishFit(ok, t0, std::move(r));
 }
 
 }  // namespace matfit::fit
