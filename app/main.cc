@@ -35,6 +35,7 @@ int main(int argc, char** argv) {
   int exit_code = 0;
   matfit::app::RegisterSynth(app, &exit_code);
   matfit::app::RegisterInfo(app, &exit_code);
+  matfit::app::RegisterFit(app, &exit_code);
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {

@@ -89,4 +89,8 @@ class LightStack {
   std::vector<LightSample> lights_;
 };
 
+// A stack holding only images `indices` of `stack` (in that order), with their lights and
+// provenance; mask, view and physical size are kept.
+LightStack SelectImages(const LightStack& stack, const std::vector<int>& indices);
+
 }  // namespace matfit

@@ -6,7 +6,7 @@ set -euo pipefail
 
 PACKAGES=(
   # toolchain
-  build-essential cmake ninja-build pkg-config ccache clang-format git
+  build-essential cmake ninja-build pkg-config ccache clang-format git nodejs
   # core: image I/O, JSON, CLI, logging, threading, math
   libopenimageio-dev openimageio-tools nlohmann-json3-dev libcli11-dev
   libspdlog-dev libfmt-dev libtbb-dev libeigen3-dev libglm-dev
@@ -16,6 +16,8 @@ PACKAGES=(
   libceres-dev libopencv-core-dev libopencv-imgproc-dev
   # server: HTTP, job store
   libcpp-httplib-dev libsqlite3-dev
+  # material packs: zip archives
+  libzip-dev
   # render: headless EGL + GLES (Mesa llvmpipe)
   libegl-dev libgles-dev libegl-mesa0 libgl1-mesa-dri
   # capture: USB light rigs, V4L2 cameras

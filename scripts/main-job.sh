@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
-# The README's main job: install dependencies, build, then on the bundled data
-# generate a synthetic dataset with ground truth and print the summary of every dataset.
+# The README's main job: install dependencies, build, then on the bundled data: summarise
+# every dataset, synthesise one with ground truth, fit it → material pack → summary table.
 set -euo pipefail
 root=$(cd "$(dirname "$0")/.." && pwd)
 "$root/scripts/install-deps.sh"
@@ -16,3 +16,13 @@ for d in "$out/corduroy-bonn81" "$root"/fixtures/*/; do
   echo "== matfit info $d =="
   "$matfit" info "$d" --quiet
 done
+for model in lambert heinrich; do
+  echo
+  echo "== matfit fit corduroy-bonn81 --model $model =="
+  "$matfit" fit "$out/corduroy-bonn81" --model $model --holdout 3 --out "$out/corduroy-$model-pack" --force --quiet
+done
+echo
+echo "== matfit fit fixtures/plastic-ring12 --model lambert =="
+"$matfit" fit "$root/fixtures/plastic-ring12" --model lambert --holdout 4 --out "$out/plastic-lambert-pack" --force --quiet
+echo
+echo "packs written to $out/*-pack (material.json, material.gltf, maps/, report.json, preview.png)"

@@ -55,6 +55,23 @@ expect_contains "missing view" "$msg" "available views"
 "$bin" info --help | grep -q -- "--layout" && ok || bad "info --help"
 "$bin" --help | grep -q "synth" && ok || bad "--help"
 
+# matfit fit: every model on a fixture, summary table, pack on disk; errors are clear.
+for model in mean lambert heinrich ptm; do
+  out=$("$bin" fit "$src/fixtures/plaster-bonn81" --model $model --holdout 3 --out "$tmp/pack-$model" --quiet 2>&1) \
+    && ok || bad "fit $model: $out"
+  expect_contains "fit $model table" "$out" "held-out    rmse"
+  [ -f "$tmp/pack-$model/material.json" ] && ok || bad "fit $model wrote no material.json"
+done
+expect_contains "fit truth" "$("$bin" fit "$src/fixtures/plaster-bonn81" --model lambert --out "$tmp/p2" --quiet)" "vs truth    normal MAE"
+expect_contains "model list" "$("$bin" fit --model list)" "heinrich"
+msg=$("$bin" fit "$src/fixtures/plaster-bonn81" --model velvet --out "$tmp/pv" 2>&1); rc=$?
+[ $rc -ne 0 ] && ok || bad "unknown model should fail"
+expect_contains "unknown model" "$msg" "choose one of: mean"
+msg=$("$bin" fit "$src/fixtures/plastic-ring12" --model heinrich --out "$tmp/pr" 2>&1); rc=$?
+[ $rc -ne 0 ] && ok || bad "heinrich on a ring should fail"
+expect_contains "heinrich ring" "$msg" "inseparable"
+[ ! -e "$tmp/pv" ] && [ ! -e "$tmp/pr" ] && ok || bad "failed fit left output"
+
 # Bundled fixtures and real data.
 for f in "$src"/fixtures/*/; do
   "$bin" info "$f" --quiet >/dev/null && ok || bad "info fixture $f"

@@ -1,0 +1,137 @@
+// matfit fit: dataset → material pack, with a summary table.
+#include <CLI/CLI.hpp>
+#include <cmath>
+#include <cstdio>
+#include <map>
+#include <memory>
+
+#include "app/commands.h"
+#include "core/parallel.h"
+#include "core/progress.h"
+#include "fit/fit_job.h"
+#include "fit/method.h"
+
+namespace matfit::app {
+namespace {
+
+struct FitArgs {
+  fit::FitJobOptions job;
+  std::string layout = "auto", view, color_space = "auto";
+  int threads = 0;
+  bool quiet = false;
+};
+
+void PrintModels() {
+  std::printf("%-10s %6s %6s  %s\n", "model", "params", "bytes", "description (per texel)");
+  for (const auto& name : fit::MethodNames()) {
+    const auto m = fit::MakeMethod(name);
+    std::printf("%-10s %6d %6d  %s\n", name.c_str(), m->parameters_per_texel(),
+                m->bytes_per_texel(), m->description().c_str());
+  }
+}
+
+std::string ByTheta(const std::map<int, double>& m) {
+  std::string s;
+  char buf[48];
+  for (const auto& [t, d] : m) {
+    std::snprintf(buf, sizeof buf, " %d°:%.4g", t, d);
+    s += buf;
+  }
+  return s;
+}
+
+int RunFit(FitArgs& a) {
+  if (a.job.model == "list") {
+    PrintModels();
+    return 0;
+  }
+  if (!ParseLayout(a.layout, &a.job.read.layout))
+    return Fail("fit", ("--layout '" + a.layout +
+                        "' is not one of auto, bonn, utia, lp, diligent, lights-txt")
+                           .c_str());
+  if (!a.view.empty()) {
+    ViewAngles v;
+    if (!ParseViewArg(a.view.c_str(), &v.theta_deg, &v.phi_deg))
+      return Fail("fit",
+                  ("--view '" + a.view + "' must be THETA,PHI in degrees, e.g. 0,0").c_str());
+    a.job.read.view = v;
+  }
+  if (!ParseColorSpaceChoice(a.color_space, &a.job.read.color_space))
+    return Fail("fit",
+                ("--color-space '" + a.color_space + "' must be auto, srgb or linear").c_str());
+  std::string why;
+  if (!a.job.Check(&why)) return Fail("fit", why.c_str());
+  SetNumThreads(a.threads);
+
+  std::unique_ptr<ProgressReporter> bar;
+  std::string current;
+  auto progress = [&](const std::string& stage, int64_t done, int64_t total) {
+    if (a.quiet) return true;
+    if (stage != current) {
+      bar = std::make_unique<ProgressReporter>(stage);
+      current = stage;
+    }
+    bar->Update(done, total);
+    return true;
+  };
+  auto r = fit::RunFitJob(a.job, progress);
+  bar.reset();
+  if (!r.ok()) return Fail("fit", r.status().message().c_str());
+
+  const auto& f = r->fit;
+  std::printf("method      %s (%s)\n", f.method.c_str(), ShadingModelName(f.maps.model));
+  std::printf("texels      %d x %d, %lld flagged; %d images\n", f.maps.width, f.maps.height,
+              (long long)f.flagged_texels, r->images);
+  std::printf("fit time    %.3f s\n", f.fit_seconds);
+  for (const auto& [k, v] : f.parameters) std::printf("parameter   %s = %.6g\n", k.c_str(), v);
+  std::printf("deviation   %.5f %%  by θl:%s\n", r->reconstruction.deviation_percent,
+              ByTheta(r->reconstruction.deviation_percent_by_theta).c_str());
+  std::printf("rmse        %.5f  (PSNR %.1f dB)\n", r->reconstruction.rmse,
+              r->reconstruction.psnr_db);
+  if (r->heldout)
+    std::printf("held-out    rmse %.5f, deviation %.5f %% over %d folds (%d failed)\n",
+                r->heldout->rmse, r->heldout->deviation_percent, r->heldout->folds,
+                r->heldout->failed_folds);
+  if (r->truth)
+    std::printf("vs truth    normal MAE %.3f°, p95 %.3f°, albedo RMSE %.5f\n",
+                r->truth->normal_mae_deg, r->truth->normal_p95_deg, r->truth->albedo_rmse);
+  for (const auto& w : f.warnings) std::printf("warning     %s\n", w.c_str());
+  std::printf("pack        %s%s\n", a.job.out.c_str(), a.job.zip ? " (zip)" : "");
+  return 0;
+}
+
+}  // namespace
+
+void RegisterFit(CLI::App& app, int* exit_code) {
+  auto args = std::make_shared<FitArgs>();
+  auto& j = args->job;
+  CLI::App* sub =
+      app.add_subcommand("fit", "Fit a material model to a dataset and write a material pack");
+  sub->add_option("DIR", j.input, "dataset folder (or .lp file)");
+  sub->add_option("--model", j.model, "model of the ladder, or 'list'")->capture_default_str();
+  sub->add_option("--out", j.out, "pack folder (or .zip file with --zip), written atomically");
+  sub->add_flag("--zip", j.zip, "write the pack as one zip file");
+  sub->add_flag("--force", j.overwrite, "replace --out if it exists");
+  sub->add_option("--holdout", j.holdout, "k-fold held-out-light error (0 = off)")
+      ->capture_default_str();
+  sub->add_option("--view", args->view, "BTF view THETA,PHI in degrees (default: most frontal)");
+  sub->add_option("--layout", args->layout, "auto, bonn, utia, lp, diligent, lights-txt")
+      ->capture_default_str();
+  sub->add_option("--color-space", args->color_space, "auto, srgb or linear")
+      ->capture_default_str();
+  sub->add_option("--threads", args->threads, "worker threads (0 = all cores)")
+      ->capture_default_str();
+  sub->add_option("--tile", j.fit.tile, "work unit ≈ tile² texels")->capture_default_str();
+  sub->add_flag("--flat-specular-normal", j.fit.heinrich_flat_specular_normal,
+                "heinrich: n_s = (0,0,1) in the specular term");
+  sub->add_flag("--quiet", args->quiet, "no progress output");
+  sub->callback([args, exit_code] {
+    if (args->job.model != "list" && args->job.input.empty()) {
+      *exit_code = Fail("fit", "a dataset DIR is required (or --model list)");
+      return;
+    }
+    *exit_code = RunFit(*args);
+  });
+}
+
+}  // namespace matfit::app

@@ -1,0 +1,25 @@
+// A textured quad as glTF 2.0 (JSON + one binary buffer), for material packs.
+#pragma once
+
+#include <cstdint>
+#include <string>
+#include <vector>
+
+namespace matfit {
+
+struct GltfMaterialDesc {
+  std::string name;
+  std::string base_color_uri;            // sRGB PNG
+  std::string normal_uri;                // empty: no normal map
+  std::string specular_color_uri;        // KHR_materials_specular colour texture; empty: none
+  double specular_factor = 1.0;          // KHR_materials_specular specularFactor (0 = no specular)
+  double roughness = 1.0;                // pbrMetallicRoughness roughnessFactor
+  double ior = 0;                        // KHR_materials_ior; 0 = not written
+  double width_m = 0.1, height_m = 0.1;  // quad size in metres
+};
+
+// Returns the .gltf JSON; *bin receives the buffer, referenced as `bin_uri`.
+std::string MakeQuadGltf(const GltfMaterialDesc& material, const std::string& bin_uri,
+                         std::vector<uint8_t>* bin);
+
+}  // namespace matfit

@@ -1,0 +1,37 @@
+// Material packs: maps + material.json + material.gltf (+ quad.bin) + report.json + preview,
+// as a folder or a zip. Layout and schema: docs/pack.md.
+#pragma once
+
+#include <cstdint>
+#include <map>
+#include <string>
+#include <vector>
+
+#include "core/material_maps.h"
+#include "core/status.h"
+
+namespace matfit {
+
+struct PackInfo {
+  std::string method;                              // fitting method name
+  std::string source;                              // dataset path
+  std::string report_json;                         // contents of report.json (already serialised)
+  std::map<std::string, double> model_parameters;  // e.g. exponent
+  double mm_per_texel = 0;                         // 0 = unknown
+  std::vector<std::string> warnings;
+};
+
+struct PackWriteOptions {
+  bool zip = false;        // write one .zip file instead of a folder
+  bool overwrite = false;  // replace an existing output
+};
+
+// Writes the pack atomically to `out` (a folder; with zip, `out` is the .zip file path).
+Status WritePack(const MaterialMaps& maps, const std::vector<uint8_t>& status, const PackInfo& info,
+                 const PackWriteOptions& options, const std::string& out);
+
+// Physically based stand-ins for the glTF core material: GGX roughness from a Blinn–Phong
+// exponent, r = (2/(e+2))^{1/4} (α = sqrt(2/(e+2)), r = sqrt(α)).
+double RoughnessFromBlinnPhongExponent(double e);
+
+}  // namespace matfit

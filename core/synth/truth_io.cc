@@ -1,0 +1,50 @@
+#include "core/synth/truth_io.h"
+
+#include <filesystem>
+
+#include "core/image_io.h"
+
+namespace matfit::synth {
+namespace {
+namespace fs = std::filesystem;
+}
+
+std::string FindTruthFolder(const std::string& source) {
+  std::error_code ec;
+  fs::path dir(source);
+  if (fs::is_regular_file(dir, ec)) dir = dir.parent_path();
+  const fs::path truth = dir / "truth";
+  return fs::exists(truth / "params.json", ec) ? truth.string() : std::string();
+}
+
+StatusOr<MaterialMaps> ReadTruth(const std::string& dir) {
+  MaterialMaps m;
+  ImageReadOptions linear;
+  linear.color_space = ColorSpaceChoice::kLinear;
+  auto read = [&](const char* name, bool required, Image* out) -> Status {
+    const std::string path = (fs::path(dir) / name).string();
+    std::error_code ec;
+    if (!fs::exists(path, ec))
+      return required ? NotFound("truth map '" + path + "' is missing") : Status::Ok();
+    auto img = ReadImage(path, linear);
+    if (!img.ok()) return img.status();
+    *out = std::move(*img);
+    return Status::Ok();
+  };
+  MATFIT_RETURN_IF_ERROR(read("normal.exr", true, &m.normal));
+  MATFIT_RETURN_IF_ERROR(read("albedo.exr", true, &m.albedo));
+  MATFIT_RETURN_IF_ERROR(read("mask.png", true, &m.mask));
+  MATFIT_RETURN_IF_ERROR(read("height.exr", false, &m.height_map));
+  MATFIT_RETURN_IF_ERROR(read("specular.exr", false, &m.specular));
+  MATFIT_RETURN_IF_ERROR(read("exponent.exr", false, &m.exponent));
+  MATFIT_RETURN_IF_ERROR(read("roughness.exr", false, &m.roughness));
+  MATFIT_RETURN_IF_ERROR(read("thickness.exr", false, &m.thickness));
+  MATFIT_RETURN_IF_ERROR(read("translucency.exr", false, &m.translucency));
+  m.width = m.normal.width();
+  m.height = m.normal.height();
+  if (m.albedo.width() != m.width || m.mask.width() != m.width)
+    return DataError("truth maps in '" + dir + "' have different sizes");
+  return m;
+}
+
+}  // namespace matfit::synth

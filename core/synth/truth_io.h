@@ -1,0 +1,17 @@
+// Reads the truth/ folder that `matfit synth` writes beside a dataset (for scoring fits).
+#pragma once
+
+#include <string>
+
+#include "core/material_maps.h"
+#include "core/status.h"
+
+namespace matfit::synth {
+
+// The truth folder of a dataset at `source` (a folder, or a .lp file inside one), or empty.
+std::string FindTruthFolder(const std::string& source);
+
+// Reads normal.exr, albedo.exr and mask.png (required) plus any optional maps present.
+StatusOr<MaterialMaps> ReadTruth(const std::string& truth_dir);
+
+}  // namespace matfit::synth

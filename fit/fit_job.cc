@@ -1,0 +1,85 @@
+#include "fit/fit_job.h"
+
+#include "core/pack/pack.h"
+#include "core/synth/truth_io.h"
+#include "fit/method.h"
+#include "fit/report.h"
+
+namespace matfit::fit {
+
+bool FitJobOptions::Check(std::string* why) const {
+  if (input.empty()) return *why = "the dataset path is empty", false;
+  if (out.empty()) return *why = "--out PACK is required", false;
+  if (!MakeMethod(model)) {
+    std::string list;
+    for (const auto& n : MethodNames()) list += (list.empty() ? "" : ", ") + n;
+    return *why = "--model '" + model + "' is not a method; choose one of: " + list, false;
+  }
+  if (holdout == 1 || holdout < 0) return *why = "--holdout must be 0 (off) or ≥ 2 folds", false;
+  return read.Check(why) && fit.Check(why);
+}
+
+StatusOr<FitJobResult> RunFitJob(const FitJobOptions& o, const StageProgress& progress) {
+  std::string why;
+  if (!o.Check(&why)) return InvalidArgument(why);
+  auto stage = [&](const char* name) -> ProgressFn {
+    if (!progress) return {};
+    return [=](int64_t d, int64_t t) { return progress(name, d, t); };
+  };
+  ReadOptions ro = o.read;
+  ro.progress = stage("read");
+  auto stack = ReadDataset(o.input, ro);
+  if (!stack.ok()) return stack.status();
+  const auto method = MakeMethod(o.model);
+  FitOptions fo = o.fit;
+  fo.progress = stage("fit");
+  auto fit = method->Fit(*stack, fo);
+  if (!fit.ok()) return fit.status();
+
+  FitJobResult r;
+  r.images = stack->num_images();
+  r.reconstruction = Reconstruction(*stack, fit->maps, fit->status);
+  if (o.holdout >= 2) {
+    if (progress && !progress("heldout", 0, o.holdout))
+      return Status(StatusCode::kCancelled, "cancelled");
+    auto h = HeldOut(*method, *stack, o.holdout, o.fit);
+    if (!h.ok()) return h.status();
+    r.heldout = *h;
+    if (progress) progress("heldout", o.holdout, o.holdout);
+  }
+  const std::string truth_dir = synth::FindTruthFolder(o.input);
+  if (!truth_dir.empty()) {
+    auto truth = synth::ReadTruth(truth_dir);
+    if (truth.ok() && truth->width == stack->width() && truth->height == stack->height())
+      r.truth = CompareToTruth(fit->maps, *truth, fit->status);
+    else
+      fit->warnings.push_back(
+          "truth folder '" + truth_dir + "' could not be used: " +
+          (truth.ok() ? std::string("size differs") : truth.status().message()));
+  }
+  r.fit = std::move(*fit);
+  FitReportInputs ri;
+  ri.result = &r.fit;
+  ri.parameters_per_texel = method->parameters_per_texel();
+  ri.bytes_per_texel = method->bytes_per_texel();
+  ri.images = r.images;
+  ri.reconstruction = r.reconstruction;
+  ri.heldout = r.heldout;
+  ri.truth = r.truth;
+  ri.source = o.input;
+  r.report_json = MakeReportJson(ri);
+
+  if (progress && !progress("write", 0, 1)) return Status(StatusCode::kCancelled, "cancelled");
+  PackInfo info;
+  info.method = r.fit.method;
+  info.source = o.input;
+  info.report_json = r.report_json;
+  info.model_parameters = r.fit.parameters;
+  info.mm_per_texel = stack->mm_per_texel;
+  info.warnings = r.fit.warnings;
+  MATFIT_RETURN_IF_ERROR(WritePack(r.fit.maps, r.fit.status, info, {o.zip, o.overwrite}, o.out));
+  if (progress) progress("write", 1, 1);
+  return r;
+}
+
+}  // namespace matfit::fit

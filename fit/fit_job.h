@@ -1,0 +1,42 @@
+// The whole `matfit fit` path as one controller: read → fit → score (reconstruction, held-out
+// lights, truth when present) → report.json → material pack. The CLI and the server share it.
+#pragma once
+
+#include <functional>
+#include <optional>
+#include <string>
+
+#include "core/dataset/dataset.h"
+#include "fit/fit_types.h"
+#include "fit/holdout.h"
+#include "fit/metrics.h"
+
+namespace matfit::fit {
+
+struct FitJobOptions {
+  std::string input;  // dataset folder or .lp file
+  std::string model = "lambert";
+  ReadOptions read;  // layout, view, colour space
+  FitOptions fit;    // tile, method options
+  int holdout = 0;   // k-fold held-out-light error; 0 = off, else ≥ 2
+  std::string out;   // pack folder (or .zip with zip)
+  bool zip = false, overwrite = false;
+
+  bool Check(std::string* why) const;
+};
+
+struct FitJobResult {
+  FitResult fit;
+  int images = 0;
+  ReconstructionMetrics reconstruction;
+  std::optional<HeldOutMetrics> heldout;
+  std::optional<TruthMetrics> truth;
+  std::string report_json;
+};
+
+// stage is "read", "fit", "heldout" or "write"; return false to cancel.
+using StageProgress = std::function<bool(const std::string& stage, int64_t done, int64_t total)>;
+
+StatusOr<FitJobResult> RunFitJob(const FitJobOptions& options, const StageProgress& progress = {});
+
+}  // namespace matfit::fit

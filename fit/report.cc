@@ -1,0 +1,65 @@
+#include "fit/report.h"
+
+#include <cmath>
+#include <map>
+#include <nlohmann/json.hpp>
+
+namespace matfit::fit {
+namespace {
+
+using nlohmann::json;
+
+json Finite(double v) { return std::isfinite(v) ? json(v) : json(); }
+
+json ByTheta(const std::map<int, double>& m) {
+  json j = json::object();
+  for (const auto& [t, d] : m) j[std::to_string(t)] = d;
+  return j;
+}
+
+}  // namespace
+
+std::string MakeReportJson(const FitReportInputs& in) {
+  const FitResult& r = *in.result;
+  std::map<std::string, int64_t> counts;
+  for (uint8_t s : r.status) counts[TexelStatusName(s)]++;
+  json params = json::object();
+  for (const auto& [k, v] : r.parameters) params[k] = v;
+  json j = {
+      {"method", r.method},
+      {"model", ShadingModelName(r.maps.model)},
+      {"source", in.source},
+      {"fit_seconds", r.fit_seconds},
+      {"texels", int64_t(r.maps.width) * r.maps.height},
+      {"images", in.images},
+      {"parameters_per_texel", in.parameters_per_texel},
+      {"bytes_per_texel", in.bytes_per_texel},
+      {"deviation_percent", in.reconstruction.deviation_percent},
+      {"deviation_percent_by_theta", ByTheta(in.reconstruction.deviation_percent_by_theta)},
+      {"rmse", in.reconstruction.rmse},
+      {"psnr_db", Finite(in.reconstruction.psnr_db)},
+      {"flagged_texels", r.flagged_texels},
+      {"status_counts", counts},
+      {"parameters", params},
+      {"warnings", r.warnings},
+      {"heldout", nullptr},
+  };
+  if (in.heldout) {
+    const HeldOutMetrics& h = *in.heldout;
+    j["heldout"] = {{"folds", h.folds},
+                    {"rmse", h.rmse},
+                    {"deviation_percent", h.deviation_percent},
+                    {"deviation_percent_by_theta", ByTheta(h.deviation_percent_by_theta)},
+                    {"psnr_db", Finite(h.psnr_db)},
+                    {"failed_folds", h.failed_folds}};
+  }
+  if (in.truth) {
+    j["normal_mae_deg"] = in.truth->normal_mae_deg;
+    j["normal_p95_deg"] = in.truth->normal_p95_deg;
+    j["albedo_rmse"] = in.truth->albedo_rmse;
+    j["truth_texels"] = in.truth->texels;
+  }
+  return j.dump(2) + "\n";
+}
+
+}  // namespace matfit::fit

@@ -1,0 +1,143 @@
+// The matfit fit path end to end: dataset → fit → report.json → material pack.
+#include <gtest/gtest.h>
+
+#include <unistd.h>
+
+#include <filesystem>
+#include <fstream>
+#include <nlohmann/json.hpp>
+
+#include "core/dataset/dataset.h"
+#include "core/image_io.h"
+#include "fit/fit_job.h"
+#include "fit/methods.h"
+
+namespace matfit::fit {
+namespace {
+
+namespace fs = std::filesystem;
+
+class PackDir {
+ public:
+  PackDir() {
+    path_ = (fs::temp_directory_path() /
+             ("matfit-pack-" + std::to_string(::getpid()) + "-" + std::to_string(counter_++)))
+                .string();
+    fs::remove_all(path_);
+    fs::create_directories(path_);
+  }
+  ~PackDir() { fs::remove_all(path_); }
+  std::string operator/(const std::string& n) const { return path_ + "/" + n; }
+  const std::string& path() const { return path_; }
+
+ private:
+  static inline int counter_ = 0;
+  std::string path_;
+};
+
+nlohmann::json ReadJson(const std::string& path) {
+  std::ifstream in(path);
+  return nlohmann::json::parse(in);
+}
+
+const std::string kFixture = std::string(MATFIT_SOURCE_DIR) + "/fixtures/plaster-bonn81";
+
+TEST(FitJob, WritesAPackWhoseMapsEqualADirectFit) {
+  PackDir tmp;
+  FitJobOptions o;
+  o.input = kFixture;
+  o.model = "lambert";
+  o.holdout = 3;
+  o.out = tmp / "pack";
+  auto r = RunFitJob(o);
+  ASSERT_TRUE(r.ok()) << r.status().ToString();
+  for (const char* f : {"material.json", "material.gltf", "quad.bin", "report.json", "preview.png",
+                        "maps/albedo.png", "maps/normal.png", "maps/normal.exr", "maps/status.png",
+                        "maps/mask.png"})
+    EXPECT_TRUE(fs::exists(tmp / (std::string("pack/") + f))) << f;
+  // The pack's exact normals equal a direct fit of the same dataset.
+  auto stack = ReadDataset(kFixture);
+  ASSERT_TRUE(stack.ok());
+  auto direct = FitLambert(*stack, {});
+  ASSERT_TRUE(direct.ok());
+  auto normal = ReadImage(tmp / "pack/maps/normal.exr");
+  ASSERT_TRUE(normal.ok());
+  EXPECT_EQ(normal->data(), direct->maps.normal.data());
+
+  const auto report = ReadJson(tmp / "pack/report.json");
+  for (const char* key : {"method", "fit_seconds", "texels", "images", "deviation_percent",
+                          "deviation_percent_by_theta", "rmse", "psnr_db", "heldout",
+                          "flagged_texels", "normal_mae_deg", "normal_p95_deg", "albedo_rmse"})
+    EXPECT_TRUE(report.contains(key)) << key;
+  EXPECT_EQ(report["method"], "lambert");
+  EXPECT_EQ(report["images"], 81);
+  EXPECT_EQ(report["deviation_percent_by_theta"].size(), 6u);
+  EXPECT_EQ(report["heldout"]["folds"], 3);
+  EXPECT_LT(report["normal_mae_deg"].get<double>(), 0.2);  // 16-bit fixture, plaster
+  const auto material = ReadJson(tmp / "pack/material.json");
+  EXPECT_EQ(material["schema"], "matfit.material/1");
+  EXPECT_EQ(material["model"]["name"], "lambert");
+  bool has_normal = false;
+  for (const auto& m : material["maps"])
+    has_normal |= m["name"] == "normal" && m["encoding"] == "png16";
+  EXPECT_TRUE(has_normal);
+}
+
+TEST(FitJob, HeldOutErrorExceedsTheFittedError) {
+  PackDir tmp;
+  FitJobOptions o;
+  o.input = std::string(MATFIT_SOURCE_DIR) + "/fixtures/wool-bonn81-8bit";
+  o.model = "heinrich";
+  o.holdout = 4;
+  o.out = tmp / "pack";
+  auto r = RunFitJob(o);
+  ASSERT_TRUE(r.ok()) << r.status().ToString();
+  ASSERT_TRUE(r->heldout.has_value());
+  EXPECT_EQ(r->heldout->failed_folds, 0);
+  EXPECT_GT(r->heldout->rmse, r->reconstruction.rmse);
+}
+
+TEST(FitJob, ZipPackAndRefusalToOverwrite) {
+  PackDir tmp;
+  FitJobOptions o;
+  o.input = kFixture;
+  o.model = "mean";
+  o.out = tmp / "pack.zip";
+  o.zip = true;
+  ASSERT_TRUE(RunFitJob(o).ok());
+  std::ifstream zip(tmp / "pack.zip", std::ios::binary);
+  char magic[2] = {};
+  zip.read(magic, 2);
+  EXPECT_EQ(std::string(magic, 2), "PK");
+  // Only the zip remains: no staging folder, no temporaries.
+  int entries = 0;
+  for (const auto& e : fs::directory_iterator(tmp.path())) ++entries, (void)e;
+  EXPECT_EQ(entries, 1);
+  auto again = RunFitJob(o);
+  ASSERT_FALSE(again.ok());
+  EXPECT_NE(again.status().message().find("--force"), std::string::npos);
+  o.overwrite = true;
+  EXPECT_TRUE(RunFitJob(o).ok());
+}
+
+TEST(FitJob, BadOptionsAndDataAreReportedBeforeAnythingIsWritten) {
+  PackDir tmp;
+  FitJobOptions o;
+  o.input = kFixture;
+  o.model = "velvet";
+  o.out = tmp / "pack";
+  auto r = RunFitJob(o);
+  ASSERT_FALSE(r.ok());
+  EXPECT_NE(r.status().message().find("choose one of: mean"), std::string::npos);
+  o.model = "heinrich";
+  o.input = std::string(MATFIT_SOURCE_DIR) + "/fixtures/plastic-ring12";  // one elevation
+  r = RunFitJob(o);
+  ASSERT_FALSE(r.ok());
+  EXPECT_NE(r.status().message().find("inseparable"), std::string::npos);
+  o.holdout = 1;
+  EXPECT_FALSE(RunFitJob(o).ok());
+  EXPECT_FALSE(fs::exists(tmp / "pack"));
+}
+
+}  // namespace
+}  // namespace matfit::fit
