@@ -33,7 +33,7 @@ class FunctionMethod : public FitMethod {
 
 }  // namespace
 
-std::vector<std::string> MethodNames() { return {"mean", "lambert", "heinrich", "ptm"}; }
+std::vector<std::string> MethodNames() { return {"mean", "lambert", "lambert-robust", "heinrich", "ptm"}; }
 
 std::unique_ptr<FitMethod> MakeMethod(const std::string& name) {
   // Bytes per texel as packed: 8-bit sRGB colour (3), 16-bit normal (6), 8-bit ambient (3),
@@ -44,6 +44,9 @@ std::unique_ptr<FitMethod> MakeMethod(const std::string& name) {
   if (name == "lambert")
     return std::make_unique<FunctionMethod>(name, "photometric stereo: normal + albedo", 5, 9,
                                             FitLambert);
+  if (name == "lambert-robust")
+    return std::make_unique<FunctionMethod>(
+        name, "photometric stereo rejecting shadows and highlights per texel", 5, 9, FitLambertRobust);
   if (name == "heinrich")
     return std::make_unique<FunctionMethod>(
         name, "seed method A: mean texture, unnormalised normal, grey ambient, specular map", 12,

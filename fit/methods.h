@@ -14,6 +14,10 @@ StatusOr<FitResult> FitMean(const LightStack& stack, const FitOptions& options);
 // ρ_c = Σ p_ci s_i / Σ s_i² with s_i = max(0, n·l_i). One pseudo-inverse for all texels.
 StatusOr<FitResult> FitLambert(const LightStack& stack, const FitOptions& options);
 
+// lambert-robust (METHODS.md §3): rank trimming then reweighting rejects shadowed and
+// highlight samples per texel; ≥ 3 well-conditioned inliers or the texel is flagged.
+StatusOr<FitResult> FitLambertRobust(const LightStack& stack, const FitOptions& options);
+
 // ptm (METHODS.md §4): 6 polynomial coefficients per channel in (u, v) = (l_x, l_y), one
 // pseudo-inverse for all texels. Coefficients in maps.coefficients (plane c·6 + j).
 StatusOr<FitResult> FitPtm(const LightStack& stack, const FitOptions& options);

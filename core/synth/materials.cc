@@ -43,7 +43,7 @@ TexelFn Plaster(uint64_t seed) {
 TexelFn Plastic(uint64_t seed, bool cook_torrance) {
   return [=](double u, double v) {
     Texel t;
-    t.height = 0.006 * Fbm(seed, u, v, 4, 3);
+    t.height = 0.03 * Fbm(seed, u, v, 4, 3);  // moulded relief: slopes to ~25°, shadows at grazing light
     const double w = Smoothstep(0.45, 0.55, Fbm(seed + 2, u, v, 3, 2));
     t.albedo[0] = 0.55 * (1 - w) + 0.08 * w;
     t.albedo[1] = 0.10 * (1 - w) + 0.20 * w;
@@ -150,7 +150,7 @@ TexelFn Leaf(uint64_t seed) {
 
 const std::vector<MaterialInfo> kMaterials = {
     {"plaster", "matte plaster: Lambertian with fBm bumps", false},
-    {"plastic", "glossy plastic: Blinn-Phong k_s 0.35, e 40", false},
+    {"plastic", "glossy moulded plastic: Blinn-Phong k_s 0.35, e 40", false},
     {"plastic-ct", "glossy plastic: Cook-Torrance GGX, F0 0.04, roughness 0.35", false},
     {"wool", "plain-weave wool-like fabric with self-shadowing", true},
     {"corduroy", "corduroy-like ridged fabric with self-shadowing", true},

@@ -1,0 +1,155 @@
+// `lambert-robust` (METHODS.md §3): photometric stereo that rejects shadowed and highlight
+// samples per texel.
+//   1. Rank trimming: fit luminance on the samples ranked between the `trim_dark` and
+//      `1 − trim_bright` fractions (cast/attached shadows are dark, highlights bright).
+//   2. Reweighting: predicted ŷ_i = max(0, g·l_i), residual r_i = y_i − ŷ_i, robust scale
+//      σ = 1.4826 · median |r| over the inliers; inliers are lit (n·l_i > 0.05) with
+//      |r_i| ≤ 3σ (+ a noise floor); refit on the inliers, up to 4 rounds.
+//   3. The texel is kept only with ≥ 3 inliers whose light directions are well conditioned
+//      (smallest/largest eigenvalue of Σ l lᵀ ≥ 1e-3); otherwise it is flagged, not guessed.
+// Albedo per channel by 1-D least squares over the final inliers.
+#include <Eigen/Dense>
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <numeric>
+#include <vector>
+
+#include "fit/fit_common.h"
+#include "fit/methods.h"
+
+namespace matfit::fit {
+namespace {
+
+constexpr double kTrimDark = 0.2, kTrimBright = 0.1;
+constexpr int kRounds = 4;
+
+// Least squares g over the samples with keep[i] set; false when fewer than 3 or singular.
+bool SolveSubset(const std::vector<Vec3>& l, const double* y, const std::vector<char>& keep,
+                 Vec3* g, double* conditioning) {
+  Eigen::Matrix3d m = Eigen::Matrix3d::Zero();
+  Eigen::Vector3d b = Eigen::Vector3d::Zero();
+  int count = 0;
+  for (size_t i = 0; i < l.size(); ++i) {
+    if (!keep[i]) continue;
+    const Eigen::Vector3d d(l[i].x, l[i].y, l[i].z);
+    m += d * d.transpose();
+    b += d * y[i];
+    ++count;
+  }
+  if (count < 3) return false;
+  Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> eig;
+  eig.computeDirect(m, Eigen::EigenvaluesOnly);
+  const auto ev = eig.eigenvalues();  // ascending
+  *conditioning = ev[2] > 0 ? ev[0] / ev[2] : 0;
+  if (!(ev[0] > 1e-12)) return false;
+  const Eigen::Vector3d x = m.ldlt().solve(b);
+  *g = {x.x(), x.y(), x.z()};
+  return true;
+}
+
+}  // namespace
+
+StatusOr<FitResult> FitLambertRobust(const LightStack& s, const FitOptions& o) {
+  std::string why;
+  if (!o.Check(&why)) return InvalidArgument(why);
+  const int n = s.num_images(), C = s.channels(), W = s.width();
+  if (n < 3)
+    return InvalidArgument(
+        "lambert-robust: only " + std::to_string(n) +
+        " light(s); at least 3 non-coplanar lights are needed (more for rejection)");
+  const auto t0 = std::chrono::steady_clock::now();
+  FitResult r;
+  InitResult(s, ShadingModel::kLambert, "lambert-robust", &r);
+  const std::vector<float> inv = InverseIntensities(s);
+  std::vector<Vec3> dirs(n);
+  for (int i = 0; i < n; ++i) dirs[i] = s.lights()[i].direction;
+
+  const bool ok = ForEachTile(s, o, [&](const Tile& t) {
+    std::vector<double> lum(size_t(n) * t.width), y(n), absr(n);
+    std::vector<int> order(n);
+    std::vector<char> keep(n), next(n);
+    for (int row = t.y0; row < t.y0 + t.height; ++row) {
+      const int64_t base = int64_t(row) * W + t.x0;
+      // Gather luminance image by image (contiguous rows).
+      for (int i = 0; i < n; ++i) {
+        double* dst = lum.data() + size_t(i) * t.width;
+        std::fill(dst, dst + t.width, 0.0);
+        for (int c = 0; c < C; ++c) {
+          const float w = (C == 1 ? 1.0f : kLuma[c]) * inv[i * C + c];
+          const float* src = s.Plane(i, c).data() + base;
+          for (int k = 0; k < t.width; ++k) dst[k] += w * src[k];
+        }
+      }
+      for (int k = 0; k < t.width; ++k) {
+        const int64_t p = base + k;
+        if (r.status[p] == kTexelMasked) continue;
+        bool finite = true;
+        for (int i = 0; i < n; ++i)
+          y[i] = lum[size_t(i) * t.width + k], finite &= std::isfinite(y[i]);
+        if (!finite) {
+          r.status[p] = kTexelNonFinite;
+          continue;
+        }
+        // 1. Rank trimming (keep at least 3 of the middle ranks).
+        std::iota(order.begin(), order.end(), 0);
+        std::sort(order.begin(), order.end(), [&](int a, int b) { return y[a] < y[b]; });
+        int lo = int(std::floor(kTrimDark * n)), hi = int(std::ceil((1 - kTrimBright) * n));
+        if (hi - lo < 3) lo = std::max(0, std::min(lo, n - 3)), hi = std::min(n, lo + 3);
+        std::fill(keep.begin(), keep.end(), 0);
+        for (int q = lo; q < hi; ++q) keep[order[q]] = 1;
+        Vec3 g;
+        double cond = 0;
+        bool solved = SolveSubset(dirs, y.data(), keep, &g, &cond);
+        // 2. Reweighting rounds.
+        for (int round = 0; solved && round < kRounds; ++round) {
+          const Vec3 nn = Normalize(g);
+          int m = 0;
+          for (int i = 0; i < n; ++i)
+            if (keep[i]) absr[m++] = std::abs(y[i] - std::max(0.0, Dot(g, dirs[i])));
+          std::nth_element(absr.begin(), absr.begin() + m / 2, absr.begin() + m);
+          const double sigma = 1.4826 * absr[m / 2] + 1e-3 * Length(g) + 1e-6;
+          for (int i = 0; i < n; ++i) {
+            const double pred = std::max(0.0, Dot(g, dirs[i]));
+            next[i] = Dot(nn, dirs[i]) > 0.05 && std::abs(y[i] - pred) <= 3 * sigma;
+          }
+          if (next == keep) break;
+          std::vector<char> tried = next;
+          Vec3 g2;
+          double c2 = 0;
+          if (!SolveSubset(dirs, y.data(), tried, &g2, &c2)) break;  // keep the last good subset
+          keep.swap(tried), g = g2, cond = c2;
+        }
+        const int inliers = int(std::count(keep.begin(), keep.end(), 1));
+        if (!solved || inliers < 3) {
+          r.status[p] = kTexelTooFewLights;
+          continue;
+        }
+        if (cond < 1e-3) {
+          r.status[p] = kTexelIllConditioned;
+          continue;
+        }
+        const double len = Length(g);
+        if (!(len > 1e-6)) {
+          r.status[p] = kTexelNoSignal;
+          continue;
+        }
+        const Vec3 nn = g / len;
+        double num[3] = {0, 0, 0}, den = 0;
+        for (int i = 0; i < n; ++i) {
+          if (!keep[i]) continue;
+          const double si = std::max(0.0, Dot(nn, dirs[i]));
+          den += si * si;
+          for (int c = 0; c < C; ++c) num[c] += s.Plane(i, c)[p] * inv[i * C + c] * si;
+        }
+        for (int c = 0; c < 3; ++c) {
+          r.maps.normal.Plane(c)[p] = float(nn[c]);
+          r.maps.albedo.Plane(c)[p] = float(den > 0 ? num[C == 1 ? 0 : c] / den : 0);
+        }
+      }
+    }
+  });
+  return FinishFit(ok, t0, std::move(r));
+}
+
+}  // namespace matfit::fit
