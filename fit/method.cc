@@ -33,7 +33,9 @@ class FunctionMethod : public FitMethod {
 
 }  // namespace
 
-std::vector<std::string> MethodNames() { return {"mean", "lambert", "lambert-robust", "heinrich", "ptm"}; }
+std::vector<std::string> MethodNames() {
+  return {"mean", "lambert", "lambert-robust", "heinrich", "ptm", "blinn-phong", "cook-torrance"};
+}
 
 std::unique_ptr<FitMethod> MakeMethod(const std::string& name) {
   // Bytes per texel as packed: 8-bit sRGB colour (3), 16-bit normal (6), 8-bit ambient (3),
@@ -46,11 +48,18 @@ std::unique_ptr<FitMethod> MakeMethod(const std::string& name) {
                                             FitLambert);
   if (name == "lambert-robust")
     return std::make_unique<FunctionMethod>(
-        name, "photometric stereo rejecting shadows and highlights per texel", 5, 9, FitLambertRobust);
+        name, "photometric stereo rejecting shadows and highlights per texel", 5, 9,
+        FitLambertRobust);
   if (name == "heinrich")
     return std::make_unique<FunctionMethod>(
         name, "seed method A: mean texture, unnormalised normal, grey ambient, specular map", 12,
         17, FitHeinrich);
+  if (name == "blinn-phong")
+    return std::make_unique<FunctionMethod>(name, "per-texel LM: normal, albedo, k_s, exponent", 7,
+                                            13, FitBlinnPhong);
+  if (name == "cook-torrance")
+    return std::make_unique<FunctionMethod>(name, "per-texel LM: normal, albedo, F0, GGX roughness",
+                                            7, 13, FitCookTorrance);
   if (name == "ptm")
     return std::make_unique<FunctionMethod>(
         name, "polynomial texture map, 6 coefficients per channel", 18, 36, FitPtm);

@@ -18,6 +18,11 @@ StatusOr<FitResult> FitLambert(const LightStack& stack, const FitOptions& option
 // highlight samples per texel; ≥ 3 well-conditioned inliers or the texel is flagged.
 StatusOr<FitResult> FitLambertRobust(const LightStack& stack, const FitOptions& options);
 
+// blinn-phong / cook-torrance (METHODS.md §4): per-texel Levenberg–Marquardt on normal,
+// diffuse albedo and the lobe's two parameters (k_s, e) or (F0, roughness), from lambert-robust.
+StatusOr<FitResult> FitBlinnPhong(const LightStack& stack, const FitOptions& options);
+StatusOr<FitResult> FitCookTorrance(const LightStack& stack, const FitOptions& options);
+
 // ptm (METHODS.md §4): 6 polynomial coefficients per channel in (u, v) = (l_x, l_y), one
 // pseudo-inverse for all texels. Coefficients in maps.coefficients (plane c·6 + j).
 StatusOr<FitResult> FitPtm(const LightStack& stack, const FitOptions& options);

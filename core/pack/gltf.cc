@@ -45,6 +45,11 @@ std::string MakeQuadGltf(const GltfMaterialDesc& m, const std::string& bin_uri,
                {{"baseColorTexture", {{"index", add_texture(m.base_color_uri)}}},
                 {"metallicFactor", 0.0},
                 {"roughnessFactor", m.roughness}}}};
+  if (!m.metallic_roughness_uri.empty()) {
+    mat["pbrMetallicRoughness"]["metallicRoughnessTexture"] = {
+        {"index", add_texture(m.metallic_roughness_uri)}};
+    mat["pbrMetallicRoughness"]["roughnessFactor"] = 1.0;
+  }
   json used = json::array();
   if (!m.normal_uri.empty()) mat["normalTexture"] = {{"index", add_texture(m.normal_uri)}};
   json spec = {{"specularFactor", m.specular_factor}};

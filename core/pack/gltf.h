@@ -14,6 +14,7 @@ struct GltfMaterialDesc {
   std::string specular_color_uri;        // KHR_materials_specular colour texture; empty: none
   double specular_factor = 1.0;          // KHR_materials_specular specularFactor (0 = no specular)
   double roughness = 1.0;                // pbrMetallicRoughness roughnessFactor
+  std::string metallic_roughness_uri;    // G = roughness, B = metallic (0); empty: factor only
   double ior = 0;                        // KHR_materials_ior; 0 = not written
   double width_m = 0.1, height_m = 0.1;  // quad size in metres
 };

@@ -1,5 +1,6 @@
 #include <zip.h>
 
+#include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <ctime>
@@ -126,6 +127,27 @@ Status WritePack(const MaterialMaps& m, const std::vector<uint8_t>& status, cons
     MATFIT_RETURN_IF_ERROR(put("specular", "specular.png", m.specular_color, lin8,
                                "L_spec clamped to [0,1] (glTF specular colour)"));
   }
+  const bool lobe = m.model == ShadingModel::kBlinnPhong || m.model == ShadingModel::kCookTorrance;
+  if (lobe) {
+    const bool ct = m.model == ShadingModel::kCookTorrance;
+    MATFIT_RETURN_IF_ERROR(put("specular", "specular.exr", m.specular, exr,
+                               ct ? "Cook-Torrance F0" : "Blinn-Phong k_s"));
+    if (ct)
+      MATFIT_RETURN_IF_ERROR(put("roughness", "roughness.exr", m.roughness, exr,
+                                 "GGX perceptual roughness r (alpha = r^2)"));
+    else
+      MATFIT_RETURN_IF_ERROR(
+          put("exponent", "exponent.exr", m.exponent, exr, "Blinn-Phong exponent e"));
+    // glTF metallic-roughness texture: G = roughness (from e for Blinn-Phong), B = metallic = 0.
+    Image mr(m.width, m.height, 3);
+    for (int64_t p = 0; p < int64_t(m.width) * m.height; ++p) {
+      mr.Plane(0)[p] = 1.0f;
+      mr.Plane(1)[p] = float(ct ? m.roughness.Plane(0)[p]
+                                : RoughnessFromBlinnPhongExponent(m.exponent.Plane(0)[p]));
+    }
+    MATFIT_RETURN_IF_ERROR(put("metallic_roughness", "metallic_roughness.png", mr, lin8,
+                               "glTF: G = roughness, B = metallic (0)"));
+  }
   MATFIT_RETURN_IF_ERROR(put("coefficients", "coefficients.exr", m.coefficients, exr,
                              "relighting coefficients, channel c*k + j"));
   Image status_img(m.width, m.height, 1);
@@ -146,6 +168,21 @@ Status WritePack(const MaterialMaps& m, const std::vector<uint8_t>& status, cons
     g.specular_factor = 1.0;
     auto e = info.model_parameters.find("exponent");
     if (e != info.model_parameters.end()) g.roughness = RoughnessFromBlinnPhongExponent(e->second);
+  }
+  if (lobe) {
+    g.metallic_roughness_uri = "maps/metallic_roughness.png";
+    g.specular_factor = 1.0;
+    if (m.model == ShadingModel::kCookTorrance) {
+      // Median F0 → index of refraction: η = (1 + √F0) / (1 − √F0).
+      std::vector<float> f0;
+      for (size_t p = 0; p < status.size(); ++p)
+        if (status[p] == 0) f0.push_back(m.specular.data()[p]);
+      if (!f0.empty()) {
+        std::nth_element(f0.begin(), f0.begin() + f0.size() / 2, f0.end());
+        const double r0 = std::sqrt(std::clamp(double(f0[f0.size() / 2]), 0.0, 0.81));
+        g.ior = (1 + r0) / (1 - r0);
+      }
+    }
   }
   const double mm = info.mm_per_texel > 0 ? info.mm_per_texel : 0.5;  // unknown: 0.5 mm/texel
   g.width_m = m.width * mm / 1000, g.height_m = m.height * mm / 1000;
