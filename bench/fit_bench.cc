@@ -52,6 +52,13 @@ void Args(benchmark::internal::Benchmark* b) {
   b->Unit(benchmark::kMillisecond)->UseRealTime();
 }
 
+void NonlinearArgs(benchmark::internal::Benchmark* b) {
+  b->Args({64, 1, 64})->Args({128, 1, 64})->Args({128, 2, 64});
+  b->Unit(benchmark::kMillisecond)->UseRealTime()->Iterations(1);
+}
+
+BENCHMARK(BM_Fit<fit::FitBlinnPhong>)->Name("blinn_phong_lm")->Apply(NonlinearArgs);
+BENCHMARK(BM_Fit<fit::FitLambertRobust>)->Name("lambert_robust")->Apply(Args);
 BENCHMARK(BM_Fit<fit::FitHeinrichReference>)->Name("heinrich_reference")->Apply(Args);
 BENCHMARK(BM_Fit<fit::FitHeinrich>)->Name("heinrich_fast")->Apply(Args);
 BENCHMARK(BM_Fit<fit::FitLambert>)->Name("lambert_fast")->Apply(Args);

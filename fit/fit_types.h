@@ -28,6 +28,9 @@ struct FitOptions {
   bool heinrich_flat_specular_normal = false;
   // heinrich: fit the specular map and exponent (else the diffuse + ambient part only).
   bool heinrich_specular = true;
+  // blinn-phong / cook-torrance: fit the lobe shape (e, roughness) per texel instead of once
+  // per material.
+  bool per_texel_lobe = false;
   double exponent_min = 1, exponent_max = 1024;  // heinrich exponent search range, 1 ≤ min < max
   ProgressFn progress;                           // tiles done / total; returning false cancels
 

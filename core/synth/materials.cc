@@ -43,7 +43,8 @@ TexelFn Plaster(uint64_t seed) {
 TexelFn Plastic(uint64_t seed, bool cook_torrance) {
   return [=](double u, double v) {
     Texel t;
-    t.height = 0.03 * Fbm(seed, u, v, 4, 3);  // moulded relief: slopes to ~25°, shadows at grazing light
+    t.height =
+        0.03 * Fbm(seed, u, v, 4, 3);  // moulded relief: slopes to ~25°, shadows at grazing light
     const double w = Smoothstep(0.45, 0.55, Fbm(seed + 2, u, v, 3, 2));
     t.albedo[0] = 0.55 * (1 - w) + 0.08 * w;
     t.albedo[1] = 0.10 * (1 - w) + 0.20 * w;
