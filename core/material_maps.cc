@@ -10,6 +10,7 @@ const char* ShadingModelName(ShadingModel m) {
     case ShadingModel::kCookTorrance: return "cook-torrance";
     case ShadingModel::kHeinrich: return "heinrich";
     case ShadingModel::kPtm: return "ptm";
+    case ShadingModel::kHsh: return "hsh";
   }
   return "?";
 }

@@ -10,8 +10,8 @@ namespace matfit {
 
 // Forward models of the CPU shading code (core/shading/shading.h).
 // kMean predicts the per-texel mean colour (albedo plane) under every light.
-enum class ShadingModel { kMean, kLambert, kBlinnPhong, kCookTorrance, kHeinrich, kPtm };
-// "mean", "lambert", "blinn-phong", "cook-torrance", "heinrich", "ptm"
+enum class ShadingModel { kMean, kLambert, kBlinnPhong, kCookTorrance, kHeinrich, kPtm, kHsh };
+// "mean", "lambert", "blinn-phong", "cook-torrance", "heinrich", "ptm", "hsh"
 const char* ShadingModelName(ShadingModel m);
 
 struct MaterialMaps {
@@ -31,8 +31,10 @@ struct MaterialMaps {
   Image normal_scale;                 // 1 plane: |n| of the fitted, unnormalised normal
   Image specular_color;               // 3 planes: L_spec,c (residual of the θl = θv = 0 sample)
   bool specular_flat_normal = false;  // n_s = (0,0,1) in the specular term (improved variant)
-  // Relighting bases (METHODS.md §4): k coefficients per channel, plane index c·k + j.
+  // Relighting bases (METHODS.md §4): k = basis_terms coefficients per channel, plane c·k + j
+  // (3 channels, or 1 for grey stacks). HSH order = √k.
   Image coefficients;
+  int basis_terms = 0;
 };
 
 }  // namespace matfit

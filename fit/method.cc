@@ -34,7 +34,7 @@ class FunctionMethod : public FitMethod {
 }  // namespace
 
 std::vector<std::string> MethodNames() {
-  return {"mean", "lambert", "lambert-robust", "heinrich", "ptm", "blinn-phong", "cook-torrance"};
+  return {"mean", "lambert", "lambert-robust", "heinrich", "ptm", "hsh2", "hsh3", "blinn-phong", "cook-torrance"};
 }
 
 std::unique_ptr<FitMethod> MakeMethod(const std::string& name) {
@@ -54,6 +54,13 @@ std::unique_ptr<FitMethod> MakeMethod(const std::string& name) {
     return std::make_unique<FunctionMethod>(
         name, "seed method A: mean texture, unnormalised normal, grey ambient, specular map", 12,
         17, FitHeinrich);
+  if (name == "hsh2" || name == "hsh3") {
+    const int order = name == "hsh2" ? 2 : 3;
+    return std::make_unique<FunctionMethod>(
+        name, "hemispherical harmonics, " + std::to_string(order * order) + " coefficients per channel",
+        3 * order * order, 6 * order * order,
+        [order](const LightStack& s, const FitOptions& o) { return FitHsh(s, o, order); });
+  }
   if (name == "blinn-phong")
     return std::make_unique<FunctionMethod>(name, "per-texel LM: normal, albedo, k_s, exponent", 7,
                                             13, FitBlinnPhong);

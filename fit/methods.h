@@ -27,6 +27,10 @@ StatusOr<FitResult> FitCookTorrance(const LightStack& stack, const FitOptions& o
 // pseudo-inverse for all texels. Coefficients in maps.coefficients (plane c·6 + j).
 StatusOr<FitResult> FitPtm(const LightStack& stack, const FitOptions& options);
 
+// hsh (METHODS.md §4): hemispherical harmonics with `order` bands (order² coefficients per
+// channel; the ladder has orders 2 and 3), one pseudo-inverse for all texels.
+StatusOr<FitResult> FitHsh(const LightStack& stack, const FitOptions& options, int order);
+
 // heinrich (METHODS.md §2), fast: exploits the shared structure of the 6 × 6 normal equations
 // (closed form: a_c = 1 − m·n, n = (Σ_i (l_i − m)(l_i − m)ᵀ)⁻¹ (Σ_c t_c q_c / Σ_c t_c² − Σ_i l_i),
 // q_c = Σ_i p_ci l_i), then the seed specular map and the exponent search.

@@ -1,18 +1,23 @@
 #include "core/shading/evaluate.h"
 
+#include <cmath>
+
+#include "core/shading/relight_basis.h"
 #include "core/shading/shading.h"
 
 namespace matfit {
 
 float EvaluateTexel(const MaterialMaps& m, int64_t i, int c, const Vec3f& l, const Vec3f& v) {
   if (m.model == ShadingModel::kMean) return m.albedo.Plane(c)[i];
-  if (m.model == ShadingModel::kPtm) {
-    float b[shading::kPtmTerms];
-    shading::PtmBasis(l, b);
-    const int base = (m.coefficients.channels() == shading::kPtmTerms ? 0 : c) * shading::kPtmTerms;
-    float r = 0;
-    for (int j = 0; j < shading::kPtmTerms; ++j) r += b[j] * m.coefficients.Plane(base + j)[i];
-    return r;
+  if (m.model == ShadingModel::kPtm || m.model == ShadingModel::kHsh) {
+    double b[shading::kMaxHshTerms];
+    const int k = m.basis_terms;
+    if (m.model == ShadingModel::kPtm) shading::PtmBasis(Vec3(l), b);
+    else shading::HshBasis(int(std::lround(std::sqrt(double(k)))), Vec3(l), b);
+    const int base = (m.coefficients.channels() == k ? 0 : c) * k;
+    double r = 0;
+    for (int j = 0; j < k; ++j) r += b[j] * m.coefficients.Plane(base + j)[i];
+    return float(r);
   }
   const Vec3f n(m.normal.Plane(0)[i], m.normal.Plane(1)[i], m.normal.Plane(2)[i]);
   if (m.model == ShadingModel::kHeinrich) {

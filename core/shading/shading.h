@@ -92,13 +92,4 @@ inline T HeinrichSpecular(const T& l_spec, const T& exponent, const Vec3T<T>& n_
   return l_spec * pow(nh, exponent);
 }
 
-// Polynomial texture map basis (METHODS.md §4): with (u, v) = (l_x, l_y), the projected light
-// direction, p = a0 u² + a1 v² + a2 uv + a3 u + a4 v + a5.
-inline constexpr int kPtmTerms = 6;
-template <typename T>
-inline void PtmBasis(const Vec3T<T>& l, T out[kPtmTerms]) {
-  out[0] = l.x * l.x, out[1] = l.y * l.y, out[2] = l.x * l.y;
-  out[3] = l.x, out[4] = l.y, out[5] = T(1);
-}
-
 }  // namespace matfit::shading

@@ -20,6 +20,7 @@ MaterialMaps RandomPtm(int size) {
   m.mask = Image(size, size, 1, 1.0f);
   m.height_map = Image(size, size, 1);
   m.coefficients = Image(size, size, 18);
+  m.basis_terms = 6;
   for (int q = 0; q < 18; ++q)
     for (int64_t p = 0; p < int64_t(size) * size; ++p)
       m.coefficients.Plane(q)[p] = float(synth::HashUniform(9, q, p) - 0.3);
