@@ -11,6 +11,7 @@ const char* ShadingModelName(ShadingModel m) {
     case ShadingModel::kHeinrich: return "heinrich";
     case ShadingModel::kPtm: return "ptm";
     case ShadingModel::kHsh: return "hsh";
+    case ShadingModel::kLafortune: return "lafortune";
   }
   return "?";
 }

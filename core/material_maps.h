@@ -10,8 +10,17 @@ namespace matfit {
 
 // Forward models of the CPU shading code (core/shading/shading.h).
 // kMean predicts the per-texel mean colour (albedo plane) under every light.
-enum class ShadingModel { kMean, kLambert, kBlinnPhong, kCookTorrance, kHeinrich, kPtm, kHsh };
-// "mean", "lambert", "blinn-phong", "cook-torrance", "heinrich", "ptm", "hsh"
+enum class ShadingModel {
+  kMean,
+  kLambert,
+  kBlinnPhong,
+  kCookTorrance,
+  kHeinrich,
+  kPtm,
+  kHsh,
+  kLafortune
+};
+// "mean", "lambert", "blinn-phong", "cook-torrance", "heinrich", "ptm", "hsh", "lafortune"
 const char* ShadingModelName(ShadingModel m);
 
 struct MaterialMaps {
@@ -35,6 +44,9 @@ struct MaterialMaps {
   // (3 channels, or 1 for grey stacks). HSH order = √k.
   Image coefficients;
   int basis_terms = 0;
+  // Lafortune lobes: amplitude ρ_s,j in `specular` (one plane per lobe); shape per lobe in
+  // `lobe_shape` (planes 2j = C_xy, 2j + 1 = exponent).
+  Image lobe_shape;
 };
 
 }  // namespace matfit

@@ -34,7 +34,8 @@ class FunctionMethod : public FitMethod {
 }  // namespace
 
 std::vector<std::string> MethodNames() {
-  return {"mean", "lambert", "lambert-robust", "heinrich", "ptm", "hsh2", "hsh3", "blinn-phong", "cook-torrance"};
+  return {"mean", "lambert",     "lambert-robust", "heinrich",   "ptm",       "hsh2",
+          "hsh3", "blinn-phong", "cook-torrance",  "lafortune1", "lafortune2"};
 }
 
 std::unique_ptr<FitMethod> MakeMethod(const std::string& name) {
@@ -57,7 +58,8 @@ std::unique_ptr<FitMethod> MakeMethod(const std::string& name) {
   if (name == "hsh2" || name == "hsh3") {
     const int order = name == "hsh2" ? 2 : 3;
     return std::make_unique<FunctionMethod>(
-        name, "hemispherical harmonics, " + std::to_string(order * order) + " coefficients per channel",
+        name,
+        "hemispherical harmonics, " + std::to_string(order * order) + " coefficients per channel",
         3 * order * order, 6 * order * order,
         [order](const LightStack& s, const FitOptions& o) { return FitHsh(s, o, order); });
   }
@@ -67,6 +69,13 @@ std::unique_ptr<FitMethod> MakeMethod(const std::string& name) {
   if (name == "cook-torrance")
     return std::make_unique<FunctionMethod>(name, "per-texel LM: normal, albedo, F0, GGX roughness",
                                             7, 13, FitCookTorrance);
+  if (name == "lafortune1" || name == "lafortune2") {
+    const int lobes = name == "lafortune1" ? 1 : 2;
+    return std::make_unique<FunctionMethod>(
+        name, std::to_string(lobes) + " isotropic Lafortune lobe(s): normal, albedo, amplitudes",
+        5 + lobes, 9 + 2 * lobes,
+        [lobes](const LightStack& s, const FitOptions& o) { return FitLafortune(s, o, lobes); });
+  }
   if (name == "ptm")
     return std::make_unique<FunctionMethod>(
         name, "polynomial texture map, 6 coefficients per channel", 18, 36, FitPtm);

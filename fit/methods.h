@@ -23,6 +23,10 @@ StatusOr<FitResult> FitLambertRobust(const LightStack& stack, const FitOptions& 
 StatusOr<FitResult> FitBlinnPhong(const LightStack& stack, const FitOptions& options);
 StatusOr<FitResult> FitCookTorrance(const LightStack& stack, const FitOptions& options);
 
+// lafortune (METHODS.md §4): 1 or 2 isotropic lobes (C_z = 1; amplitude, C_xy and exponent per
+// lobe), same two-stage per-texel LM with one lobe shape per material by default.
+StatusOr<FitResult> FitLafortune(const LightStack& stack, const FitOptions& options, int lobes);
+
 // ptm (METHODS.md §4): 6 polynomial coefficients per channel in (u, v) = (l_x, l_y), one
 // pseudo-inverse for all texels. Coefficients in maps.coefficients (plane c·6 + j).
 StatusOr<FitResult> FitPtm(const LightStack& stack, const FitOptions& options);

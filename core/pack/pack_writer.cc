@@ -127,23 +127,26 @@ Status WritePack(const MaterialMaps& m, const std::vector<uint8_t>& status, cons
     MATFIT_RETURN_IF_ERROR(put("specular", "specular.png", m.specular_color, lin8,
                                "L_spec clamped to [0,1] (glTF specular colour)"));
   }
-  const bool lobe = m.model == ShadingModel::kBlinnPhong || m.model == ShadingModel::kCookTorrance;
+  const bool ct = m.model == ShadingModel::kCookTorrance, laf = m.model == ShadingModel::kLafortune;
+  const bool lobe = m.model == ShadingModel::kBlinnPhong || ct || laf;
   if (lobe) {
-    const bool ct = m.model == ShadingModel::kCookTorrance;
     MATFIT_RETURN_IF_ERROR(put("specular", "specular.exr", m.specular, exr,
-                               ct ? "Cook-Torrance F0" : "Blinn-Phong k_s"));
-    if (ct)
-      MATFIT_RETURN_IF_ERROR(put("roughness", "roughness.exr", m.roughness, exr,
-                                 "GGX perceptual roughness r (alpha = r^2)"));
-    else
-      MATFIT_RETURN_IF_ERROR(
-          put("exponent", "exponent.exr", m.exponent, exr, "Blinn-Phong exponent e"));
-    // glTF metallic-roughness texture: G = roughness (from e for Blinn-Phong), B = metallic = 0.
+                               ct    ? "Cook-Torrance F0"
+                               : laf ? "Lafortune lobe amplitudes rho_s,j"
+                                     : "Blinn-Phong k_s"));
+    MATFIT_RETURN_IF_ERROR(put("roughness", "roughness.exr", m.roughness, exr,
+                               "GGX perceptual roughness r (alpha = r^2)"));
+    MATFIT_RETURN_IF_ERROR(
+        put("exponent", "exponent.exr", m.exponent, exr, "Blinn-Phong exponent e"));
+    MATFIT_RETURN_IF_ERROR(put("lobe_shape", "lobe_shape.exr", m.lobe_shape, exr,
+                               "Lafortune lobe j: C_xy (2j), exponent (2j+1)"));
+    // glTF metallic-roughness texture: G = roughness (from the exponent of Blinn-Phong or of the
+    // first Lafortune lobe), B = metallic = 0.
     Image mr(m.width, m.height, 3);
     for (int64_t p = 0; p < int64_t(m.width) * m.height; ++p) {
       mr.Plane(0)[p] = 1.0f;
-      mr.Plane(1)[p] = float(ct ? m.roughness.Plane(0)[p]
-                                : RoughnessFromBlinnPhongExponent(m.exponent.Plane(0)[p]));
+      const double e = laf ? m.lobe_shape.Plane(1)[p] : ct ? 0.0 : m.exponent.Plane(0)[p];
+      mr.Plane(1)[p] = float(ct ? m.roughness.Plane(0)[p] : RoughnessFromBlinnPhongExponent(e));
     }
     MATFIT_RETURN_IF_ERROR(put("metallic_roughness", "metallic_roughness.png", mr, lin8,
                                "glTF: G = roughness, B = metallic (0)"));

@@ -12,8 +12,10 @@ float EvaluateTexel(const MaterialMaps& m, int64_t i, int c, const Vec3f& l, con
   if (m.model == ShadingModel::kPtm || m.model == ShadingModel::kHsh) {
     double b[shading::kMaxHshTerms];
     const int k = m.basis_terms;
-    if (m.model == ShadingModel::kPtm) shading::PtmBasis(Vec3(l), b);
-    else shading::HshBasis(int(std::lround(std::sqrt(double(k)))), Vec3(l), b);
+    if (m.model == ShadingModel::kPtm)
+      shading::PtmBasis(Vec3(l), b);
+    else
+      shading::HshBasis(int(std::lround(std::sqrt(double(k)))), Vec3(l), b);
     const int base = (m.coefficients.channels() == k ? 0 : c) * k;
     double r = 0;
     for (int j = 0; j < k; ++j) r += b[j] * m.coefficients.Plane(base + j)[i];
@@ -37,6 +39,11 @@ float EvaluateTexel(const MaterialMaps& m, int64_t i, int c, const Vec3f& l, con
       break;
     case ShadingModel::kCookTorrance:
       r += shading::CookTorranceSpecular(m.specular.Plane(0)[i], m.roughness.Plane(0)[i], n, l, v);
+      break;
+    case ShadingModel::kLafortune:
+      for (int j = 0; j < m.specular.channels(); ++j)
+        r += shading::LafortuneLobe(m.specular.Plane(j)[i], m.lobe_shape.Plane(2 * j)[i],
+                                    m.lobe_shape.Plane(2 * j + 1)[i], n, l, v);
       break;
     default: break;
   }

@@ -46,7 +46,8 @@ void HshBasis(int order, const Vec3& dir, double out[kMaxHshTerms]) {
   for (int l = 0; l < order; ++l)
     for (int m = -l; m <= l; ++m) {
       const int am = std::abs(m);
-      const double k = std::sqrt((2 * l + 1) * Factorial(l - am) / (2 * std::numbers::pi * Factorial(l + am)));
+      const double k =
+          std::sqrt((2 * l + 1) * Factorial(l - am) / (2 * std::numbers::pi * Factorial(l + am)));
       const double p = Legendre(l, am, x);
       double v = k * p;
       if (m > 0) v *= std::sqrt(2.0) * std::cos(m * phi);

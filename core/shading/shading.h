@@ -77,6 +77,21 @@ inline T CookTorranceSpecular(const T& f0, const T& roughness, const Vec3T<T>& n
   return T(M_PI) * dgf / (T(4) * nv);
 }
 
+// Isotropic Lafortune lobe (METHODS.md §4) in the frame of the normal n, with C_z = 1 (the lobe
+// amplitude absorbs the overall scale): D = C_xy (l·v − (n·l)(n·v)) + (n·l)(n·v);
+// R_s = ρ_s · max(0, D)^e · max(0, n·l). C_xy = −1 is the classic mirror cosine lobe,
+// C_xy > 0 retro-reflection, C_xy ≈ 0 an off-specular lobe toward the normal.
+template <typename T>
+inline T LafortuneLobe(const T& rho_s, const T& c_xy, const T& exponent, const Vec3T<T>& n,
+                       const Vec3T<T>& l, const Vec3T<T>& v) {
+  using std::pow;
+  const T nl = Dot(n, l), nv = Dot(n, v);
+  if (!(nl > T(0)) || !(nv > T(0))) return T(0);
+  const T d = c_xy * (Dot(l, v) - nl * nv) + nl * nv;
+  if (!(d > T(0))) return T(0);
+  return rho_s * pow(d, exponent) * nl;
+}
+
 // Seed method A (METHODS.md §2), one channel: diffuse part t·a + t·(n·l) with the fitted,
 // unnormalised n and no clamp; specular part L_spec·max(0, n_s·h)^e with n_s the unit normal
 // (or (0,0,1) in the improved variant), h = normalize(l + v).

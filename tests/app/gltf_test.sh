@@ -10,7 +10,7 @@ if [ ! -d "$src/tools/gltf/node_modules/gltf-validator" ] || ! command -v node >
 fi
 tmp=$(mktemp -d); trap 'rm -rf "$tmp"' EXIT
 pass=0; fail=0
-for model in mean lambert lambert-robust heinrich ptm hsh2 hsh3 blinn-phong cook-torrance; do
+for model in mean lambert lambert-robust heinrich ptm hsh2 hsh3 blinn-phong cook-torrance lafortune1 lafortune2; do
   "$bin" fit "$src/fixtures/plaster-bonn81" --model "$model" --out "$tmp/$model" --quiet >/dev/null || { fail=$((fail+1)); echo "FAIL: fit $model"; continue; }
   if out=$(node "$validator" "$tmp/$model/material.gltf"); then pass=$((pass+1)); else fail=$((fail+1)); echo "FAIL: $model"; fi
   echo "$model: $out" | tail -1
