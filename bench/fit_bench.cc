@@ -2,7 +2,9 @@
 // per-texel Gauss–Jordan reference against the fast closed form, and lambert.
 #include <benchmark/benchmark.h>
 
+#include <cstring>
 #include <map>
+#include <vector>
 #include <memory>
 
 #include "core/parallel.h"
@@ -51,6 +53,20 @@ void Args(benchmark::internal::Benchmark* b) {
   b->Args({256, 2, 64});
   b->Unit(benchmark::kMillisecond)->UseRealTime();
 }
+
+// Memory bandwidth baseline: copy the same stack (N × C × W × H float32) once.
+void BM_Memcpy(benchmark::State& state) {
+  const LightStack& s = Stack(int(state.range(0)));
+  const size_t bytes = size_t(s.plane_size()) * s.channels() * s.num_images() * sizeof(float);
+  std::vector<float> dst(bytes / sizeof(float));
+  for (auto _ : state) {
+    std::memcpy(dst.data(), s.data(), bytes);
+    benchmark::DoNotOptimize(dst.data());
+    benchmark::ClobberMemory();
+  }
+  state.SetBytesProcessed(int64_t(state.iterations()) * int64_t(bytes));
+}
+BENCHMARK(BM_Memcpy)->Name("memcpy_stack")->Arg(256)->Unit(benchmark::kMillisecond)->UseRealTime();
 
 void NonlinearArgs(benchmark::internal::Benchmark* b) {
   b->Args({64, 1, 64})->Args({128, 1, 64})->Args({128, 2, 64});
