@@ -17,6 +17,7 @@ const char* TexelStatusName(uint8_t s) {
     case kTexelNonFinite: return "non-finite samples";
     case kTexelTooFewLights: return "too few usable lights";
     case kTexelIllConditioned: return "ill-conditioned lights";
+    case kTexelSaturated: return "clipped samples";
   }
   return "unknown";
 }
@@ -63,6 +64,41 @@ void InitResult(const LightStack& s, ShadingModel model, const std::string& meth
   if (s.has_mask())
     for (int64_t p = 0; p < s.plane_size(); ++p)
       if (!s.mask[p]) r->status[p] = kTexelMasked, r->maps.mask.data()[p] = 0.0f;
+}
+
+bool StackMayBeClipped(const LightStack& s) {
+  for (int64_t v : s.saturated_pixels)
+    if (v > 0) return true;
+  return false;
+}
+
+void MarkUnfittableTexels(const LightStack& s, bool flag_clipped, FitResult* r) {
+  const bool clip = flag_clipped && StackMayBeClipped(s);
+  const int W = s.width();
+  ParallelFor(0, s.height(), [&](int64_t y0, int64_t y1) {
+    std::vector<char> hit(W);
+    std::vector<float> peak(W);
+    for (int64_t y = y0; y < y1; ++y) {
+      std::fill(hit.begin(), hit.end(), 0);
+      std::fill(peak.begin(), peak.end(), 0.0f);
+      for (int i = 0; i < s.num_images(); ++i)
+        for (int c = 0; c < s.channels(); ++c) {
+          const float* src = s.Plane(i, c).data() + y * W;
+          for (int x = 0; x < W; ++x) {
+            peak[x] = std::max(peak[x], src[x]);  // NaN samples leave peak unchanged
+            hit[x] |= clip && src[x] >= kClipLevel;
+          }
+        }
+      for (int x = 0; x < W; ++x) {
+        uint8_t& st = r->status[y * W + x];
+        if (st != kTexelOk) continue;
+        if (!(peak[x] > kNoSignalLevel))
+          st = kTexelNoSignal;
+        else if (hit[x])
+          st = kTexelSaturated;
+      }
+    }
+  });
 }
 
 bool ForEachTile(const LightStack& s, const FitOptions& o,

@@ -19,6 +19,16 @@ std::vector<float> InverseIntensities(const LightStack& stack);
 void InitResult(const LightStack& stack, ShadingModel model, const std::string& method,
                 FitResult* result);
 
+// Samples at or above this linear value sit at the maximum code of an integer file.
+inline constexpr float kClipLevel = 0.9999f;
+// True when decoding found pixels at the maximum code (LightStack::saturated_pixels).
+bool StackMayBeClipped(const LightStack& stack);
+// A texel whose samples all stay at or below this (linear) carries no signal.
+inline constexpr float kNoSignalLevel = 1e-6f;
+// Before fitting: texels black in every image → kTexelNoSignal; with flag_clipped, texels with
+// any sample at the file's maximum code → kTexelSaturated (no-op for unclipped stacks).
+void MarkUnfittableTexels(const LightStack& stack, bool flag_clipped, FitResult* result);
+
 // Runs fn(tile) over full-width strips of ≈ tile² texels with ParallelFor; reports progress; false
 // if cancelled.
 bool ForEachTile(const LightStack& stack, const FitOptions& options,

@@ -19,6 +19,8 @@ enum TexelStatus : uint8_t {
   kTexelNonFinite = 3,       // NaN/Inf among its samples
   kTexelTooFewLights = 4,    // fewer than 3 usable (lit, unclipped) samples
   kTexelIllConditioned = 5,  // usable lights nearly coplanar for this texel
+  kTexelSaturated = 6,       // a sample sits at the file's maximum code (clipped): the linear
+                             // models cannot use it (lambert-robust drops such samples instead)
 };
 const char* TexelStatusName(uint8_t status);
 

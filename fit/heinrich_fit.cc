@@ -55,6 +55,7 @@ StatusOr<FitResult> FitHeinrich(const LightStack& s, const FitOptions& o) {
   const auto t0 = std::chrono::steady_clock::now();
   FitResult r;
   InitResult(s, ShadingModel::kHeinrich, "heinrich", &r);
+  MarkUnfittableTexels(s, /*flag_clipped=*/true, &r);
   MaterialMaps& maps = r.maps;
   const std::vector<float> inv = InverseIntensities(s);
   const int n = s.num_images(), C = s.channels(), W = s.width();
@@ -86,7 +87,7 @@ StatusOr<FitResult> FitHeinrich(const LightStack& s, const FitOptions& o) {
       }
       for (int k = 0; k < tw; ++k) {
         const int64_t p = row + k;
-        if (r.status[p] == kTexelMasked) continue;
+        if (r.status[p] != kTexelOk) continue;  // masked or flagged before fitting
         double tc[3] = {0, 0, 0}, t2 = 0;
         Vec3 u;
         for (int c = 0; c < C; ++c) {

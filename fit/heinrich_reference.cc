@@ -46,6 +46,7 @@ StatusOr<FitResult> FitHeinrichReference(const LightStack& s, const FitOptions& 
   const auto t0 = std::chrono::steady_clock::now();
   FitResult r;
   InitResult(s, ShadingModel::kHeinrich, "heinrich-reference", &r);
+  MarkUnfittableTexels(s, /*flag_clipped=*/true, &r);
   MaterialMaps& maps = r.maps;
   const std::vector<float> inv = InverseIntensities(s);
   const int n = s.num_images(), C = s.channels(), W = s.width();
@@ -54,7 +55,7 @@ StatusOr<FitResult> FitHeinrichReference(const LightStack& s, const FitOptions& 
     for (int y = t.y0; y < t.y0 + t.height; ++y)
       for (int x = t.x0; x < t.x0 + t.width; ++x) {
         const int64_t p = int64_t(y) * W + x;
-        if (r.status[p] == kTexelMasked) continue;
+        if (r.status[p] != kTexelOk) continue;  // masked or flagged before fitting
         double tc[3] = {0, 0, 0};
         for (int i = 0; i < n; ++i)
           for (int c = 0; c < C; ++c) tc[c] += double(s.Plane(i, c)[p]) * inv[i * C + c] / n;

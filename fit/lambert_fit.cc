@@ -18,6 +18,7 @@ StatusOr<FitResult> FitLambert(const LightStack& s, const FitOptions& o) {
   const auto t0 = std::chrono::steady_clock::now();
   FitResult r;
   InitResult(s, ShadingModel::kLambert, "lambert", &r);
+  MarkUnfittableTexels(s, /*flag_clipped=*/true, &r);
   r.parameters["light_condition_number"] = lm->condition;
   const std::vector<float> inv = InverseIntensities(s);
   const int n = s.num_images(), C = s.channels(), W = s.width();
@@ -59,7 +60,7 @@ StatusOr<FitResult> FitLambert(const LightStack& s, const FitOptions& o) {
         const int64_t p = row + xx;
         const Vec3f g(nx[xx], ny[xx], nz[xx]);
         const float len = Length(g);
-        if (r.status[p] == kTexelMasked) continue;
+        if (r.status[p] != kTexelOk) continue;  // masked or flagged before fitting
         if (!IsFinite(g))
           r.status[p] = kTexelNonFinite;
         else if (!(len > 1e-6f))

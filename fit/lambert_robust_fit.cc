@@ -61,14 +61,16 @@ StatusOr<FitResult> FitLambertRobust(const LightStack& s, const FitOptions& o) {
   const auto t0 = std::chrono::steady_clock::now();
   FitResult r;
   InitResult(s, ShadingModel::kLambert, "lambert-robust", &r);
+  MarkUnfittableTexels(s, /*flag_clipped=*/false, &r);  // clipped samples are dropped per sample
   const std::vector<float> inv = InverseIntensities(s);
   std::vector<Vec3> dirs(n);
   for (int i = 0; i < n; ++i) dirs[i] = s.lights()[i].direction;
+  const bool may_clip = StackMayBeClipped(s);
 
   const bool ok = ForEachTile(s, o, [&](const Tile& t) {
     std::vector<double> lum(size_t(n) * t.width), y(n), absr(n);
     std::vector<int> order(n);
-    std::vector<char> keep(n), next(n);
+    std::vector<char> keep(n), next(n), clipped(n);
     for (int row = t.y0; row < t.y0 + t.height; ++row) {
       const int64_t base = int64_t(row) * W + t.x0;
       // Gather luminance image by image (contiguous rows).
@@ -83,10 +85,15 @@ StatusOr<FitResult> FitLambertRobust(const LightStack& s, const FitOptions& o) {
       }
       for (int k = 0; k < t.width; ++k) {
         const int64_t p = base + k;
-        if (r.status[p] == kTexelMasked) continue;
+        if (r.status[p] != kTexelOk) continue;
         bool finite = true;
         for (int i = 0; i < n; ++i)
           y[i] = lum[size_t(i) * t.width + k], finite &= std::isfinite(y[i]);
+        // Clipped samples (at the file's maximum code) are never used.
+        std::fill(clipped.begin(), clipped.end(), 0);
+        if (may_clip)
+          for (int i = 0; i < n; ++i)
+            for (int c = 0; c < C; ++c) clipped[i] |= s.Plane(i, c)[p] >= kClipLevel;
         if (!finite) {
           r.status[p] = kTexelNonFinite;
           continue;
@@ -97,7 +104,7 @@ StatusOr<FitResult> FitLambertRobust(const LightStack& s, const FitOptions& o) {
         int lo = int(std::floor(kTrimDark * n)), hi = int(std::ceil((1 - kTrimBright) * n));
         if (hi - lo < 3) lo = std::max(0, std::min(lo, n - 3)), hi = std::min(n, lo + 3);
         std::fill(keep.begin(), keep.end(), 0);
-        for (int q = lo; q < hi; ++q) keep[order[q]] = 1;
+        for (int q = lo; q < hi; ++q) keep[order[q]] = !clipped[order[q]];
         Vec3 g;
         double cond = 0;
         bool solved = SolveSubset(dirs, y.data(), keep, &g, &cond);
@@ -111,7 +118,7 @@ StatusOr<FitResult> FitLambertRobust(const LightStack& s, const FitOptions& o) {
           const double sigma = 1.4826 * absr[m / 2] + 1e-3 * Length(g) + 1e-6;
           for (int i = 0; i < n; ++i) {
             const double pred = std::max(0.0, Dot(g, dirs[i]));
-            next[i] = Dot(nn, dirs[i]) > 0.05 && std::abs(y[i] - pred) <= 3 * sigma;
+            next[i] = !clipped[i] && Dot(nn, dirs[i]) > 0.05 && std::abs(y[i] - pred) <= 3 * sigma;
           }
           if (next == keep) break;
           std::vector<char> tried = next;

@@ -17,8 +17,9 @@ namespace {
 
 using BasisFn = std::function<void(const Vec3&, double*)>;
 
-StatusOr<FitResult> FitLinearBasis(const LightStack& s, const FitOptions& o, const std::string& name,
-                                   ShadingModel model, int K, const BasisFn& basis) {
+StatusOr<FitResult> FitLinearBasis(const LightStack& s, const FitOptions& o,
+                                   const std::string& name, ShadingModel model, int K,
+                                   const BasisFn& basis) {
   std::string why;
   if (!o.Check(&why)) return InvalidArgument(why);
   const int n = s.num_images(), C = s.channels(), W = s.width();
@@ -35,14 +36,16 @@ StatusOr<FitResult> FitLinearBasis(const LightStack& s, const FitOptions& o, con
   Eigen::JacobiSVD<Eigen::MatrixXd> svd(B, Eigen::ComputeThinU | Eigen::ComputeThinV);
   const auto sv = svd.singularValues();
   if (!(sv[K - 1] > 1e-6 * sv[0]))
-    return InvalidArgument(name + ": the light directions do not determine the " + std::to_string(K) +
-                           " basis terms (basis matrix rank < " + std::to_string(K) +
+    return InvalidArgument(name + ": the light directions do not determine the " +
+                           std::to_string(K) + " basis terms (basis matrix rank < " +
+                           std::to_string(K) +
                            ", e.g. every light at one elevation); use lights at several θ or the "
                            "lambert model");
   const Eigen::MatrixXd P = svd.solve(Eigen::MatrixXd::Identity(n, n));  // K × n
   const auto t0 = std::chrono::steady_clock::now();
   FitResult r;
   InitResult(s, model, name, &r);
+  MarkUnfittableTexels(s, /*flag_clipped=*/true, &r);
   r.maps.coefficients = Image(s.width(), s.height(), K * C);
   r.maps.basis_terms = K;
   r.parameters["basis_condition_number"] = sv[0] / sv[K - 1];
@@ -70,17 +73,22 @@ StatusOr<FitResult> FitLinearBasis(const LightStack& s, const FitOptions& o, con
           }
         }
         for (int j = 0; j < K; ++j)
-          std::copy_n(acc.data() + size_t(j) * t.width, t.width, r.maps.coefficients.Plane(c * K + j).data() + row);
+          std::copy_n(acc.data() + size_t(j) * t.width, t.width,
+                      r.maps.coefficients.Plane(c * K + j).data() + row);
       }
       for (int k = 0; k < t.width; ++k) {
         const int64_t p = row + k;
-        if (r.status[p] == kTexelMasked) continue;
+        if (r.status[p] != kTexelOk) {  // masked or clipped: no coefficients
+          for (int q = 0; q < K * C; ++q) r.maps.coefficients.Plane(q)[p] = 0.0f;
+          continue;
+        }
         bool finite = true;
         for (int q = 0; q < K * C; ++q) finite &= std::isfinite(r.maps.coefficients.Plane(q)[p]);
         if (!finite) r.status[p] = kTexelNonFinite;
         for (int c = 0; c < 3; ++c) {
           double v = 0;
-          for (int j = 0; j < K; ++j) v += front[j] * r.maps.coefficients.Plane((C == 1 ? 0 : c) * K + j)[p];
+          for (int j = 0; j < K; ++j)
+            v += front[j] * r.maps.coefficients.Plane((C == 1 ? 0 : c) * K + j)[p];
           r.maps.albedo.Plane(c)[p] = float(v);
         }
         r.maps.normal.Plane(2)[p] = 1.0f;
@@ -98,7 +106,8 @@ StatusOr<FitResult> FitPtm(const LightStack& s, const FitOptions& o) {
 }
 
 StatusOr<FitResult> FitHsh(const LightStack& s, const FitOptions& o, int order) {
-  if (order < 1 || order > 4) return InvalidArgument("hsh order must be 1 to 4, got " + std::to_string(order));
+  if (order < 1 || order > 4)
+    return InvalidArgument("hsh order must be 1 to 4, got " + std::to_string(order));
   return FitLinearBasis(s, o, "hsh" + std::to_string(order), ShadingModel::kHsh, order * order,
                         [order](const Vec3& l, double* b) { shading::HshBasis(order, l, b); });
 }

@@ -15,6 +15,7 @@ StatusOr<FitResult> FitMean(const LightStack& s, const FitOptions& o) {
   const auto t0 = std::chrono::steady_clock::now();
   FitResult r;
   InitResult(s, ShadingModel::kMean, "mean", &r);
+  MarkUnfittableTexels(s, /*flag_clipped=*/false, &r);  // a clipped mean is still a mean
   const std::vector<float> inv = InverseIntensities(s);
   const int n = s.num_images(), C = s.channels(), W = s.width();
   const bool ok = ForEachTile(s, o, [&](const Tile& t) {
@@ -31,7 +32,7 @@ StatusOr<FitResult> FitMean(const LightStack& s, const FitOptions& o) {
         }
       for (int k = 0; k < t.width; ++k) {
         const int64_t p = row + k;
-        if (r.status[p] == kTexelMasked) continue;
+        if (r.status[p] != kTexelOk) continue;
         for (int c = 0; c < 3; ++c) {
           const float mean = float(sum[size_t(C == 1 ? 0 : c) * t.width + k] / n);
           if (!std::isfinite(mean)) r.status[p] = kTexelNonFinite;
