@@ -38,15 +38,18 @@ TEST(BadInput, AllBlackStackIsFlaggedByEveryMethod) {
     }
     EXPECT_EQ(fit->flagged_texels, black.plane_size()) << name;
     ASSERT_FALSE(fit->warnings.empty()) << name;
-    EXPECT_NE(fit->warnings.back().find("no signal"), std::string::npos) << name << ": " << fit->warnings.back();
+    EXPECT_NE(fit->warnings.back().find("no signal"), std::string::npos)
+        << name << ": " << fit->warnings.back();
   }
 }
 
 TEST(BadInput, ClippedSamplesAreFlaggedOrDroppedNeverUsed) {
   // An over-exposed 8-bit capture: highlights and bright texels hit code 255.
   synth::SynthResult data = Plastic(32);
-  for (int64_t k = 0; k < data.stack.plane_size() * 3 * data.stack.num_images(); ++k) data.stack.data()[k] *= 1.8f;
-  const std::string dir = (fs::temp_directory_path() / ("matfit-clip-" + std::to_string(::getpid()))).string();
+  for (int64_t k = 0; k < data.stack.plane_size() * 3 * data.stack.num_images(); ++k)
+    data.stack.data()[k] *= 1.8f;
+  const std::string dir =
+      (fs::temp_directory_path() / ("matfit-clip-" + std::to_string(::getpid()))).string();
   fs::remove_all(dir);
   fs::create_directories(dir);
   ASSERT_TRUE(WriteDataset(data.stack, {Layout::kLp, 8, "x"}, dir).ok());

@@ -55,7 +55,8 @@ TEST(Hsh, ReconstructsDataFromItsOwnBasisExactly) {
     ASSERT_TRUE(fit.ok()) << fit.status().ToString();
     double worst = 0;
     for (size_t k = 0; k < truth.coefficients.data().size(); ++k)
-      worst = std::max(worst, double(std::abs(fit->maps.coefficients.data()[k] - truth.coefficients.data()[k])));
+      worst = std::max(
+          worst, double(std::abs(fit->maps.coefficients.data()[k] - truth.coefficients.data()[k])));
     EXPECT_LT(worst, 2e-4) << order;
     EXPECT_LT(Reconstruction(s, fit->maps, fit->status).rmse, 1e-5) << order;
   }

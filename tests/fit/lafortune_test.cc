@@ -35,7 +35,8 @@ TEST(Lafortune, OneLobeRecoversShapeAndNormals) {
   ASSERT_TRUE(fit.ok()) << fit.status().ToString();
   const TruthMetrics t = CompareToTruth(fit->maps, truth, fit->status);
   const double e = fit->maps.lobe_shape.At(1, 5, 5), cxy = fit->maps.lobe_shape.At(0, 5, 5);
-  std::printf("lafortune1: normal MAE %.4f°, C_xy %.4f (true -1), e %.3f (true 30)\n", t.normal_mae_deg, cxy, e);
+  std::printf("lafortune1: normal MAE %.4f°, C_xy %.4f (true -1), e %.3f (true 30)\n",
+              t.normal_mae_deg, cxy, e);
   EXPECT_LT(t.normal_mae_deg, 0.5);
   EXPECT_NEAR(e, 30.0, 3.0);
   EXPECT_NEAR(cxy, -1.0, 0.1);
