@@ -82,7 +82,7 @@ int RunFit(FitArgs& a) {
   std::printf("method      %s (%s)\n", f.method.c_str(), ShadingModelName(f.maps.model));
   std::printf("texels      %d x %d, %lld flagged; %d images\n", f.maps.width, f.maps.height,
               (long long)f.flagged_texels, r->images);
-  std::printf("fit time    %.3f s\n", f.fit_seconds);
+  if (a.job.report_only.empty()) std::printf("fit time    %.3f s\n", f.fit_seconds);
   for (const auto& [k, v] : f.parameters) std::printf("parameter   %s = %.6g\n", k.c_str(), v);
   std::printf("deviation   %.5f %%  by θl:%s\n", r->reconstruction.deviation_percent,
               ByTheta(r->reconstruction.deviation_percent_by_theta).c_str());
@@ -96,7 +96,10 @@ int RunFit(FitArgs& a) {
     std::printf("vs truth    normal MAE %.3f°, p95 %.3f°, albedo RMSE %.5f\n",
                 r->truth->normal_mae_deg, r->truth->normal_p95_deg, r->truth->albedo_rmse);
   for (const auto& w : f.warnings) std::printf("warning     %s\n", w.c_str());
-  std::printf("pack        %s%s\n", a.job.out.c_str(), a.job.zip ? " (zip)" : "");
+  if (a.job.report_only.empty())
+    std::printf("pack        %s%s\n", a.job.out.c_str(), a.job.zip ? " (zip)" : "");
+  else if (!a.job.out.empty())
+    std::printf("report      %s\n", a.job.out.c_str());
   return 0;
 }
 
@@ -124,6 +127,9 @@ void RegisterFit(CLI::App& app, int* exit_code) {
   sub->add_option("--tile", j.fit.tile, "work unit ≈ tile² texels")->capture_default_str();
   sub->add_flag("--flat-specular-normal", j.fit.heinrich_flat_specular_normal,
                 "heinrich: n_s = (0,0,1) in the specular term");
+  sub->add_option(
+      "--report-only", j.report_only,
+      "score this existing pack against DIR instead of fitting (--out: report.json path)");
   sub->add_flag("--quiet", args->quiet, "no progress output");
   sub->callback([args, exit_code] {
     if (args->job.model != "list" && args->job.input.empty()) {

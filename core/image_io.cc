@@ -4,6 +4,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
 #include <filesystem>
 #include <vector>
 
@@ -97,7 +98,8 @@ StatusOr<Image> ReadImage(const std::string& path, const ImageReadOptions& optio
                      std::to_string(spec.height) + "x" + std::to_string(spec.nchannels) +
                      " samples, more than matfit reads at once (2^30); crop or tile it");
   const int file_ch = spec.nchannels;
-  const int keep_ch = file_ch >= 3 ? 3 : 1;  // grey(+alpha) → 1, RGB(A) → 3
+  // grey(+alpha) → 1, RGB(A) → 3; data maps keep everything.
+  const int keep_ch = options.all_channels ? file_ch : (file_ch >= 3 ? 3 : 1);
   ImageFileInfo local;
   ImageFileInfo& fi = info ? *info : local;
   fi = {};
@@ -167,6 +169,14 @@ Status WriteImage(const std::string& path, const Image& image, const ImageWriteO
   const int ch = image.channels();
   OIIO::ImageSpec spec(image.width(), image.height(), ch, type);
   const bool srgb = options.transfer == TransferFunction::kSrgb;
+  if (ch > 4) {
+    // Data maps with many planes: EXR sorts channels by name, so name them in numeric order.
+    spec.channelnames.clear();
+    char name[16];
+    for (int c = 0; c < ch; ++c)
+      std::snprintf(name, sizeof name, "ch%02d", c), spec.channelnames.push_back(name);
+    spec.alpha_channel = -1;
+  }
   spec.attribute("oiio:ColorSpace", srgb ? "sRGB" : "Linear");
   if (!srgb) spec.attribute("oiio:Gamma", 1.0f);
   // Quantise ourselves (round to nearest) so that 8-bit sRGB codes are exact.

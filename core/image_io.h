@@ -16,6 +16,8 @@ struct ImageReadOptions {
   ColorSpaceChoice color_space = ColorSpaceChoice::kAuto;
   // Used when color_space is kAuto and the layout documents its encoding (DiLiGenT: linear).
   ColorSpaceChoice layout_default = ColorSpaceChoice::kAuto;
+  // Data maps (coefficient planes, lobe shapes): keep every channel instead of 1 or 3.
+  bool all_channels = false;
 };
 
 // What reading a file found out, for `matfit info` and warnings.

@@ -1,6 +1,8 @@
 #include "fit/fit_job.h"
 
+#include "core/atomic_file.h"
 #include "core/pack/pack.h"
+#include "core/pack/pack_reader.h"
 #include "core/synth/truth_io.h"
 #include "fit/method.h"
 #include "fit/report.h"
@@ -9,7 +11,7 @@ namespace matfit::fit {
 
 bool FitJobOptions::Check(std::string* why) const {
   if (input.empty()) return *why = "the dataset path is empty", false;
-  if (out.empty()) return *why = "--out PACK is required", false;
+  if (out.empty() && report_only.empty()) return *why = "--out PACK is required", false;
   if (!MakeMethod(model)) {
     std::string list;
     for (const auto& n : MethodNames()) list += (list.empty() ? "" : ", ") + n;
@@ -30,6 +32,35 @@ StatusOr<FitJobResult> RunFitJob(const FitJobOptions& o, const StageProgress& pr
   ro.progress = stage("read");
   auto stack = ReadDataset(o.input, ro);
   if (!stack.ok()) return stack.status();
+  if (!o.report_only.empty()) {
+    auto pack = ReadPack(o.report_only);
+    if (!pack.ok()) return pack.status();
+    if (pack->maps.width != stack->width() || pack->maps.height != stack->height())
+      return InvalidArgument("pack '" + o.report_only + "' is " + std::to_string(pack->maps.width) +
+                             "x" + std::to_string(pack->maps.height) + " but the dataset is " +
+                             std::to_string(stack->width()) + "x" +
+                             std::to_string(stack->height()));
+    FitJobResult r;
+    r.images = stack->num_images();
+    r.fit.maps = std::move(pack->maps);
+    r.fit.status = std::move(pack->status);
+    r.fit.method = pack->method;
+    for (uint8_t st : r.fit.status) r.fit.flagged_texels += st != 0 && st != 1;
+    r.reconstruction = Reconstruction(*stack, r.fit.maps, r.fit.status);
+    const std::string truth_dir = synth::FindTruthFolder(o.input);
+    if (!truth_dir.empty())
+      if (auto truth = synth::ReadTruth(truth_dir); truth.ok() && truth->width == stack->width())
+        r.truth = CompareToTruth(r.fit.maps, *truth, r.fit.status);
+    FitReportInputs ri;
+    ri.result = &r.fit;
+    ri.images = r.images;
+    ri.reconstruction = r.reconstruction;
+    ri.truth = r.truth;
+    ri.source = o.input;
+    r.report_json = MakeReportJson(ri);
+    if (!o.out.empty()) MATFIT_RETURN_IF_ERROR(WriteFileAtomic(o.out, r.report_json));
+    return r;
+  }
   const auto method = MakeMethod(o.model);
   FitOptions fo = o.fit;
   fo.progress = stage("fit");

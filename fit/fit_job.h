@@ -19,7 +19,8 @@ struct FitJobOptions {
   ReadOptions read;  // layout, view, colour space
   FitOptions fit;    // tile, method options
   int holdout = 0;   // k-fold held-out-light error; 0 = off, else ≥ 2
-  std::string out;   // pack folder (or .zip with zip)
+  std::string out;          // pack folder (or .zip with zip); report file with report_only
+  std::string report_only;  // score this existing pack against the dataset (no fitting)
   bool zip = false, overwrite = false;
 
   bool Check(std::string* why) const;
@@ -34,6 +35,8 @@ struct FitJobResult {
   std::string report_json;
 };
 
+// With report_only: reads the pack, scores it against the dataset (reconstruction, truth when
+// present), fills report_json and writes it to `out` when `out` is set.
 // stage is "read", "fit", "heldout" or "write"; return false to cancel.
 using StageProgress = std::function<bool(const std::string& stage, int64_t done, int64_t total)>;
 

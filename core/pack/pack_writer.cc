@@ -112,6 +112,8 @@ Status WritePack(const MaterialMaps& m, const std::vector<uint8_t>& status, cons
   MATFIT_RETURN_IF_ERROR(
       put("albedo", "albedo.png", m.albedo, srgb8,
           heinrich ? "mean texture t (seed diffuse texture)" : "diffuse albedo"));
+  MATFIT_RETURN_IF_ERROR(
+      put("albedo_exact", "albedo.exr", m.albedo, exr, "the same, linear float"));
   if (has_normal) {
     MATFIT_RETURN_IF_ERROR(put("normal", "normal.png", NormalColour(m.normal), lin16,
                                "tangent-space normal, OpenGL +Y, rgb = n*0.5+0.5"));
@@ -197,6 +199,8 @@ Status WritePack(const MaterialMaps& m, const std::vector<uint8_t>& status, cons
 
   json params = json::object();
   for (const auto& [k, v] : info.model_parameters) params[k] = v;
+  if (m.basis_terms > 0) params["basis_terms"] = m.basis_terms;
+  if (heinrich) params["specular_flat_normal"] = m.specular_flat_normal ? 1 : 0;
   json report_summary = json::object();
   if (!info.report_json.empty()) {
     const json r = json::parse(info.report_json, nullptr, false);

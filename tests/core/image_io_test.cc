@@ -116,6 +116,21 @@ TEST(ImageIo, UserOverrideWinsOverMetadata) {
   EXPECT_NEAR(back->At(0, 0, 0), 188 / 255.0, 1e-6);
 }
 
+TEST(ImageIo, ManyChannelDataMapsKeepTheirOrder) {
+  TempDir tmp;
+  Image img(5, 3, 18);
+  for (int c = 0; c < 18; ++c)
+    for (float& v : img.Plane(c)) v = float(c) - 4.5f;  // negative and > 1: data, not colour
+  ASSERT_TRUE(
+      WriteImage(tmp / "coef.exr", img, {PixelFormat::kFloat, TransferFunction::kLinear}).ok());
+  ImageReadOptions o;
+  o.all_channels = true;
+  auto back = ReadImage(tmp / "coef.exr", o);
+  ASSERT_TRUE(back.ok()) << back.status().ToString();
+  ASSERT_EQ(back->channels(), 18);
+  EXPECT_EQ(back->data(), img.data());
+}
+
 TEST(ImageIo, GreyStaysOneChannelAndAlphaIsDropped) {
   TempDir tmp;
   ASSERT_TRUE(WriteImage(tmp / "g.png", Ramp(8, 8, 1), {}).ok());

@@ -97,6 +97,35 @@ TEST(FitJob, HeldOutErrorExceedsTheFittedError) {
   EXPECT_GT(r->heldout->rmse, r->reconstruction.rmse);
 }
 
+// Round trip: a pack read back and scored against its dataset gives the fit's own deviation.
+TEST(FitJob, ReportOnlyReproducesTheFitScoresForEveryModel) {
+  PackDir tmp;
+  for (const std::string& model : MethodNames()) {
+    FitJobOptions o;
+    o.input = kFixture;
+    o.model = model;
+    o.out = tmp / model;
+    auto fit = RunFitJob(o);
+    ASSERT_TRUE(fit.ok()) << model << ": " << fit.status().ToString();
+    FitJobOptions score;
+    score.input = kFixture;
+    score.report_only = tmp / model;
+    score.out = tmp / (model + ".json");
+    auto rep = RunFitJob(score);
+    ASSERT_TRUE(rep.ok()) << model << ": " << rep.status().ToString();
+    const double a = fit->reconstruction.rmse, b = rep->reconstruction.rmse;
+    EXPECT_NEAR(b, a, 1e-6 + 1e-4 * a) << model;
+    EXPECT_EQ(rep->reconstruction.samples, fit->reconstruction.samples) << model;
+    EXPECT_TRUE(fs::exists(tmp / (model + ".json")));
+  }
+  FitJobOptions bad;
+  bad.input = kFixture;
+  bad.report_only = tmp / "nowhere";
+  auto r = RunFitJob(bad);
+  ASSERT_FALSE(r.ok());
+  EXPECT_NE(r.status().message().find("material.json"), std::string::npos);
+}
+
 TEST(FitJob, ZipPackAndRefusalToOverwrite) {
   PackDir tmp;
   FitJobOptions o;

@@ -1,0 +1,104 @@
+#include "core/pack/pack_reader.h"
+
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <map>
+#include <nlohmann/json.hpp>
+
+#include "core/image_io.h"
+
+namespace matfit {
+namespace {
+
+namespace fs = std::filesystem;
+using nlohmann::json;
+
+bool ModelFromName(const std::string& name, ShadingModel* out) {
+  for (ShadingModel m : {ShadingModel::kMean, ShadingModel::kLambert, ShadingModel::kBlinnPhong,
+                         ShadingModel::kCookTorrance, ShadingModel::kHeinrich, ShadingModel::kPtm,
+                         ShadingModel::kHsh, ShadingModel::kLafortune})
+    if (name == ShadingModelName(m)) return *out = m, true;
+  return false;
+}
+
+}  // namespace
+
+StatusOr<PackContents> ReadPack(const std::string& dir) {
+  const std::string mj = (fs::path(dir) / "material.json").string();
+  std::ifstream in(mj);
+  if (!in) return NotFound("'" + mj + "' not found: is '" + dir + "' a material pack folder?");
+  const json j = json::parse(in, nullptr, false);
+  if (j.is_discarded() || !j.is_object()) return DataError("'" + mj + "' is not valid JSON");
+  if (j.value("schema", "") != "matfit.material/1")
+    return DataError("'" + mj + "': field 'schema' must be \"matfit.material/1\"");
+  PackContents pc;
+  const std::string model = j.contains("model") ? j["model"].value("name", "") : "";
+  if (!ModelFromName(model, &pc.maps.model))
+    return DataError("'" + mj + "': unknown model.name '" + model + "'");
+  pc.method = j["model"].value("method", model);
+  if (!j.contains("maps") || !j["maps"].is_array())
+    return DataError("'" + mj + "': field 'maps' must be a list");
+  std::map<std::string, std::string> files;
+  for (const auto& e : j["maps"])
+    if (e.is_object() && e.contains("name") && e.contains("file")) files[e["name"]] = e["file"];
+  ImageReadOptions linear;
+  linear.color_space = ColorSpaceChoice::kLinear;
+  linear.all_channels = true;
+  auto load = [&](const std::string& name, Image* out, bool as_stored = true) -> Status {
+    auto it = files.find(name);
+    if (it == files.end()) return Status::Ok();
+    ImageReadOptions o;
+    if (as_stored) o = linear;  // data maps; colour maps go through the file's sRGB tag
+    auto img = ReadImage((fs::path(dir) / it->second).string(), o);
+    if (!img.ok()) return img.status();
+    *out = std::move(*img);
+    return Status::Ok();
+  };
+  MaterialMaps& m = pc.maps;
+  if (files.count("albedo_exact"))
+    MATFIT_RETURN_IF_ERROR(load("albedo_exact", &m.albedo));
+  else
+    MATFIT_RETURN_IF_ERROR(load("albedo", &m.albedo, false));
+  if (m.albedo.empty()) return DataError("'" + mj + "' lists no albedo map");
+  if (files.count("normal_exact")) {
+    MATFIT_RETURN_IF_ERROR(load("normal_exact", &m.normal));
+  } else if (files.count("normal")) {
+    MATFIT_RETURN_IF_ERROR(load("normal", &m.normal));
+    for (float& v : m.normal.data()) v = 2 * v - 1;
+  } else {
+    m.normal = Image(m.albedo.width(), m.albedo.height(), 3);
+    for (float& v : m.normal.Plane(2)) v = 1.0f;
+  }
+  MATFIT_RETURN_IF_ERROR(load("ambient", &m.ambient));
+  MATFIT_RETURN_IF_ERROR(load("normal_scale", &m.normal_scale));
+  MATFIT_RETURN_IF_ERROR(load("coefficients", &m.coefficients));
+  MATFIT_RETURN_IF_ERROR(load("exponent", &m.exponent));
+  MATFIT_RETURN_IF_ERROR(load("roughness", &m.roughness));
+  MATFIT_RETURN_IF_ERROR(load("lobe_shape", &m.lobe_shape));
+  MATFIT_RETURN_IF_ERROR(load("mask", &m.mask));
+  if (m.model == ShadingModel::kHeinrich) {
+    MATFIT_RETURN_IF_ERROR(load("specular_exact", &m.specular_color));
+  } else {
+    MATFIT_RETURN_IF_ERROR(load("specular", &m.specular));
+  }
+  m.width = m.albedo.width();
+  m.height = m.albedo.height();
+  const json params = j["model"].value("parameters", json::object());
+  m.basis_terms = params.value("basis_terms", 0);
+  m.specular_flat_normal = params.value("specular_flat_normal", 0) != 0;
+  if (m.model == ShadingModel::kHeinrich && !m.specular_color.empty())
+    m.exponent = Image(m.width, m.height, 1, float(params.value("exponent", 1.0)));
+  if ((m.model == ShadingModel::kPtm || m.model == ShadingModel::kHsh) && m.basis_terms <= 0)
+    return DataError("'" + mj + "': model.parameters.basis_terms is missing for a " + model +
+                     " pack");
+  Image status;
+  MATFIT_RETURN_IF_ERROR(load("status", &status));
+  pc.status.assign(size_t(m.width) * m.height, 0);
+  if (!status.empty())
+    for (size_t p = 0; p < pc.status.size(); ++p)
+      pc.status[p] = uint8_t(std::lround(status.data()[p] * 255));
+  return pc;
+}
+
+}  // namespace matfit
