@@ -4,8 +4,8 @@
 
 #include <cstring>
 #include <map>
-#include <vector>
 #include <memory>
+#include <vector>
 
 #include "core/parallel.h"
 #include "core/synth/synth.h"

@@ -16,9 +16,9 @@ namespace matfit::fit {
 struct FitJobOptions {
   std::string input;  // dataset folder or .lp file
   std::string model = "lambert";
-  ReadOptions read;  // layout, view, colour space
-  FitOptions fit;    // tile, method options
-  int holdout = 0;   // k-fold held-out-light error; 0 = off, else ≥ 2
+  ReadOptions read;         // layout, view, colour space
+  FitOptions fit;           // tile, method options
+  int holdout = 0;          // k-fold held-out-light error; 0 = off, else ≥ 2
   std::string out;          // pack folder (or .zip with zip); report file with report_only
   std::string report_only;  // score this existing pack against the dataset (no fitting)
   bool zip = false, overwrite = false;

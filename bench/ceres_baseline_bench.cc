@@ -1,0 +1,118 @@
+// Baseline for the per-texel nonlinear fit: one ceres::Problem per texel (autodiff cost through
+// the same shading functions), against matfit's fixed-size LM on the same texels, same start
+// (lambert-robust), same per-texel 7-parameter Blinn–Phong model. Compare the two rows' texels/s.
+#include <benchmark/benchmark.h>
+#include <ceres/ceres.h>
+
+#include <cmath>
+#include <memory>
+
+#include "core/parallel.h"
+#include "core/shading/shading.h"
+#include "core/synth/synth.h"
+#include "fit/methods.h"
+
+namespace {
+
+using namespace matfit;
+
+struct Data {
+  LightStack stack;
+  fit::FitResult init;
+};
+
+const Data& Get(int size) {
+  static std::unique_ptr<Data> d;
+  if (!d || d->stack.width() != size) {
+    synth::SynthOptions o;
+    o.material = "plastic";
+    o.lights = "bonn81";
+    o.size = size;
+    o.layout = Layout::kLp;
+    d = std::make_unique<Data>();
+    d->stack = std::move(synth::Synthesize(o)->stack);
+    d->init = std::move(*fit::FitLambertRobust(d->stack, {}));
+  }
+  return *d;
+}
+
+// One sample i: three residuals ρ_c max(0, n·l) + k_s (n·h)^e (n·l) − p_c.
+struct SampleCost {
+  Vec3 l;
+  double p[3];
+  template <typename T>
+  bool operator()(const T* x, T* r) const {
+    const Vec3T<T> n = Normalize(Vec3T<T>(x[0], x[1], T(1)));
+    const Vec3T<T> lt(T(l.x), T(l.y), T(l.z)), v(T(0), T(0), T(1));
+    using std::exp;
+    const T lobe = shading::BlinnPhongSpecular(x[5], exp(x[6]), n, lt, v);
+    for (int c = 0; c < 3; ++c) r[c] = shading::Lambert(x[2 + c], n, lt) + lobe - T(p[c]);
+    return true;
+  }
+};
+
+void BM_CeresProblemPerTexel(benchmark::State& state) {
+  const Data& d = Get(int(state.range(0)));
+  const LightStack& s = d.stack;
+  ceres::Solver::Options opt;
+  opt.linear_solver_type = ceres::DENSE_QR;
+  opt.max_num_iterations = 50;
+  opt.logging_type = ceres::SILENT;
+  opt.num_threads = 1;
+  for (auto _ : state) {
+    double total_cost = 0;
+    for (int64_t p = 0; p < s.plane_size(); ++p) {
+      const auto& n0 = d.init.maps.normal;
+      const double nz = std::max<double>(n0.Plane(2)[p], 0.2);
+      double x[7] = {n0.Plane(0)[p] / nz,
+                     n0.Plane(1)[p] / nz,
+                     d.init.maps.albedo.Plane(0)[p],
+                     d.init.maps.albedo.Plane(1)[p],
+                     d.init.maps.albedo.Plane(2)[p],
+                     0.2,
+                     std::log(20.0)};
+      ceres::Problem problem;
+      for (int i = 0; i < s.num_images(); ++i) {
+        auto* cost = new SampleCost{s.lights()[i].direction,
+                                    {s.Plane(i, 0)[p], s.Plane(i, 1)[p], s.Plane(i, 2)[p]}};
+        problem.AddResidualBlock(new ceres::AutoDiffCostFunction<SampleCost, 3, 7>(cost), nullptr,
+                                 x);
+      }
+      ceres::Solver::Summary summary;
+      ceres::Solve(opt, &problem, &summary);
+      total_cost += summary.final_cost;
+    }
+    benchmark::DoNotOptimize(total_cost);
+  }
+  state.counters["texels/s"] =
+      benchmark::Counter(double(s.texels()), benchmark::Counter::kIsIterationInvariantRate);
+}
+
+void BM_TinyLmPerTexel(benchmark::State& state) {
+  const Data& d = Get(int(state.range(0)));
+  SetNumThreads(1);
+  fit::FitOptions o;
+  o.per_texel_lobe = true;  // stage 1 only: the same 7-parameter problem per texel
+  for (auto _ : state) {
+    auto r = fit::FitBlinnPhong(d.stack, o);
+    benchmark::DoNotOptimize(r);
+  }
+  SetNumThreads(0);
+  state.counters["texels/s"] =
+      benchmark::Counter(double(d.stack.texels()), benchmark::Counter::kIsIterationInvariantRate);
+}
+
+BENCHMARK(BM_CeresProblemPerTexel)
+    ->Name("ceres_problem_per_texel")
+    ->Arg(32)
+    ->Unit(benchmark::kMillisecond)
+    ->UseRealTime();
+BENCHMARK(BM_TinyLmPerTexel)
+    ->Name("tiny_lm_per_texel")
+    ->Arg(32)
+    ->Unit(benchmark::kMillisecond)
+    ->UseRealTime();
+
+}  // namespace
+
+BENCHMARK_MAIN();
