@@ -45,20 +45,7 @@ int RunFit(FitArgs& a) {
     PrintModels();
     return 0;
   }
-  if (!ParseLayout(a.layout, &a.job.read.layout))
-    return Fail("fit", ("--layout '" + a.layout +
-                        "' is not one of auto, bonn, utia, lp, diligent, lights-txt")
-                           .c_str());
-  if (!a.view.empty()) {
-    ViewAngles v;
-    if (!ParseViewArg(a.view.c_str(), &v.theta_deg, &v.phi_deg))
-      return Fail("fit",
-                  ("--view '" + a.view + "' must be THETA,PHI in degrees, e.g. 0,0").c_str());
-    a.job.read.view = v;
-  }
-  if (!ParseColorSpaceChoice(a.color_space, &a.job.read.color_space))
-    return Fail("fit",
-                ("--color-space '" + a.color_space + "' must be auto, srgb or linear").c_str());
+  if (int rc = ApplyReadArgs("fit", a.layout, a.view, a.color_space, &a.job.read)) return rc;
   std::string why;
   if (!a.job.Check(&why)) return Fail("fit", why.c_str());
   SetNumThreads(a.threads);

@@ -17,21 +17,7 @@ struct InfoArgs {
 
 int RunInfo(const InfoArgs& a) {
   ReadOptions ro;
-  if (!ParseLayout(a.layout, &ro.layout))
-    return Fail("info", ("--layout '" + a.layout +
-                         "' is not one of auto, bonn, utia, lp, "
-                         "diligent, lights-txt")
-                            .c_str());
-  if (!a.view.empty()) {
-    ViewAngles v;
-    if (!ParseViewArg(a.view.c_str(), &v.theta_deg, &v.phi_deg))
-      return Fail("info",
-                  ("--view '" + a.view + "' must be THETA,PHI in degrees, e.g. 0,0").c_str());
-    ro.view = v;
-  }
-  if (!ParseColorSpaceChoice(a.color_space, &ro.color_space))
-    return Fail("info",
-                ("--color-space '" + a.color_space + "' must be auto, srgb or linear").c_str());
+  if (int rc = ApplyReadArgs("info", a.layout, a.view, a.color_space, &ro)) return rc;
   std::string reason;
   if (ro.layout == Layout::kAuto) {
     auto detected = DetectLayout(a.path, &reason);

@@ -2,6 +2,10 @@
 // callbacks set the process exit code through *exit_code.
 #pragma once
 
+#include <string>
+
+#include "core/dataset/dataset.h"
+
 namespace CLI {
 class App;
 }
@@ -15,5 +19,8 @@ void RegisterFit(CLI::App& app, int* exit_code);
 // Shared helpers.
 bool ParseViewArg(const char* text, double* theta, double* phi);  // "THETA,PHI" in degrees
 int Fail(const char* command, const char* message);  // prints "matfit CMD: error: ..." → 1
+// Parses --layout, --view THETA,PHI and --color-space into *read; 0, or Fail()'s code.
+int ApplyReadArgs(const char* command, const std::string& layout, const std::string& view,
+                  const std::string& color_space, ReadOptions* read);
 
 }  // namespace matfit::app

@@ -24,6 +24,25 @@ int Fail(const char* command, const char* message) {
   return 1;
 }
 
+int ApplyReadArgs(const char* command, const std::string& layout, const std::string& view,
+                  const std::string& color_space, ReadOptions* read) {
+  if (!ParseLayout(layout, &read->layout))
+    return Fail(command, ("--layout '" + layout +
+                          "' is not one of auto, bonn, utia, lp, diligent, lights-txt")
+                             .c_str());
+  if (!view.empty()) {
+    ViewAngles v;
+    if (!ParseViewArg(view.c_str(), &v.theta_deg, &v.phi_deg))
+      return Fail(command,
+                  ("--view '" + view + "' must be THETA,PHI in degrees, e.g. 0,0").c_str());
+    read->view = v;
+  }
+  if (!ParseColorSpaceChoice(color_space, &read->color_space))
+    return Fail(command,
+                ("--color-space '" + color_space + "' must be auto, srgb or linear").c_str());
+  return 0;
+}
+
 }  // namespace matfit::app
 
 int main(int argc, char** argv) {

@@ -10,14 +10,18 @@
 namespace matfit::fit {
 
 bool FitJobOptions::Check(std::string* why) const {
-  if (input.empty()) return *why = "the dataset path is empty", false;
-  if (out.empty() && report_only.empty()) return *why = "--out PACK is required", false;
+  auto fail = [why](std::string message) {
+    *why = std::move(message);
+    return false;
+  };
+  if (input.empty()) return fail("the dataset path is empty");
+  if (out.empty() && report_only.empty()) return fail("--out PACK is required");
   if (!MakeMethod(model)) {
     std::string list;
     for (const auto& n : MethodNames()) list += (list.empty() ? "" : ", ") + n;
-    return *why = "--model '" + model + "' is not a method; choose one of: " + list, false;
+    return fail("--model '" + model + "' is not a method; choose one of: " + list);
   }
-  if (holdout == 1 || holdout < 0) return *why = "--holdout must be 0 (off) or ≥ 2 folds", false;
+  if (holdout == 1 || holdout < 0) return fail("--holdout must be 0 (off) or ≥ 2 folds");
   return read.Check(why) && fit.Check(why);
 }
 
