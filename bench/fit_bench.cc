@@ -48,7 +48,7 @@ void BM_Fit(benchmark::State& state) {
 
 void Args(benchmark::internal::Benchmark* b) {
   // {size, threads, tile}
-  for (int size : {64, 128, 256}) b->Args({size, 1, 64});
+  for (int size : {64, 128, 256, 512}) b->Args({size, 1, 64});
   b->Args({256, 1, 16});
   b->Args({256, 2, 64});
   b->Unit(benchmark::kMillisecond)->UseRealTime();
@@ -74,7 +74,11 @@ void NonlinearArgs(benchmark::internal::Benchmark* b) {
 }
 
 BENCHMARK(BM_Fit<fit::FitBlinnPhong>)->Name("blinn_phong_lm")->Apply(NonlinearArgs);
-BENCHMARK(BM_Fit<fit::FitLambertRobust>)->Name("lambert_robust")->Apply(Args);
+void RobustArgs(benchmark::internal::Benchmark* b) {
+  for (int size : {64, 128, 256}) b->Args({size, 1, 64});
+  b->Args({256, 2, 64})->Unit(benchmark::kMillisecond)->UseRealTime();
+}
+BENCHMARK(BM_Fit<fit::FitLambertRobust>)->Name("lambert_robust")->Apply(RobustArgs);
 BENCHMARK(BM_Fit<fit::FitHeinrichReference>)->Name("heinrich_reference")->Apply(Args);
 BENCHMARK(BM_Fit<fit::FitHeinrich>)->Name("heinrich_fast")->Apply(Args);
 BENCHMARK(BM_Fit<fit::FitLambert>)->Name("lambert_fast")->Apply(Args);

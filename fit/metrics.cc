@@ -77,6 +77,31 @@ TruthMetrics CompareToTruth(const MaterialMaps& f, const MaterialMaps& t,
   std::nth_element(angles.begin(), angles.begin() + k, angles.end());
   m.normal_p95_deg = angles[k];
   m.albedo_rmse = std::sqrt(a2 / ac);
+  auto median_error = [&](const Image& fit_plane, const Image& true_plane, bool relative) {
+    std::vector<double> e;
+    for (int64_t p = 0; p < int64_t(t.width) * t.height; ++p) {
+      if (!status.empty() && status[p] != 0) continue;
+      if (!t.mask.empty() && t.mask.data()[p] < 0.5f) continue;
+      const double a = fit_plane.data()[p], b = true_plane.data()[p];
+      e.push_back(relative ? std::abs(a / b - 1) : std::abs(a - b));
+    }
+    std::nth_element(e.begin(), e.begin() + e.size() / 2, e.end());
+    return e.empty() ? 0.0 : e[e.size() / 2];
+  };
+  const bool same_size = [&](const Image& a, const Image& b) {
+    return !a.empty() && a.data().size() == b.data().size();
+  }(f.exponent, t.exponent);
+  if (f.model == t.model) {
+    if (same_size)
+      m.parameter_errors["exponent_median_relative_error"] =
+          median_error(f.exponent, t.exponent, true);
+    if (!f.roughness.empty() && f.roughness.data().size() == t.roughness.data().size())
+      m.parameter_errors["roughness_median_relative_error"] =
+          median_error(f.roughness, t.roughness, true);
+    if (!f.specular.empty() && f.specular.data().size() == t.specular.data().size())
+      m.parameter_errors["specular_median_absolute_error"] =
+          median_error(f.specular, t.specular, false);
+  }
   return m;
 }
 

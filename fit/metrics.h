@@ -4,6 +4,7 @@
 
 #include <cstdint>
 #include <map>
+#include <string>
 #include <vector>
 
 #include "core/light_stack.h"
@@ -29,6 +30,9 @@ struct TruthMetrics {
   double normal_mae_deg = 0, normal_p95_deg = 0;  // angle between fitted and true normals
   double albedo_rmse = 0;                         // over channels (diffuse albedo)
   int64_t texels = 0;
+  // Model-specific parameters present in both maps: median relative error of the Blinn–Phong
+  // exponent and Cook–Torrance roughness, median absolute error of k_s / F0 ("specular").
+  std::map<std::string, double> parameter_errors;
 };
 
 // Over texels with status 0 inside the truth mask.

@@ -58,6 +58,7 @@ std::string MakeReportJson(const FitReportInputs& in) {
     j["normal_p95_deg"] = in.truth->normal_p95_deg;
     j["albedo_rmse"] = in.truth->albedo_rmse;
     j["truth_texels"] = in.truth->texels;
+    j["parameter_errors"] = in.truth->parameter_errors;
   }
   return j.dump(2) + "\n";
 }

@@ -1,6 +1,8 @@
 #include "core/synth/truth_io.h"
 
 #include <filesystem>
+#include <fstream>
+#include <nlohmann/json.hpp>
 
 #include "core/image_io.h"
 
@@ -40,6 +42,15 @@ StatusOr<MaterialMaps> ReadTruth(const std::string& dir) {
   MATFIT_RETURN_IF_ERROR(read("roughness.exr", false, &m.roughness));
   MATFIT_RETURN_IF_ERROR(read("thickness.exr", false, &m.thickness));
   MATFIT_RETURN_IF_ERROR(read("translucency.exr", false, &m.translucency));
+  // The generating model, so that fits of the same family can compare their parameters.
+  std::ifstream pj((fs::path(dir) / "params.json").string());
+  const nlohmann::json params = nlohmann::json::parse(pj, nullptr, false);
+  if (params.is_object() && params.contains("model") && params["model"].is_object()) {
+    const std::string name = params["model"].value("name", "");
+    for (ShadingModel sm :
+         {ShadingModel::kLambert, ShadingModel::kBlinnPhong, ShadingModel::kCookTorrance})
+      if (name == ShadingModelName(sm)) m.model = sm;
+  }
   m.width = m.normal.width();
   m.height = m.normal.height();
   if (m.albedo.width() != m.width || m.mask.width() != m.width)

@@ -83,6 +83,21 @@ TEST(FitJob, WritesAPackWhoseMapsEqualADirectFit) {
   EXPECT_TRUE(has_normal);
 }
 
+TEST(FitJob, ReportsLobeParameterErrorsAgainstTruth) {
+  PackDir tmp;
+  FitJobOptions o;
+  o.input = std::string(MATFIT_SOURCE_DIR) + "/fixtures/plastic-ring12";  // Blinn–Phong truth
+  o.model = "blinn-phong";
+  o.out = tmp / "pack";
+  auto r = RunFitJob(o);
+  ASSERT_TRUE(r.ok()) << r.status().ToString();
+  ASSERT_TRUE(r->truth.has_value());
+  ASSERT_TRUE(r->truth->parameter_errors.count("exponent_median_relative_error"));
+  EXPECT_LT(r->truth->parameter_errors.at("exponent_median_relative_error"), 0.10);
+  const auto report = ReadJson(tmp / "pack/report.json");
+  EXPECT_TRUE(report["parameter_errors"].contains("specular_median_absolute_error"));
+}
+
 TEST(FitJob, HeldOutErrorExceedsTheFittedError) {
   PackDir tmp;
   FitJobOptions o;
