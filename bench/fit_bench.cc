@@ -2,6 +2,7 @@
 // per-texel Gauss–Jordan reference against the fast closed form, and lambert.
 #include <benchmark/benchmark.h>
 
+#include <algorithm>
 #include <cstring>
 #include <map>
 #include <memory>
@@ -59,14 +60,28 @@ void BM_Memcpy(benchmark::State& state) {
   const LightStack& s = Stack(int(state.range(0)));
   const size_t bytes = size_t(s.plane_size()) * s.channels() * s.num_images() * sizeof(float);
   std::vector<float> dst(bytes / sizeof(float));
+  const int threads = int(state.range(1));
+  SetNumThreads(threads);
+  const int64_t floats = int64_t(dst.size()), chunk = (floats + threads - 1) / threads;
   for (auto _ : state) {
-    std::memcpy(dst.data(), s.data(), bytes);
+    ParallelFor(0, threads, [&](int64_t b, int64_t e) {
+      for (int64_t t = b; t < e; ++t) {
+        const int64_t lo = t * chunk, hi = std::min(floats, lo + chunk);
+        if (hi > lo) std::memcpy(dst.data() + lo, s.data() + lo, size_t(hi - lo) * sizeof(float));
+      }
+    });
     benchmark::DoNotOptimize(dst.data());
     benchmark::ClobberMemory();
   }
+  SetNumThreads(0);
   state.SetBytesProcessed(int64_t(state.iterations()) * int64_t(bytes));
 }
-BENCHMARK(BM_Memcpy)->Name("memcpy_stack")->Arg(256)->Unit(benchmark::kMillisecond)->UseRealTime();
+BENCHMARK(BM_Memcpy)
+    ->Name("memcpy_stack")
+    ->Args({256, 1})
+    ->Args({256, 2})
+    ->Unit(benchmark::kMillisecond)
+    ->UseRealTime();
 
 void NonlinearArgs(benchmark::internal::Benchmark* b) {
   b->Args({64, 1, 64})->Args({128, 1, 64})->Args({128, 2, 64});
