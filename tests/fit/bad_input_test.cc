@@ -7,25 +7,16 @@
 
 #include "core/dataset/dataset.h"
 #include "core/dataset/writer.h"
-#include "core/synth/synth.h"
 #include "fit/method.h"
 #include "fit/metrics.h"
+#include "tests/fit/synth_data.h"
 
 namespace matfit::fit {
 namespace {
 
 namespace fs = std::filesystem;
 
-synth::SynthResult Plastic(int size) {
-  synth::SynthOptions o;
-  o.material = "plastic";
-  o.lights = "bonn81";
-  o.size = size;
-  o.layout = Layout::kLp;
-  auto r = synth::Synthesize(o);
-  EXPECT_TRUE(r.ok());
-  return std::move(*r);
-}
+synth::SynthResult Plastic(int size) { return SynthData({"plastic", "bonn81", size}); }
 
 TEST(BadInput, AllBlackStackIsFlaggedByEveryMethod) {
   LightStack black = Plastic(8).stack;

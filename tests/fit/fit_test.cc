@@ -2,26 +2,17 @@
 
 #include <cmath>
 
-#include "core/synth/synth.h"
 #include "fit/method.h"
 #include "fit/methods.h"
 #include "fit/metrics.h"
+#include "tests/fit/synth_data.h"
 
 namespace matfit::fit {
 namespace {
 
 synth::SynthResult Synth(const std::string& material, const std::string& lights, int size,
                          double noise = 0) {
-  synth::SynthOptions o;
-  o.material = material;
-  o.lights = lights;
-  o.size = size;
-  o.layout = Layout::kLp;
-  o.bits = 32;
-  o.perturb.gaussian_sigma = noise;
-  auto r = synth::Synthesize(o);
-  EXPECT_TRUE(r.ok()) << r.status().ToString();
-  return std::move(*r);
+  return SynthData({material, lights, size, noise});
 }
 
 TEST(Lambert, NoiseFreePlasterBonn81) {

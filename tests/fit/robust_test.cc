@@ -1,24 +1,15 @@
 #include <gtest/gtest.h>
 #include <cstdio>
 
-#include "core/synth/synth.h"
 #include "fit/methods.h"
 #include "fit/metrics.h"
+#include "tests/fit/synth_data.h"
 
 namespace matfit::fit {
 namespace {
 
 synth::SynthResult Glossy(const std::string& lights, int size, double noise = 0) {
-  synth::SynthOptions o;
-  o.material = "plastic";
-  o.lights = lights;
-  o.size = size;
-  o.shadows = true;
-  o.layout = Layout::kLp;
-  o.perturb.gaussian_sigma = noise;
-  auto r = synth::Synthesize(o);
-  EXPECT_TRUE(r.ok());
-  return std::move(*r);
+  return SynthData({"plastic", lights, size, noise, /*shadows=*/true});
 }
 
 TEST(LambertRobust, GlossyPlasticWithShadowsBeatsPlainLambert) {

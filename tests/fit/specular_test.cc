@@ -3,23 +3,15 @@
 #include <algorithm>
 #include <cstdio>
 
-#include "core/synth/synth.h"
 #include "fit/methods.h"
 #include "fit/metrics.h"
+#include "tests/fit/synth_data.h"
 
 namespace matfit::fit {
 namespace {
 
 synth::SynthResult Make(const std::string& material, int size, double noise = 0) {
-  synth::SynthOptions o;
-  o.perturb.gaussian_sigma = noise;
-  o.material = material;
-  o.lights = "bonn81";
-  o.size = size;
-  o.layout = Layout::kLp;
-  auto r = synth::Synthesize(o);
-  EXPECT_TRUE(r.ok());
-  return std::move(*r);
+  return SynthData({material, "bonn81", size, noise});
 }
 
 // Median over ok texels of |fitted/true − 1| for one plane.
