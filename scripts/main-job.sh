@@ -21,8 +21,10 @@ for model in lambert heinrich; do
   echo "== matfit fit corduroy-bonn81 --model $model =="
   "$matfit" fit "$out/corduroy-bonn81" --model $model --holdout 3 --out "$out/corduroy-$model-pack" --force --quiet
 done
-echo
-echo "== matfit fit fixtures/plastic-ring12 --model lambert =="
-"$matfit" fit "$root/fixtures/plastic-ring12" --model lambert --holdout 4 --out "$out/plastic-lambert-pack" --force --quiet
+for model in lambert blinn-phong; do
+  echo
+  echo "== matfit fit fixtures/plastic-ring12 --model $model (glossy Blinn–Phong truth) =="
+  "$matfit" fit "$root/fixtures/plastic-ring12" --model $model --holdout 4 --out "$out/plastic-$model-pack" --force --quiet
+done
 echo
 echo "packs written to $out/*-pack (material.json, material.gltf, maps/, report.json, preview.png)"
