@@ -31,9 +31,11 @@ struct BlinnPhongLobe {
   static constexpr int kAmps = 1, kShapes = 1;  // k_s; ln e
   static constexpr ShadingModel kModel = ShadingModel::kBlinnPhong;
   template <typename T>
-  static T Eval(const T* a, const T* s, const Vec3T<T>& n, const Vec3T<T>& l, const Vec3T<T>& v) {
+  static T Eval(const T* a, const T* s, const Vec3T<T>& n, const Vec3T<T>& l, const Vec3T<T>& v,
+                const Vec3T<T>& h) {
     using std::exp;
-    return shading::BlinnPhongSpecular(a[0], exp(s[0]), n, l, v);
+    (void)v;
+    return shading::BlinnPhongSpecularHalf(a[0], exp(s[0]), n, l, h);
   }
   static void Init(double* a, double* s) { a[0] = 0.2, s[0] = std::log(20.0); }
   static void Project(double* a, double* s) {
@@ -46,8 +48,9 @@ struct CookTorranceLobe {
   static constexpr int kAmps = 1, kShapes = 1;  // F0; roughness
   static constexpr ShadingModel kModel = ShadingModel::kCookTorrance;
   template <typename T>
-  static T Eval(const T* a, const T* s, const Vec3T<T>& n, const Vec3T<T>& l, const Vec3T<T>& v) {
-    return shading::CookTorranceSpecular(a[0], s[0], n, l, v);
+  static T Eval(const T* a, const T* s, const Vec3T<T>& n, const Vec3T<T>& l, const Vec3T<T>& v,
+                const Vec3T<T>& h) {
+    return shading::CookTorranceSpecularHalf(a[0], s[0], n, l, v, h);
   }
   static void Init(double* a, double* s) { a[0] = 0.04, s[0] = 0.5; }
   static void Project(double* a, double* s) {
@@ -61,7 +64,8 @@ struct LafortuneLobes {
   static constexpr int kAmps = L, kShapes = 2 * L;  // ρ_s,j; (C_xy,j, ln e_j)
   static constexpr ShadingModel kModel = ShadingModel::kLafortune;
   template <typename T>
-  static T Eval(const T* a, const T* s, const Vec3T<T>& n, const Vec3T<T>& l, const Vec3T<T>& v) {
+  static T Eval(const T* a, const T* s, const Vec3T<T>& n, const Vec3T<T>& l, const Vec3T<T>& v,
+                const Vec3T<T>&) {
     using std::exp;
     T r(0);
     for (int j = 0; j < L; ++j)
@@ -89,8 +93,9 @@ struct TexelProblem {
   static constexpr int kParams = 5 + Lobe::kAmps + (kShared ? 0 : Lobe::kShapes);
   int n = 0, channels = 3;
   const Vec3* lights = nullptr;
-  const double* obs = nullptr;  // [i * channels + c], intensity-normalised
-  const char* use = nullptr;    // per sample
+  const Vec3* halves = nullptr;  // normalize(l_i + v), precomputed
+  const double* obs = nullptr;   // [i * channels + c], intensity-normalised
+  const char* use = nullptr;     // per sample
   Vec3 view{0, 0, 1};
   const double* shape = nullptr;  // kShared: the fixed shape parameters
 
@@ -103,7 +108,8 @@ struct TexelProblem {
     for (int i = 0; i < n; ++i) {
       if (!use[i]) continue;
       const Vec3T<T> l(T(lights[i].x), T(lights[i].y), T(lights[i].z));
-      const T lobe = Lobe::Eval(x + 5, sh, nn, l, v);
+      const Vec3T<T> h(T(halves[i].x), T(halves[i].y), T(halves[i].z));  // constant per sample
+      const T lobe = Lobe::Eval(x + 5, sh, nn, l, v, h);
       for (int c = 0; c < channels; ++c)
         add(shading::Lambert(x[2 + c], nn, l) + lobe - T(obs[i * channels + c]));
     }
@@ -128,8 +134,9 @@ StatusOr<FitResult> FitLobe(const LightStack& s, const FitOptions& o, const std:
   // Per-texel parameter planes while fitting: x (kMax planes).
   Image xs(s.width(), s.height(), kMax);
   const std::vector<float> inv = InverseIntensities(s);
-  std::vector<Vec3> dirs(n);
-  for (int i = 0; i < n; ++i) dirs[i] = s.lights()[i].direction;
+  std::vector<Vec3> dirs(n), halves(n);
+  for (int i = 0; i < n; ++i)
+    dirs[i] = s.lights()[i].direction, halves[i] = Normalize(dirs[i] + s.view_direction);
   std::vector<int> iterations(size_t(s.plane_size()), 0);
 
   auto gather = [&](int64_t p, std::vector<double>& obs, std::vector<char>& use) {
@@ -158,6 +165,7 @@ StatusOr<FitResult> FitLobe(const LightStack& s, const FitOptions& o, const std:
       Problem prob;
       prob.n = n, prob.channels = C, prob.lights = dirs.data(), prob.obs = obs.data(),
       prob.use = use.data();
+      prob.halves = halves.data();
       prob.view = s.view_direction;
       prob.shape = shape.data();
       for (int y = t.y0; y < t.y0 + t.height; ++y)

@@ -46,11 +46,12 @@ LmSummary SolveTinyLm(const Problem& problem, Eigen::Matrix<double, P, 1>* x_in,
     jtj->setZero();
     jtr->setZero();
     double c = 0;
-    problem.Residuals(xj, [&](const Jet& r) {
+    problem.Residuals(xj, [&](const Jet& r) {  // accumulates JᵀJ (lower) and Jᵀr
       c += 0.5 * r.a * r.a;
-      jtj->noalias() += r.v * r.v.transpose();
+      jtj->template selfadjointView<Eigen::Lower>().rankUpdate(r.v);  // lower triangle only
       jtr->noalias() += r.v * r.a;
     });
+    *jtj = jtj->template selfadjointView<Eigen::Lower>();  // mirror to the full matrix
     return c;
   };
   LmSummary s;

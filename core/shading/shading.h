@@ -26,15 +26,21 @@ inline T Lambert(const T& albedo, const Vec3T<T>& n, const Vec3T<T>& l) {
 
 // Blinn–Phong specular lobe (METHODS.md §4), not energy-normalised, π folded into k_s:
 // R_s = k_s · max(0, n·h)^e · max(0, n·l), h = normalize(l + v).
+// The same with the half vector h given (fits precompute it: l and v are fixed per sample).
 template <typename T>
-inline T BlinnPhongSpecular(const T& ks, const T& exponent, const Vec3T<T>& n, const Vec3T<T>& l,
-                            const Vec3T<T>& v) {
+inline T BlinnPhongSpecularHalf(const T& ks, const T& exponent, const Vec3T<T>& n,
+                                const Vec3T<T>& l, const Vec3T<T>& h) {
   using std::pow;
   const T nl = Dot(n, l);
   if (!(nl > T(0))) return T(0);
-  const T nh = Clamp0(Dot(n, Normalize(l + v)));
+  const T nh = Clamp0(Dot(n, h));
   if (!(nh > T(0))) return T(0);
   return ks * pow(nh, exponent) * nl;
+}
+template <typename T>
+inline T BlinnPhongSpecular(const T& ks, const T& exponent, const Vec3T<T>& n, const Vec3T<T>& l,
+                            const Vec3T<T>& v) {
+  return BlinnPhongSpecularHalf(ks, exponent, n, l, Normalize(l + v));
 }
 
 // GGX / Trowbridge–Reitz normal distribution, α = r².
@@ -64,17 +70,22 @@ inline double F0FromIor(double eta) { return ((eta - 1) / (eta + 1)) * ((eta - 1
 
 // Cook–Torrance specular (METHODS.md §4), GGX D, Smith G, Schlick F:
 // R_s = π · D G F / (4 (n·l)(n·v)) · (n·l).
+// The same with the half vector h = normalize(l + v) given.
 template <typename T>
-inline T CookTorranceSpecular(const T& f0, const T& roughness, const Vec3T<T>& n, const Vec3T<T>& l,
-                              const Vec3T<T>& v) {
+inline T CookTorranceSpecularHalf(const T& f0, const T& roughness, const Vec3T<T>& n,
+                                  const Vec3T<T>& l, const Vec3T<T>& v, const Vec3T<T>& h) {
   const T nl = Dot(n, l), nv = Dot(n, v);
   if (!(nl > T(0)) || !(nv > T(0))) return T(0);
-  const Vec3T<T> h = Normalize(l + v);
   const T nh = Clamp0(Dot(n, h));
   const T alpha = roughness * roughness;
   const T dgf =
       GgxD(nh, alpha) * GgxG1(nl, alpha) * GgxG1(nv, alpha) * SchlickFresnel(f0, Dot(v, h));
   return T(M_PI) * dgf / (T(4) * nv);
+}
+template <typename T>
+inline T CookTorranceSpecular(const T& f0, const T& roughness, const Vec3T<T>& n, const Vec3T<T>& l,
+                              const Vec3T<T>& v) {
+  return CookTorranceSpecularHalf(f0, roughness, n, l, v, Normalize(l + v));
 }
 
 // Isotropic Lafortune lobe (METHODS.md §4) in the frame of the normal n, with C_z = 1 (the lobe
