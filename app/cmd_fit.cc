@@ -79,9 +79,11 @@ int RunFit(FitArgs& a) {
     std::printf("held-out    rmse %.5f, deviation %.5f %% over %d folds (%d failed)\n",
                 r->heldout->rmse, r->heldout->deviation_percent, r->heldout->folds,
                 r->heldout->failed_folds);
-  if (r->truth)
-    std::printf("vs truth    normal MAE %.3f°, p95 %.3f°, albedo RMSE %.5f\n",
-                r->truth->normal_mae_deg, r->truth->normal_p95_deg, r->truth->albedo_rmse);
+  if (r->truth && r->truth->has_normal)
+    std::printf("vs truth    normal MAE %.3f°, p95 %.3f°\n", r->truth->normal_mae_deg,
+                r->truth->normal_p95_deg);
+  if (r->truth && r->truth->has_albedo)
+    std::printf("vs truth    albedo RMSE %.5f\n", r->truth->albedo_rmse);
   for (const auto& w : f.warnings) std::printf("warning     %s\n", w.c_str());
   if (a.job.report_only.empty())
     std::printf("pack        %s%s\n", a.job.out.c_str(), a.job.zip ? " (zip)" : "");

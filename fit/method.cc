@@ -64,11 +64,13 @@ std::unique_ptr<FitMethod> MakeMethod(const std::string& name) {
         [order](const LightStack& s, const FitOptions& o) { return FitHsh(s, o, order); });
   }
   if (name == "blinn-phong")
-    return std::make_unique<FunctionMethod>(name, "per-texel LM: normal, albedo, k_s, exponent", 7,
-                                            13, FitBlinnPhong);
+    return std::make_unique<FunctionMethod>(
+        name, "per-texel LM: normal, albedo, k_s (exponent shared per material)", 6, 10,
+        FitBlinnPhong);
   if (name == "cook-torrance")
-    return std::make_unique<FunctionMethod>(name, "per-texel LM: normal, albedo, F0, GGX roughness",
-                                            7, 13, FitCookTorrance);
+    return std::make_unique<FunctionMethod>(
+        name, "per-texel LM: normal, albedo, F0 (GGX roughness shared per material)", 6, 10,
+        FitCookTorrance);
   if (name == "lafortune1" || name == "lafortune2") {
     const int lobes = name == "lafortune1" ? 1 : 2;
     return std::make_unique<FunctionMethod>(

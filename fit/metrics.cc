@@ -54,6 +54,10 @@ ReconstructionMetrics Reconstruction(const LightStack& s, const MaterialMaps& ma
 TruthMetrics CompareToTruth(const MaterialMaps& f, const MaterialMaps& t,
                             const std::vector<uint8_t>& status) {
   TruthMetrics m;
+  const ShadingModel fm = f.model;
+  const bool relighting_basis = fm == ShadingModel::kPtm || fm == ShadingModel::kHsh;
+  m.has_normal = fm != ShadingModel::kMean && !relighting_basis;
+  m.has_albedo = m.has_normal && fm != ShadingModel::kHeinrich;
   std::vector<double> angles;
   double a2 = 0;
   int64_t ac = 0;

@@ -27,6 +27,9 @@ ReconstructionMetrics Reconstruction(const LightStack& stack, const MaterialMaps
                                      const std::vector<uint8_t>& status);
 
 struct TruthMetrics {
+  // A model without a fitted normal (mean, ptm, hsh) or whose albedo map is not a diffuse albedo
+  // (mean, heinrich's mean texture, ptm/hsh frontal value) is not scored on it.
+  bool has_normal = false, has_albedo = false;
   double normal_mae_deg = 0, normal_p95_deg = 0;  // angle between fitted and true normals
   double albedo_rmse = 0;                         // over channels (diffuse albedo)
   int64_t texels = 0;

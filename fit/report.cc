@@ -54,9 +54,10 @@ std::string MakeReportJson(const FitReportInputs& in) {
                     {"failed_folds", h.failed_folds}};
   }
   if (in.truth) {
-    j["normal_mae_deg"] = in.truth->normal_mae_deg;
-    j["normal_p95_deg"] = in.truth->normal_p95_deg;
-    j["albedo_rmse"] = in.truth->albedo_rmse;
+    // null where the model has no such map (see TruthMetrics).
+    j["normal_mae_deg"] = in.truth->has_normal ? json(in.truth->normal_mae_deg) : json();
+    j["normal_p95_deg"] = in.truth->has_normal ? json(in.truth->normal_p95_deg) : json();
+    j["albedo_rmse"] = in.truth->has_albedo ? json(in.truth->albedo_rmse) : json();
     j["truth_texels"] = in.truth->texels;
     j["parameter_errors"] = in.truth->parameter_errors;
   }

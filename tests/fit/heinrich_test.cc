@@ -5,23 +5,17 @@
 
 #include "core/synth/light_sets.h"
 #include "core/synth/render_stack.h"
-#include "core/synth/synth.h"
 #include "fit/methods.h"
 #include "fit/metrics.h"
+#include "tests/fit/synth_data.h"
 
 namespace matfit::fit {
 namespace {
 
 LightStack Bonn(const std::string& material, int size, bool* ok) {
-  synth::SynthOptions o;
-  o.material = material;
-  o.lights = "bonn81";
-  o.size = size;
-  o.layout = Layout::kBonn;
-  o.bits = 32;
-  auto r = synth::Synthesize(o);
-  *ok = r.ok();
-  return r.ok() ? std::move(r->stack) : LightStack();
+  LightStack s = SynthData({material, "bonn81", size}).stack;
+  *ok = s.num_images() == 81;
+  return s;
 }
 
 double MaxMapDiff(const Image& a, const Image& b) {
