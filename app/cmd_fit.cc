@@ -116,6 +116,11 @@ void RegisterFit(CLI::App& app, int* exit_code) {
   sub->add_option("--tile", j.fit.tile, "work unit ≈ tile² texels")->capture_default_str();
   sub->add_flag("--flat-specular-normal", j.fit.heinrich_flat_specular_normal,
                 "heinrich: n_s = (0,0,1) in the specular term");
+  sub->add_option("--robust-scale", j.fit.robust_scale,
+                  "nonlinear models: Cauchy loss scale on residuals (0 = least squares)")
+      ->capture_default_str();
+  sub->add_flag("--per-texel-lobe", j.fit.per_texel_lobe,
+                "nonlinear models: fit the lobe shape per texel instead of once per material");
   sub->add_option(
       "--report-only", j.report_only,
       "score this existing pack against DIR instead of fitting (--out: report.json path)");

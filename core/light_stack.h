@@ -13,6 +13,7 @@
 
 #include "core/check.h"
 #include "core/color.h"
+#include "core/large_page_allocator.h"
 #include "core/vec3.h"
 
 namespace matfit {
@@ -85,7 +86,7 @@ class LightStack {
   }
 
   int width_ = 0, height_ = 0, channels_ = 0, num_images_ = 0;
-  std::vector<float> data_;
+  std::vector<float, LargePageAllocator<float>> data_;
   std::vector<LightSample> lights_;
 };
 

@@ -27,6 +27,11 @@ bool FitOptions::Check(std::string* why) const {
     *why = "--tile must be in [8, 4096], got " + std::to_string(tile);
     return false;
   }
+  if (!(robust_scale >= 0 && robust_scale <= 10)) {
+    *why = "--robust-scale must be in [0, 10] (0 = least squares), got " +
+           std::to_string(robust_scale);
+    return false;
+  }
   if (!(exponent_min >= 1 && exponent_max > exponent_min)) {
     *why = "exponent range must satisfy 1 ≤ min < max";
     return false;
@@ -99,6 +104,17 @@ void MarkUnfittableTexels(const LightStack& s, bool flag_clipped, FitResult* r) 
       }
     }
   });
+}
+
+void ApplyPeakStatus(const float* peak, int64_t first, int64_t m, bool clip, uint8_t* status) {
+  for (int64_t k = 0; k < m; ++k) {
+    uint8_t& st = status[first + k];
+    if (st != kTexelOk) continue;
+    if (!(peak[k] > kNoSignalLevel))
+      st = kTexelNoSignal;
+    else if (clip && peak[k] >= kClipLevel)
+      st = kTexelSaturated;
+  }
 }
 
 bool ForEachTile(const LightStack& s, const FitOptions& o,

@@ -29,6 +29,12 @@ inline constexpr float kNoSignalLevel = 1e-6f;
 // any sample at the file's maximum code → kTexelSaturated (no-op for unclipped stacks).
 void MarkUnfittableTexels(const LightStack& stack, bool flag_clipped, FitResult* result);
 
+// Fused form of MarkUnfittableTexels for one strip, from the per-texel maximum sample that the
+// row kernels collect (peak, m texels starting at plane index first): ok texels with
+// peak ≤ kNoSignalLevel → kTexelNoSignal; with clip (see StackMayBeClipped), peak ≥ kClipLevel →
+// kTexelSaturated.
+void ApplyPeakStatus(const float* peak, int64_t first, int64_t m, bool clip, uint8_t* status);
+
 // Runs fn(tile) over full-width strips of ≈ tile² texels with ParallelFor; reports progress; false
 // if cancelled.
 bool ForEachTile(const LightStack& stack, const FitOptions& options,

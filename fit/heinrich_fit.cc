@@ -14,6 +14,7 @@
 #include "fit/fit_common.h"
 #include "fit/heinrich_specular.h"
 #include "fit/methods.h"
+#include "fit/row_kernels.h"
 
 namespace matfit::fit {
 
@@ -55,7 +56,6 @@ StatusOr<FitResult> FitHeinrich(const LightStack& s, const FitOptions& o) {
   const auto t0 = std::chrono::steady_clock::now();
   FitResult r;
   InitResult(s, ShadingModel::kHeinrich, "heinrich", &r);
-  MarkUnfittableTexels(s, /*flag_clipped=*/true, &r);
   MaterialMaps& maps = r.maps;
   const std::vector<float> inv = InverseIntensities(s);
   const int n = s.num_images(), C = s.channels(), W = s.width();
@@ -64,53 +64,70 @@ StatusOr<FitResult> FitHeinrich(const LightStack& s, const FitOptions& o) {
   for (int i = 0; i < n; ++i) dirs[i] = s.lights()[i].direction;
   const Eigen::Matrix3d k3 = *K;
 
-  // One row segment of a tile at a time: accumulate t_c and q_c image by image (streaming
-  // contiguous plane rows, vectorisable), then solve each texel of the segment.
+  const bool clip = StackMayBeClipped(s);
+  // Per strip (one contiguous segment of every plane): accumulate t_c and q_c image by image
+  // with the row kernel, then solve each texel of the strip.
   const bool ok = ForEachTile(s, o, [&](const Tile& t) {
-    const int tw = t.width;
-    std::vector<double> acc(size_t(12) * tw);  // [c][0..3] × tw: t_c, q_c.x, q_c.y, q_c.z
-    for (int y = t.y0; y < t.y0 + t.height; ++y) {
-      std::fill(acc.begin(), acc.end(), 0.0);
-      const int64_t row = int64_t(y) * W + t.x0;
-      for (int i = 0; i < n; ++i) {
-        const double lx = dirs[i].x, ly = dirs[i].y, lz = dirs[i].z;
-        for (int c = 0; c < C; ++c) {
-          const float* src = s.Plane(i, c).data() + row;
-          const double w = inv[i * C + c];
-          double* at = acc.data() + size_t(4 * c) * tw;
-          double *ax = at + tw, *ay = at + 2 * tw, *az = at + 3 * tw;
-          for (int k = 0; k < tw; ++k) {
-            const double v = src[k] * w;
-            at[k] += v, ax[k] += lx * v, ay[k] += ly * v, az[k] += lz * v;
-          }
+    const int64_t first = int64_t(t.y0) * W, m = t.texels();
+    std::vector<double> acc(size_t(12) * m, 0.0);  // [c][t, qx, qy, qz][m]
+    std::vector<float> peak(m, 0.0f);
+    const float* src[kMaxRowPlanes];
+    double w[kMaxRowPlanes * 4];
+    for (int c = 0; c < C; ++c) {
+      double* a = acc.data() + size_t(4 * c) * m;
+      double* ap[4] = {a, a + m, a + 2 * m, a + 3 * m};
+      for (int i0 = 0; i0 < n; i0 += kMaxRowPlanes) {
+        const int planes = std::min(kMaxRowPlanes, n - i0);
+        for (int q = 0; q < planes; ++q) {
+          const int i = i0 + q;
+          const double wi = inv[i * C + c];
+          src[q] = s.Plane(i, c).data() + first;
+          w[q * 4] = wi, w[q * 4 + 1] = dirs[i].x * wi, w[q * 4 + 2] = dirs[i].y * wi;
+          w[q * 4 + 3] = dirs[i].z * wi;
         }
+        RowAccumulateDouble4(src, planes, m, w, ap, peak.data());
       }
-      for (int k = 0; k < tw; ++k) {
-        const int64_t p = row + k;
-        if (r.status[p] != kTexelOk) continue;  // masked or flagged before fitting
-        double tc[3] = {0, 0, 0}, t2 = 0;
-        Vec3 u;
-        for (int c = 0; c < C; ++c) {
-          const double* at = acc.data() + size_t(4 * c) * tw;
-          tc[c] = at[k] / n;
-          t2 += tc[c] * tc[c];
-          u += Vec3(at[tw + k], at[2 * tw + k], at[3 * tw + k]) * tc[c];
-        }
-        if (!std::isfinite(t2) || !IsFinite(u)) {
-          r.status[p] = kTexelNonFinite;
-          continue;
-        }
-        if (!(t2 > 1e-12)) {
-          r.status[p] = kTexelNoSignal;
-          continue;
-        }
-        u = u / t2 - S;
-        const Eigen::Vector3d nn = k3 * Eigen::Vector3d(u.x, u.y, u.z);
-        const Vec3 nraw(nn.x(), nn.y(), nn.z());
-        const double a = 1.0 - Dot(mean, nraw);  // grey ambient
-        const double ambient[3] = {a, a, a};
-        StoreHeinrichTexel(&maps, p, C, tc, ambient, nraw);
+    }
+    ApplyPeakStatus(peak.data(), first, m, clip, r.status.data());
+    float *albedo[3], *ambient[3], *normal[3];
+    for (int c = 0; c < 3; ++c) {
+      albedo[c] = maps.albedo.Plane(c).data() + first;
+      ambient[c] = maps.ambient.Plane(c).data() + first;
+      normal[c] = maps.normal.Plane(c).data() + first;
+    }
+    float* scale = maps.normal_scale.Plane(0).data() + first;
+    uint8_t* status = r.status.data() + first;
+    for (int64_t k = 0; k < m; ++k) {
+      if (status[k] != kTexelOk) continue;  // masked or flagged
+      double tc[3] = {0, 0, 0}, t2 = 0, u[3] = {0, 0, 0};
+      for (int c = 0; c < C; ++c) {
+        const double* a = acc.data() + size_t(4 * c) * m + k;
+        tc[c] = a[0] / n;
+        t2 += tc[c] * tc[c];
+        for (int j = 0; j < 3; ++j) u[j] += a[(j + 1) * m] * tc[c];
       }
+      if (!std::isfinite(t2 + u[0] + u[1] + u[2])) {
+        status[k] = kTexelNonFinite;
+        continue;
+      }
+      if (!(t2 > 1e-12)) {
+        status[k] = kTexelNoSignal;
+        continue;
+      }
+      for (int j = 0; j < 3; ++j) u[j] = u[j] / t2 - S[j];
+      double nr[3], len2 = 0;  // n_raw = K u
+      for (int j = 0; j < 3; ++j) {
+        nr[j] = k3(j, 0) * u[0] + k3(j, 1) * u[1] + k3(j, 2) * u[2];
+        len2 += nr[j] * nr[j];
+      }
+      const double a = 1.0 - (mean.x * nr[0] + mean.y * nr[1] + mean.z * nr[2]);  // grey ambient
+      const double len = std::sqrt(len2);
+      for (int c = 0; c < 3; ++c) {
+        albedo[c][k] = float(tc[C == 1 ? 0 : c]);
+        ambient[c][k] = float(a);
+        normal[c][k] = len > 0 ? float(nr[c] / len) : float(c == 2);
+      }
+      scale[k] = float(len);
     }
   });
   if (ok && o.heinrich_specular) AddHeinrichSpecular(s, o, &r);

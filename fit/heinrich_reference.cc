@@ -2,43 +2,13 @@
 // system row by row, form AᵀA and Aᵀb, invert the 6 × 6 by Gauss–Jordan (partial pivoting).
 #include <chrono>
 #include <cmath>
-#include <utility>
 
 #include "fit/fit_common.h"
+#include "fit/gauss_jordan.h"
 #include "fit/heinrich_specular.h"
 #include "fit/methods.h"
 
 namespace matfit::fit {
-
-namespace {
-
-// Inverts a (6 × 6, row-major) in place; false when a pivot vanishes.
-bool GaussJordanInvert6(double a[36]) {
-  double inv[36] = {};
-  for (int i = 0; i < 6; ++i) inv[i * 6 + i] = 1;
-  for (int col = 0; col < 6; ++col) {
-    int piv = col;
-    for (int r = col + 1; r < 6; ++r)
-      if (std::abs(a[r * 6 + col]) > std::abs(a[piv * 6 + col])) piv = r;
-    if (!(std::abs(a[piv * 6 + col]) > 1e-12)) return false;
-    if (piv != col)
-      for (int k = 0; k < 6; ++k)
-        std::swap(a[col * 6 + k], a[piv * 6 + k]), std::swap(inv[col * 6 + k], inv[piv * 6 + k]);
-    const double d = 1.0 / a[col * 6 + col];
-    for (int k = 0; k < 6; ++k) a[col * 6 + k] *= d, inv[col * 6 + k] *= d;
-    for (int r = 0; r < 6; ++r) {
-      if (r == col) continue;
-      const double f = a[r * 6 + col];
-      if (f == 0) continue;
-      for (int k = 0; k < 6; ++k)
-        a[r * 6 + k] -= f * a[col * 6 + k], inv[r * 6 + k] -= f * inv[col * 6 + k];
-    }
-  }
-  std::copy(inv, inv + 36, a);
-  return true;
-}
-
-}  // namespace
 
 StatusOr<FitResult> FitHeinrichReference(const LightStack& s, const FitOptions& o) {
   std::string why;
@@ -81,7 +51,7 @@ StatusOr<FitResult> FitHeinrichReference(const LightStack& s, const FitOptions& 
           r.status[p] = kTexelNoSignal;
           continue;
         }
-        if (!GaussJordanInvert6(ata)) {
+        if (!GaussJordanInvert<6>(ata)) {
           r.status[p] = kTexelIllConditioned;
           continue;
         }

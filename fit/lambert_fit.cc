@@ -1,4 +1,9 @@
-// `lambert`: classic photometric stereo with one precomputed pseudo-inverse.
+// `lambert`: classic photometric stereo with one precomputed pseudo-inverse for all texels.
+//
+// One pass over the planes: per channel g_c = P · (p_c / I_c) with P = (LᵀL)⁻¹Lᵀ (3 × N, shared);
+// the normal is n = g/|g| of the luminance g = Σ_c luma_c g_c (linear in g_c), and the albedo is
+// the least-squares ρ_c of p_c ≈ ρ_c L n for that n: ρ_c = nᵀ(Lᵀp_c) / nᵀMn = nᵀM g_c / nᵀMn
+// with M = LᵀL, so it needs no second pass over the data.
 #include <algorithm>
 #include <chrono>
 #include <cmath>
@@ -7,6 +12,7 @@
 #include "fit/fit_common.h"
 #include "fit/light_matrix.h"
 #include "fit/methods.h"
+#include "fit/row_kernels.h"
 
 namespace matfit::fit {
 
@@ -18,83 +24,58 @@ StatusOr<FitResult> FitLambert(const LightStack& s, const FitOptions& o) {
   const auto t0 = std::chrono::steady_clock::now();
   FitResult r;
   InitResult(s, ShadingModel::kLambert, "lambert", &r);
-  MarkUnfittableTexels(s, /*flag_clipped=*/true, &r);
   r.parameters["light_condition_number"] = lm->condition;
   const std::vector<float> inv = InverseIntensities(s);
   const int n = s.num_images(), C = s.channels(), W = s.width();
-  std::vector<float> pinv(lm->pinv.begin(), lm->pinv.end());
-  std::vector<Vec3f> dirs(n);
-  for (int i = 0; i < n; ++i) dirs[i] = Vec3f(s.lights()[i].direction);
+  double M[9] = {};  // LᵀL
+  for (const auto& l : s.lights())
+    for (int a = 0; a < 3; ++a)
+      for (int b = 0; b < 3; ++b) M[a * 3 + b] += l.direction[a] * l.direction[b];
+  const bool clip = StackMayBeClipped(s);
 
   const bool ok = ForEachTile(s, o, [&](const Tile& t) {
-    const int tw = t.width;
-    const int64_t m = t.texels();
-    std::vector<float> gx(m, 0.0f), gy(m, 0.0f), gz(m, 0.0f), y(m);
-    // Pass 1: g = P · luminance, streaming one image plane row at a time.
-    for (int i = 0; i < n; ++i) {
-      const float px = pinv[i], py = pinv[n + i], pz = pinv[2 * n + i];
-      for (int yy = 0; yy < t.height; ++yy) {
-        const int64_t row = int64_t(t.y0 + yy) * W + t.x0;
-        float* yl = y.data() + int64_t(yy) * tw;
-        for (int xx = 0; xx < tw; ++xx) yl[xx] = 0.0f;
-        for (int c = 0; c < C; ++c) {
-          const float w = (C == 1 ? 1.0f : kLuma[c]) * inv[i * C + c];
-          const float* src = s.Plane(i, c).data() + row;
-          for (int xx = 0; xx < tw; ++xx) yl[xx] += w * src[xx];
+    const int64_t first = int64_t(t.y0) * W, m = t.texels();
+    std::vector<float> g(size_t(3) * C * m, 0.0f), peak(m, 0.0f);  // [c][x, y, z][m]
+    const float* src[kMaxRowPlanes];
+    float w[kMaxRowPlanes * 3];
+    for (int c = 0; c < C; ++c) {
+      float* gc[3] = {&g[(3 * c) * m], &g[(3 * c + 1) * m], &g[(3 * c + 2) * m]};
+      for (int i0 = 0; i0 < n; i0 += kMaxRowPlanes) {
+        const int planes = std::min(kMaxRowPlanes, n - i0);
+        for (int q = 0; q < planes; ++q) {
+          const int i = i0 + q;
+          src[q] = s.Plane(i, c).data() + first;
+          for (int j = 0; j < 3; ++j)
+            w[q * 3 + j] = float(lm->pinv[size_t(j) * n + i]) * inv[i * C + c];
         }
-        for (int xx = 0; xx < tw; ++xx) {
-          const int64_t k = int64_t(yy) * tw + xx;
-          gx[k] += px * yl[xx], gy[k] += py * yl[xx], gz[k] += pz * yl[xx];
-        }
+        RowAccumulate(src, planes, m, 3, w, gc, peak.data());
       }
     }
-    // Normal, then albedo per channel by 1-D least squares on s_i = max(0, n·l_i), again
-    // image by image over contiguous rows.
-    std::vector<float> num(size_t(3) * tw), den(tw);
-    for (int yy = 0; yy < t.height; ++yy) {
-      const int64_t row = int64_t(t.y0 + yy) * W + t.x0;
-      float* nx = gx.data() + int64_t(yy) * tw;
-      float* ny = gy.data() + int64_t(yy) * tw;
-      float* nz = gz.data() + int64_t(yy) * tw;
-      for (int xx = 0; xx < tw; ++xx) {
-        const int64_t p = row + xx;
-        const Vec3f g(nx[xx], ny[xx], nz[xx]);
-        const float len = Length(g);
-        if (r.status[p] != kTexelOk) continue;  // masked or flagged before fitting
-        if (!IsFinite(g))
-          r.status[p] = kTexelNonFinite;
-        else if (!(len > 1e-6f))
-          r.status[p] = kTexelNoSignal;
-        const Vec3f u = r.status[p] == kTexelOk ? g / len : Vec3f(0, 0, 0);
-        nx[xx] = u.x, ny[xx] = u.y, nz[xx] = u.z;
+    ApplyPeakStatus(peak.data(), first, m, clip, r.status.data());
+    for (int64_t k = 0; k < m; ++k) {
+      const int64_t p = first + k;
+      if (r.status[p] != kTexelOk) continue;  // masked or flagged
+      Vec3 gch[3], lum;
+      for (int c = 0; c < C; ++c) {
+        gch[c] = Vec3(g[(3 * c) * m + k], g[(3 * c + 1) * m + k], g[(3 * c + 2) * m + k]);
+        lum += gch[c] * (C == 1 ? 1.0 : double(kLuma[c]));
       }
-      std::fill(num.begin(), num.end(), 0.0f);
-      std::fill(den.begin(), den.end(), 0.0f);
-      for (int i = 0; i < n; ++i) {
-        const Vec3f l = dirs[i];
-        for (int xx = 0; xx < tw; ++xx) {
-          const float si = std::max(0.0f, nx[xx] * l.x + ny[xx] * l.y + nz[xx] * l.z);
-          y[xx] = si;  // reuse as s_i for this row
-          den[xx] += si * si;
-        }
-        for (int c = 0; c < C; ++c) {
-          const float* src = s.Plane(i, c).data() + row;
-          const float w = inv[i * C + c];
-          float* acc = num.data() + size_t(c) * tw;
-          for (int xx = 0; xx < tw; ++xx) acc[xx] += src[xx] * w * y[xx];
-        }
+      const double len = Length(lum);
+      if (!IsFinite(lum)) {
+        r.status[p] = kTexelNonFinite;
+        continue;
       }
-      for (int xx = 0; xx < tw; ++xx) {
-        const int64_t p = row + xx;
-        if (r.status[p] != kTexelOk) continue;
-        if (!(den[xx] > 1e-8f)) {
-          r.status[p] = kTexelTooFewLights;
-          continue;
-        }
-        r.maps.normal.Plane(0)[p] = nx[xx], r.maps.normal.Plane(1)[p] = ny[xx];
-        r.maps.normal.Plane(2)[p] = nz[xx];
-        for (int c = 0; c < 3; ++c)
-          r.maps.albedo.Plane(c)[p] = num[size_t(C == 1 ? 0 : c) * tw + xx] / den[xx];
+      if (!(len > 1e-6)) {
+        r.status[p] = kTexelNoSignal;
+        continue;
+      }
+      const Vec3 u = lum / len;
+      const Vec3 Mu(M[0] * u.x + M[1] * u.y + M[2] * u.z, M[3] * u.x + M[4] * u.y + M[5] * u.z,
+                    M[6] * u.x + M[7] * u.y + M[8] * u.z);
+      const double den = Dot(u, Mu);  // Σ_i (n·l_i)² > 0 for non-coplanar lights
+      for (int c = 0; c < 3; ++c) {
+        r.maps.normal.Plane(c)[p] = float(u[c]);
+        r.maps.albedo.Plane(c)[p] = float(Dot(Mu, gch[C == 1 ? 0 : c]) / den);
       }
     }
   });

@@ -11,6 +11,7 @@
 #include "core/shading/relight_basis.h"
 #include "fit/fit_common.h"
 #include "fit/methods.h"
+#include "fit/row_kernels.h"
 
 namespace matfit::fit {
 namespace {
@@ -45,7 +46,6 @@ StatusOr<FitResult> FitLinearBasis(const LightStack& s, const FitOptions& o,
   const auto t0 = std::chrono::steady_clock::now();
   FitResult r;
   InitResult(s, model, name, &r);
-  MarkUnfittableTexels(s, /*flag_clipped=*/true, &r);
   r.maps.coefficients = Image(s.width(), s.height(), K * C);
   r.maps.basis_terms = K;
   r.parameters["basis_condition_number"] = sv[0] / sv[K - 1];
@@ -57,42 +57,45 @@ StatusOr<FitResult> FitLinearBasis(const LightStack& s, const FitOptions& o,
   double front[shading::kMaxHshTerms];
   basis(Vec3(0, 0, 1), front);
 
+  const bool clip = StackMayBeClipped(s);
+  // Per strip: coefficients_c = B⁺ · p_c, one row-kernel call per plane segment.
   const bool ok = ForEachTile(s, o, [&](const Tile& t) {
-    std::vector<float> acc(size_t(K) * t.width);
-    for (int y = t.y0; y < t.y0 + t.height; ++y) {
-      const int64_t row = int64_t(y) * W + t.x0;
-      for (int c = 0; c < C; ++c) {
-        std::fill(acc.begin(), acc.end(), 0.0f);
-        for (int i = 0; i < n; ++i) {
-          const float* src = s.Plane(i, c).data() + row;
-          const float w = inv[i * C + c];
-          for (int j = 0; j < K; ++j) {
-            const float pj = pinv[size_t(j) * n + i] * w;
-            float* a = acc.data() + size_t(j) * t.width;
-            for (int k = 0; k < t.width; ++k) a[k] += pj * src[k];
-          }
+    const int64_t first = int64_t(t.y0) * W, m = t.texels();
+    std::vector<float> acc(size_t(K) * C * m, 0.0f), peak(m, 0.0f);  // [c][j][m]
+    float* ap[kMaxRowTerms];
+    const float* src[kMaxRowPlanes];
+    float w[kMaxRowPlanes * kMaxRowTerms];
+    for (int c = 0; c < C; ++c) {
+      for (int j = 0; j < K; ++j) ap[j] = acc.data() + (size_t(c) * K + j) * m;
+      for (int i0 = 0; i0 < n; i0 += kMaxRowPlanes) {
+        const int planes = std::min(kMaxRowPlanes, n - i0);
+        for (int q = 0; q < planes; ++q) {
+          const int i = i0 + q;
+          src[q] = s.Plane(i, c).data() + first;
+          for (int j = 0; j < K; ++j) w[q * K + j] = pinv[size_t(j) * n + i] * inv[i * C + c];
         }
+        RowAccumulate(src, planes, m, K, w, ap, peak.data());
+      }
+    }
+    ApplyPeakStatus(peak.data(), first, m, clip, r.status.data());
+    for (int q = 0; q < K * C; ++q)
+      std::copy_n(acc.data() + size_t(q) * m, m, r.maps.coefficients.Plane(q).data() + first);
+    for (int64_t k = 0; k < m; ++k) {
+      const int64_t p = first + k;
+      if (r.status[p] != kTexelOk) {  // masked or clipped: no coefficients
+        for (int q = 0; q < K * C; ++q) r.maps.coefficients.Plane(q)[p] = 0.0f;
+        continue;
+      }
+      bool finite = true;
+      for (int q = 0; q < K * C; ++q) finite &= std::isfinite(r.maps.coefficients.Plane(q)[p]);
+      if (!finite) r.status[p] = kTexelNonFinite;
+      for (int c = 0; c < 3; ++c) {
+        double v = 0;
         for (int j = 0; j < K; ++j)
-          std::copy_n(acc.data() + size_t(j) * t.width, t.width,
-                      r.maps.coefficients.Plane(c * K + j).data() + row);
+          v += front[j] * r.maps.coefficients.Plane((C == 1 ? 0 : c) * K + j)[p];
+        r.maps.albedo.Plane(c)[p] = float(v);
       }
-      for (int k = 0; k < t.width; ++k) {
-        const int64_t p = row + k;
-        if (r.status[p] != kTexelOk) {  // masked or clipped: no coefficients
-          for (int q = 0; q < K * C; ++q) r.maps.coefficients.Plane(q)[p] = 0.0f;
-          continue;
-        }
-        bool finite = true;
-        for (int q = 0; q < K * C; ++q) finite &= std::isfinite(r.maps.coefficients.Plane(q)[p]);
-        if (!finite) r.status[p] = kTexelNonFinite;
-        for (int c = 0; c < 3; ++c) {
-          double v = 0;
-          for (int j = 0; j < K; ++j)
-            v += front[j] * r.maps.coefficients.Plane((C == 1 ? 0 : c) * K + j)[p];
-          r.maps.albedo.Plane(c)[p] = float(v);
-        }
-        r.maps.normal.Plane(2)[p] = 1.0f;
-      }
+      r.maps.normal.Plane(2)[p] = 1.0f;
     }
   });
   return FinishFit(ok, t0, std::move(r));

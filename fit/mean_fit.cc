@@ -6,6 +6,7 @@
 
 #include "fit/fit_common.h"
 #include "fit/methods.h"
+#include "fit/row_kernels.h"
 
 namespace matfit::fit {
 
@@ -15,31 +16,36 @@ StatusOr<FitResult> FitMean(const LightStack& s, const FitOptions& o) {
   const auto t0 = std::chrono::steady_clock::now();
   FitResult r;
   InitResult(s, ShadingModel::kMean, "mean", &r);
-  MarkUnfittableTexels(s, /*flag_clipped=*/false, &r);  // a clipped mean is still a mean
   const std::vector<float> inv = InverseIntensities(s);
   const int n = s.num_images(), C = s.channels(), W = s.width();
+  // One pass over each strip: t_c = Σ_i p_ci / (I_ic · N), streaming whole plane segments.
   const bool ok = ForEachTile(s, o, [&](const Tile& t) {
-    std::vector<double> sum(size_t(C) * t.width);
-    for (int y = t.y0; y < t.y0 + t.height; ++y) {
-      std::fill(sum.begin(), sum.end(), 0.0);
-      const int64_t row = int64_t(y) * W + t.x0;
-      for (int i = 0; i < n; ++i)
-        for (int c = 0; c < C; ++c) {
-          const float* src = s.Plane(i, c).data() + row;
-          const double w = inv[i * C + c];
-          double* acc = sum.data() + size_t(c) * t.width;
-          for (int k = 0; k < t.width; ++k) acc[k] += src[k] * w;
+    const int64_t first = int64_t(t.y0) * W, m = t.texels();
+    std::vector<float> sum(size_t(C) * m, 0.0f), peak(m, 0.0f);
+    const float* src[kMaxRowPlanes];
+    float w[kMaxRowPlanes];
+    for (int c = 0; c < C; ++c) {
+      float* acc = sum.data() + size_t(c) * m;
+      for (int i0 = 0; i0 < n; i0 += kMaxRowPlanes) {
+        const int planes = std::min(kMaxRowPlanes, n - i0);
+        for (int q = 0; q < planes; ++q) {
+          src[q] = s.Plane(i0 + q, c).data() + first;
+          w[q] = inv[(i0 + q) * C + c] / float(n);
         }
-      for (int k = 0; k < t.width; ++k) {
-        const int64_t p = row + k;
-        if (r.status[p] != kTexelOk) continue;
-        for (int c = 0; c < 3; ++c) {
-          const float mean = float(sum[size_t(C == 1 ? 0 : c) * t.width + k] / n);
-          if (!std::isfinite(mean)) r.status[p] = kTexelNonFinite;
-          r.maps.albedo.Plane(c)[p] = std::isfinite(mean) ? mean : 0.0f;
-        }
-        r.maps.normal.Plane(2)[p] = 1.0f;
+        RowAccumulate(src, planes, m, 1, w, &acc, peak.data());
       }
+    }
+    ApplyPeakStatus(peak.data(), first, m, /*clip=*/false,
+                    r.status.data());  // clipped: still a mean
+    for (int64_t k = 0; k < m; ++k) {
+      const int64_t p = first + k;
+      if (r.status[p] != kTexelOk) continue;
+      for (int c = 0; c < 3; ++c) {
+        const float mean = sum[size_t(C == 1 ? 0 : c) * m + k];
+        if (!std::isfinite(mean)) r.status[p] = kTexelNonFinite;
+        r.maps.albedo.Plane(c)[p] = std::isfinite(mean) ? mean : 0.0f;
+      }
+      r.maps.normal.Plane(2)[p] = 1.0f;
     }
   });
   return FinishFit(ok, t0, std::move(r));

@@ -10,8 +10,9 @@ namespace matfit::fit {
 // mean: t_c = mean_i p_ci / I_ci.
 StatusOr<FitResult> FitMean(const LightStack& stack, const FitOptions& options);
 
-// lambert (METHODS.md §3): g = (LᵀL)⁻¹Lᵀ y on luminance y, n = g/|g|, then per channel
-// ρ_c = Σ p_ci s_i / Σ s_i² with s_i = max(0, n·l_i). One pseudo-inverse for all texels.
+// lambert (METHODS.md §3): g = (LᵀL)⁻¹Lᵀ y on luminance y, n = g/|g|, then per channel the
+// least-squares ρ_c = Σ_i p_ci (n·l_i) / Σ_i (n·l_i)². One pseudo-inverse for all texels and
+// one pass over the planes.
 StatusOr<FitResult> FitLambert(const LightStack& stack, const FitOptions& options);
 
 // lambert-robust (METHODS.md §3): rank trimming then reweighting rejects shadowed and
@@ -43,5 +44,12 @@ StatusOr<FitResult> FitHeinrich(const LightStack& stack, const FitOptions& optio
 // heinrich reference: the literal per-texel 6-unknown normal equations AᵀA x = Aᵀb inverted
 // by Gauss–Jordan, as the seed does. Fills normal (unit), normal_scale, ambient, albedo (t).
 StatusOr<FitResult> FitHeinrichReference(const LightStack& stack, const FitOptions& options);
+
+// Literal per-texel references of lambert, ptm and hsh (normal equations + Gauss–Jordan per
+// texel and channel; fit/linear_reference.cc): same outputs as the fast forms up to float
+// rounding, for tests and benchmarks.
+StatusOr<FitResult> FitLambertReference(const LightStack& stack, const FitOptions& options);
+StatusOr<FitResult> FitPtmReference(const LightStack& stack, const FitOptions& options);
+StatusOr<FitResult> FitHshReference(const LightStack& stack, const FitOptions& options, int order);
 
 }  // namespace matfit::fit

@@ -31,11 +31,15 @@ struct BlinnPhongLobe {
   static constexpr int kAmps = 1, kShapes = 1;  // k_s; ln e
   static constexpr ShadingModel kModel = ShadingModel::kBlinnPhong;
   template <typename T>
-  static T Eval(const T* a, const T* s, const Vec3T<T>& n, const Vec3T<T>& l, const Vec3T<T>& v,
-                const Vec3T<T>& h) {
+  static void Prepare(const T* s, T* shape) {  // fitting coordinates → model parameters
     using std::exp;
+    shape[0] = exp(s[0]);
+  }
+  template <typename T>
+  static T Eval(const T* a, const T* shape, const Vec3T<T>& n, const Vec3T<T>& l, const Vec3T<T>& v,
+                const Vec3T<T>& h) {
     (void)v;
-    return shading::BlinnPhongSpecularHalf(a[0], exp(s[0]), n, l, h);
+    return shading::BlinnPhongSpecularHalf(a[0], shape[0], n, l, h);
   }
   static void Init(double* a, double* s) { a[0] = 0.2, s[0] = std::log(20.0); }
   static void Project(double* a, double* s) {
@@ -47,6 +51,10 @@ struct BlinnPhongLobe {
 struct CookTorranceLobe {
   static constexpr int kAmps = 1, kShapes = 1;  // F0; roughness
   static constexpr ShadingModel kModel = ShadingModel::kCookTorrance;
+  template <typename T>
+  static void Prepare(const T* s, T* shape) {
+    shape[0] = s[0];
+  }
   template <typename T>
   static T Eval(const T* a, const T* s, const Vec3T<T>& n, const Vec3T<T>& l, const Vec3T<T>& v,
                 const Vec3T<T>& h) {
@@ -64,12 +72,16 @@ struct LafortuneLobes {
   static constexpr int kAmps = L, kShapes = 2 * L;  // ρ_s,j; (C_xy,j, ln e_j)
   static constexpr ShadingModel kModel = ShadingModel::kLafortune;
   template <typename T>
-  static T Eval(const T* a, const T* s, const Vec3T<T>& n, const Vec3T<T>& l, const Vec3T<T>& v,
-                const Vec3T<T>&) {
+  static void Prepare(const T* s, T* shape) {
     using std::exp;
+    for (int j = 0; j < L; ++j) shape[2 * j] = s[2 * j], shape[2 * j + 1] = exp(s[2 * j + 1]);
+  }
+  template <typename T>
+  static T Eval(const T* a, const T* shape, const Vec3T<T>& n, const Vec3T<T>& l, const Vec3T<T>& v,
+                const Vec3T<T>&) {
     T r(0);
     for (int j = 0; j < L; ++j)
-      r += shading::LafortuneLobe(a[j], s[2 * j], exp(s[2 * j + 1]), n, l, v);
+      r += shading::LafortuneLobe(a[j], shape[2 * j], shape[2 * j + 1], n, l, v);
     return r;
   }
   static void Init(double* a, double* s) {
@@ -103,15 +115,16 @@ struct TexelProblem {
   void Residuals(const T* x, Add&& add) const {
     const Vec3T<T> nn = Normalize(Vec3T<T>(x[0], x[1], T(1)));
     const Vec3T<T> v(T(view.x), T(view.y), T(view.z));
-    T sh[Lobe::kShapes];
-    for (int k = 0; k < Lobe::kShapes; ++k) sh[k] = kShared ? T(shape[k]) : x[5 + Lobe::kAmps + k];
+    T fs[Lobe::kShapes], sh[Lobe::kShapes];  // shape in fitting coordinates, then model units
+    for (int k = 0; k < Lobe::kShapes; ++k) fs[k] = kShared ? T(shape[k]) : x[5 + Lobe::kAmps + k];
+    Lobe::Prepare(fs, sh);
     for (int i = 0; i < n; ++i) {
       if (!use[i]) continue;
       const Vec3T<T> l(T(lights[i].x), T(lights[i].y), T(lights[i].z));
       const Vec3T<T> h(T(halves[i].x), T(halves[i].y), T(halves[i].z));  // constant per sample
       const T lobe = Lobe::Eval(x + 5, sh, nn, l, v, h);
-      for (int c = 0; c < channels; ++c)
-        add(shading::Lambert(x[2 + c], nn, l) + lobe - T(obs[i * channels + c]));
+      const T d = shading::Lambert(T(1), nn, l);  // max(0, n·l): ρ_c·d is Lambert(ρ_c, n, l)
+      for (int c = 0; c < channels; ++c) add(x[2 + c] * d + lobe - T(obs[i * channels + c]));
     }
   }
   void Project(double* x) const {
@@ -191,7 +204,11 @@ StatusOr<FitResult> FitLobe(const LightStack& s, const FitOptions& o, const std:
             for (int k = 0; k < S && 5 + A + k < P; ++k) x[5 + A + k] = sh[k];
           }
           prob.Project(x.data());
-          iterations[p] += SolveTinyLm<P>(prob, &x).iterations;
+          LmOptions lm;
+          lm.cauchy_scale = o.robust_scale;
+          // Stage 1 only feeds the median shape when stage 2 follows: a rough solve will do.
+          if (!kShared && !o.per_texel_lobe) lm.max_iterations = 20;
+          iterations[p] += SolveTinyLm<P>(prob, &x, lm).iterations;
           if (!x.allFinite()) {
             r.status[p] = kTexelNonFinite;
             continue;

@@ -13,16 +13,19 @@ namespace matfit::fit {
 
 struct LmSummary {
   int iterations = 0;
-  double initial_cost = 0, final_cost = 0;  // ½ Σ r²
+  double initial_cost = 0, final_cost = 0;  // ½ Σ r² (or the Cauchy cost)
   bool converged = false;                   // relative cost decrease fell below the tolerance
 };
 
 struct LmOptions {
   int max_iterations = 50;
-  double function_tolerance = 1e-10;  // stop when Δcost < tol · cost
+  double function_tolerance = 1e-8;   // stop when Δcost < tol · cost
   double gradient_tolerance = 1e-12;  // stop when max |Jᵀr| < tol
   double step_tolerance = 1e-10;      // stop when |δ| < tol · (|x| + tol)
   double initial_lambda = 1e-3;
+  // > 0: Cauchy loss ρ(r²) = σ² ln(1 + r²/σ²) with this σ (in residual units) instead of r², by
+  // iteratively reweighted normal equations (weight 1/(1 + r²/σ²) from the current residual).
+  double cauchy_scale = 0;
 };
 
 // Problem concept: `static constexpr int kParams = P;` and
@@ -35,9 +38,12 @@ LmSummary SolveTinyLm(const Problem& problem, Eigen::Matrix<double, P, 1>* x_in,
   using Vec = Eigen::Matrix<double, P, 1>;
   using Mat = Eigen::Matrix<double, P, P>;
   Vec& x = *x_in;
+  const double s2 = options.cauchy_scale * options.cauchy_scale;
+  auto loss = [&](double r2) { return s2 > 0 ? 0.5 * s2 * std::log1p(r2 / s2) : 0.5 * r2; };
+  auto weight = [&](double r2) { return s2 > 0 ? 1.0 / (1.0 + r2 / s2) : 1.0; };
   auto cost_at = [&](const Vec& v) {
     double c = 0;
-    problem.Residuals(v.data(), [&](double r) { c += 0.5 * r * r; });
+    problem.Residuals(v.data(), [&](double r) { c += loss(r * r); });
     return c;
   };
   auto linearise = [&](const Vec& v, Mat* jtj, Vec* jtr) {
@@ -47,11 +53,18 @@ LmSummary SolveTinyLm(const Problem& problem, Eigen::Matrix<double, P, 1>* x_in,
     jtr->setZero();
     double c = 0;
     problem.Residuals(xj, [&](const Jet& r) {  // accumulates JᵀJ (lower) and Jᵀr
-      c += 0.5 * r.a * r.a;
-      jtj->template selfadjointView<Eigen::Lower>().rankUpdate(r.v);  // lower triangle only
-      jtr->noalias() += r.v * r.a;
+      const double r2 = r.a * r.a, w = weight(r2);
+      c += loss(r2);
+      // Lower triangle of JᵀJ and Jᵀr; plain fixed-size loops (Eigen's rankUpdate dispatches to
+      // a general product kernel, slower at this size).
+      for (int a = 0; a < P; ++a) {
+        const double ja = w * r.v[a];
+        (*jtr)[a] += ja * r.a;
+        for (int b = 0; b <= a; ++b) (*jtj)(a, b) += ja * r.v[b];
+      }
     });
-    *jtj = jtj->template selfadjointView<Eigen::Lower>();  // mirror to the full matrix
+    for (int a = 0; a < P; ++a)  // mirror to the full matrix
+      for (int b = 0; b < a; ++b) (*jtj)(b, a) = (*jtj)(a, b);
     return c;
   };
   LmSummary s;
@@ -70,6 +83,13 @@ LmSummary SolveTinyLm(const Problem& problem, Eigen::Matrix<double, P, 1>* x_in,
     const Vec delta = a.ldlt().solve(-jtr);
     if (!delta.allFinite()) break;
     if (delta.norm() < options.step_tolerance * (x.norm() + options.step_tolerance)) {
+      s.converged = true;
+      break;
+    }
+    // Decrease the linear model predicts for this step; when even that is negligible the
+    // iterate is converged (saves the string of rejected steps a stationary point costs).
+    const double predicted = -delta.dot(jtr) - 0.5 * delta.dot(jtj * delta);
+    if (!(predicted > options.function_tolerance * cost)) {
       s.converged = true;
       break;
     }

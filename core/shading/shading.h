@@ -8,6 +8,7 @@
 #pragma once
 
 #include <cmath>
+#include <type_traits>
 
 #include "core/vec3.h"
 
@@ -16,6 +17,19 @@ namespace matfit::shading {
 template <typename T>
 inline T Clamp0(const T& x) {
   return x > T(0) ? x : T(0);
+}
+
+// x^e for x > 0. Plain std::pow on floating point; exp(e·ln x) on autodiff types, whose pow of
+// two variables costs two scalar pows and a log per call where this costs one exp and one log.
+template <typename T>
+inline T PowPositive(const T& x, const T& e) {
+  if constexpr (std::is_floating_point_v<T>) {
+    return std::pow(x, e);
+  } else {
+    using std::exp;
+    using std::log;
+    return exp(e * log(x));
+  }
 }
 
 // Lambert (METHODS.md §3): R = ρ · max(0, n·l).
@@ -30,12 +44,11 @@ inline T Lambert(const T& albedo, const Vec3T<T>& n, const Vec3T<T>& l) {
 template <typename T>
 inline T BlinnPhongSpecularHalf(const T& ks, const T& exponent, const Vec3T<T>& n,
                                 const Vec3T<T>& l, const Vec3T<T>& h) {
-  using std::pow;
   const T nl = Dot(n, l);
   if (!(nl > T(0))) return T(0);
   const T nh = Clamp0(Dot(n, h));
   if (!(nh > T(0))) return T(0);
-  return ks * pow(nh, exponent) * nl;
+  return ks * PowPositive(nh, exponent) * nl;
 }
 template <typename T>
 inline T BlinnPhongSpecular(const T& ks, const T& exponent, const Vec3T<T>& n, const Vec3T<T>& l,
@@ -95,12 +108,11 @@ inline T CookTorranceSpecular(const T& f0, const T& roughness, const Vec3T<T>& n
 template <typename T>
 inline T LafortuneLobe(const T& rho_s, const T& c_xy, const T& exponent, const Vec3T<T>& n,
                        const Vec3T<T>& l, const Vec3T<T>& v) {
-  using std::pow;
   const T nl = Dot(n, l), nv = Dot(n, v);
   if (!(nl > T(0)) || !(nv > T(0))) return T(0);
   const T d = c_xy * (Dot(l, v) - nl * nv) + nl * nv;
   if (!(d > T(0))) return T(0);
-  return rho_s * pow(d, exponent) * nl;
+  return rho_s * PowPositive(d, exponent) * nl;
 }
 
 // Seed method A (METHODS.md §2), one channel: diffuse part t·a + t·(n·l) with the fitted,

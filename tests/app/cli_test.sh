@@ -70,7 +70,10 @@ expect_contains "unknown model" "$msg" "choose one of: mean"
 msg=$("$bin" fit "$src/fixtures/plastic-ring12" --model heinrich --out "$tmp/pr" 2>&1); rc=$?
 [ $rc -ne 0 ] && ok || bad "heinrich on a ring should fail"
 expect_contains "heinrich ring" "$msg" "inseparable"
-[ ! -e "$tmp/pv" ] && [ ! -e "$tmp/pr" ] && ok || bad "failed fit left output"
+msg=$("$bin" fit "$src/fixtures/plastic-ring12" --model blinn-phong --robust-scale -1 --out "$tmp/ps" 2>&1); rc=$?
+[ $rc -ne 0 ] && ok || bad "negative --robust-scale should fail"
+expect_contains "robust scale" "$msg" "--robust-scale must be in [0, 10]"
+[ ! -e "$tmp/pv" ] && [ ! -e "$tmp/pr" ] && [ ! -e "$tmp/ps" ] && ok || bad "failed fit left output"
 
 # Bundled fixtures and real data.
 for f in "$src"/fixtures/*/; do

@@ -1,0 +1,31 @@
+// Allocator for the big SoA sample buffers (LightStack planes): blocks of 4 MiB or more are
+// 2 MiB-aligned and, on Linux, advised for transparent huge pages, so streaming many planes at
+// once does not thrash the TLB (the fit kernels read 8 planes 256 KiB+ apart at a time).
+// Smaller blocks come from operator new as usual.
+#pragma once
+
+#include <cstddef>
+#include <new>
+
+namespace matfit {
+
+namespace detail {
+void* AllocateLarge(std::size_t bytes);
+void DeallocateLarge(void* p, std::size_t bytes);
+}  // namespace detail
+
+template <class T>
+struct LargePageAllocator {
+  using value_type = T;
+  LargePageAllocator() = default;
+  template <class U>
+  LargePageAllocator(const LargePageAllocator<U>&) {}
+  T* allocate(std::size_t n) { return static_cast<T*>(detail::AllocateLarge(n * sizeof(T))); }
+  void deallocate(T* p, std::size_t n) { detail::DeallocateLarge(p, n * sizeof(T)); }
+  template <class U>
+  bool operator==(const LargePageAllocator<U>&) const {
+    return true;
+  }
+};
+
+}  // namespace matfit

@@ -1,0 +1,125 @@
+// The fast one-pass linear fits against their literal per-texel references, and the row
+// kernels against plain loops. CTest also runs this file with MATFIT_KERNELS=generic, so both
+// kernel builds are held to the same bounds.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <limits>
+#include <vector>
+
+#include "core/synth/random.h"
+#include "fit/fit_common.h"
+#include "fit/methods.h"
+#include "fit/row_kernels.h"
+#include "tests/fit/synth_data.h"
+
+namespace matfit::fit {
+namespace {
+
+double MaxDiff(const Image& a, const Image& b) {
+  double m = 0;
+  for (size_t i = 0; i < a.data().size(); ++i)
+    m = std::max(m, double(std::abs(a.data()[i] - b.data()[i])));
+  return m;
+}
+
+TEST(Reference, FastLambertAgreesWithThePerTexelGaussJordanSolve) {
+  for (const char* material : {"plaster", "wool", "granite"}) {
+    const LightStack s = SynthData({material, "bonn81", 32}).stack;
+    auto fast = FitLambert(s, {}), ref = FitLambertReference(s, {});
+    ASSERT_TRUE(fast.ok() && ref.ok());
+    EXPECT_LT(MaxDiff(fast->maps.normal, ref->maps.normal), 2e-6) << material;
+    EXPECT_LT(MaxDiff(fast->maps.albedo, ref->maps.albedo), 2e-6) << material;
+    EXPECT_EQ(fast->status, ref->status) << material;
+  }
+}
+
+TEST(Reference, FastPtmAndHshAgreeWithThePerTexelGaussJordanSolve) {
+  const LightStack s = SynthData({"wool", "bonn81", 32}).stack;
+  auto ptm = FitPtm(s, {}), ptm_ref = FitPtmReference(s, {});
+  ASSERT_TRUE(ptm.ok() && ptm_ref.ok());
+  EXPECT_LT(MaxDiff(ptm->maps.coefficients, ptm_ref->maps.coefficients), 1e-5);
+  EXPECT_LT(MaxDiff(ptm->maps.albedo, ptm_ref->maps.albedo), 1e-5);
+  for (int order : {2, 3}) {
+    auto hsh = FitHsh(s, {}, order), hsh_ref = FitHshReference(s, {}, order);
+    ASSERT_TRUE(hsh.ok() && hsh_ref.ok());
+    EXPECT_LT(MaxDiff(hsh->maps.coefficients, hsh_ref->maps.coefficients), 1e-5) << order;
+  }
+}
+
+TEST(Reference, ReferencesFlagTheSameBadTexelsAsTheFastForms) {
+  LightStack s = SynthData({"plaster", "bonn81", 16}).stack;
+  const float nan = std::numeric_limits<float>::quiet_NaN();
+  for (int i = 0; i < s.num_images(); ++i)
+    for (int c = 0; c < s.channels(); ++c) {
+      s.Plane(i, c)[5] = 0.0f;             // black everywhere: no signal
+      if (i == 7) s.Plane(i, c)[9] = nan;  // one NaN sample
+    }
+  auto fast = FitLambert(s, {}), ref = FitLambertReference(s, {});
+  ASSERT_TRUE(fast.ok() && ref.ok());
+  EXPECT_EQ(fast->status[5], kTexelNoSignal);
+  EXPECT_EQ(fast->status[9], kTexelNonFinite);
+  EXPECT_EQ(fast->status, ref->status);
+  auto ptm = FitPtm(s, {}), ptm_ref = FitPtmReference(s, {});
+  ASSERT_TRUE(ptm.ok() && ptm_ref.ok());
+  EXPECT_EQ(ptm->status, ptm_ref->status);
+}
+
+// RowAccumulate / RowAccumulateDouble4 against scalar loops, on lengths with a ragged tail,
+// every term count, partial plane groups and NaN samples (which must not raise peak).
+TEST(RowKernels, MatchPlainLoopsIncludingTailsAndNaN) {
+  const float nan = std::numeric_limits<float>::quiet_NaN();
+  for (int64_t m : {1, 7, 8, 37, 256}) {
+    for (int planes : {1, 3, kMaxRowPlanes}) {
+      std::vector<std::vector<float>> data(planes, std::vector<float>(m));
+      std::vector<const float*> src(planes);
+      for (int p = 0; p < planes; ++p) {
+        for (int64_t x = 0; x < m; ++x) data[p][x] = float(synth::HashUniform(3, p, x));
+        if (m > 5) data[p][5] = nan;
+        src[p] = data[p].data();
+      }
+      for (int k : {1, 3, 4, 6, 9, 16}) {
+        std::vector<float> w(size_t(planes) * k);
+        for (size_t q = 0; q < w.size(); ++q) w[q] = float(synth::HashUniform(4, k, q) - 0.5);
+        std::vector<std::vector<float>> acc(k, std::vector<float>(m, 0.5f)), want = acc;
+        std::vector<float*> ap(k);
+        for (int j = 0; j < k; ++j) ap[j] = acc[j].data();
+        std::vector<float> peak(m, 0.25f), want_peak(m, 0.25f);
+        RowAccumulate(src.data(), planes, m, k, w.data(), ap.data(), peak.data());
+        for (int64_t x = 0; x < m; ++x)
+          for (int p = 0; p < planes; ++p) {
+            for (int j = 0; j < k; ++j) want[j][x] += w[p * k + j] * data[p][x];
+            if (data[p][x] > want_peak[x]) want_peak[x] = data[p][x];
+          }
+        for (int64_t x = 0; x < m; ++x) {
+          ASSERT_EQ(peak[x], want_peak[x]) << m << " " << planes << " " << k << " x=" << x;
+          for (int j = 0; j < k; ++j) {
+            if (x == 5) {
+              EXPECT_TRUE(std::isnan(acc[j][x]));  // NaN reaches the sums, so fitters see it
+              continue;
+            }
+            EXPECT_NEAR(acc[j][x], want[j][x], 1e-5) << m << " " << planes << " " << k;
+          }
+        }
+      }
+      std::vector<double> wd(size_t(planes) * 4);
+      for (size_t q = 0; q < wd.size(); ++q) wd[q] = synth::HashUniform(5, 0, q);
+      std::vector<std::vector<double>> dacc(4, std::vector<double>(m, 1.0)), dwant = dacc;
+      std::vector<double*> dp(4);
+      for (int j = 0; j < 4; ++j) dp[j] = dacc[j].data();
+      std::vector<float> peak(m, 0.0f);
+      RowAccumulateDouble4(src.data(), planes, m, wd.data(), dp.data(), peak.data());
+      for (int64_t x = 0; x < m; ++x)
+        for (int j = 0; j < 4; ++j) {
+          for (int p = 0; p < planes; ++p) dwant[j][x] += wd[p * 4 + j] * data[p][x];
+          if (x == 5) continue;
+          EXPECT_NEAR(dacc[j][x], dwant[j][x], 1e-6 * (1 + std::abs(dwant[j][x])));
+        }
+    }
+  }
+  EXPECT_TRUE(std::string(RowKernelIsa()) == "avx2+fma" ||
+              std::string(RowKernelIsa()) == "generic");
+}
+
+}  // namespace
+}  // namespace matfit::fit
