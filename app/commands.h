@@ -15,6 +15,7 @@ namespace matfit::app {
 void RegisterSynth(CLI::App& app, int* exit_code);
 void RegisterInfo(CLI::App& app, int* exit_code);
 void RegisterFit(CLI::App& app, int* exit_code);
+void RegisterRender(CLI::App& app, int* exit_code);
 
 // Shared helpers.
 bool ParseViewArg(const char* text, double* theta, double* phi);  // "THETA,PHI" in degrees

@@ -55,6 +55,7 @@ int main(int argc, char** argv) {
   matfit::app::RegisterSynth(app, &exit_code);
   matfit::app::RegisterInfo(app, &exit_code);
   matfit::app::RegisterFit(app, &exit_code);
+  matfit::app::RegisterRender(app, &exit_code);
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {

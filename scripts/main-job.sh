@@ -27,4 +27,11 @@ for model in lambert blinn-phong; do
   "$matfit" fit "$root/fixtures/plastic-ring12" --model $model --holdout 4 --out "$out/plastic-$model-pack" --force --quiet
 done
 echo
+echo "== matfit render: previews of the fitted packs (EGL if available, else CPU) =="
+"$matfit" render "$out/plastic-blinn-phong-pack" --light 40,30 --scene sphere --size 256 \
+  --out "$out/plastic-blinn-phong-sphere.png"
+"$matfit" render "$out/corduroy-heinrich-pack" --light 60,0 --sweep 8 --size 128 \
+  --out "$out/corduroy-heinrich-sweep.png"
+echo
 echo "packs written to $out/*-pack (material.json, material.gltf, maps/, report.json, preview.png)"
+echo "previews: $out/plastic-blinn-phong-sphere.png, $out/corduroy-heinrich-sweep.png"

@@ -75,6 +75,22 @@ msg=$("$bin" fit "$src/fixtures/plastic-ring12" --model blinn-phong --robust-sca
 expect_contains "robust scale" "$msg" "--robust-scale must be in [0, 10]"
 [ ! -e "$tmp/pv" ] && [ ! -e "$tmp/pr" ] && [ ! -e "$tmp/ps" ] && ok || bad "failed fit left output"
 
+# Preview renderer.
+out=$("$bin" render "$tmp/pack-ptm" --light 40,30 --scene sphere --size 64 --out "$tmp/bp.png" 2>&1) \
+  && ok || bad "render: $out"
+[ -s "$tmp/bp.png" ] && ok || bad "render wrote no PNG"
+out=$("$bin" render "$tmp/pack-heinrich" --light 60,0 --sweep 4 --size 32 --backend cpu --out "$tmp/sweep.exr" 2>&1) \
+  && ok || bad "render sweep: $out"
+expect_contains "render sweep size" "$out" "64 × 64"
+msg=$("$bin" render "$tmp/pack-lambert" --scene cube --out "$tmp/x.png" 2>&1); rc=$?
+[ $rc -ne 0 ] && ok || bad "unknown scene should fail"
+expect_contains "render scene" "$msg" "choose one of: plane, sphere"
+msg=$("$bin" render "$tmp/pack-lambert" --out "$tmp/x.jpg" 2>&1); rc=$?
+[ $rc -ne 0 ] && ok || bad "jpg output should fail"
+expect_contains "render out" "$msg" ".png (8-bit sRGB) or .exr"
+msg=$("$bin" render "$tmp/nonexistent-pack" --out "$tmp/x.png" 2>&1); rc=$?
+[ $rc -ne 0 ] && [ ! -e "$tmp/x.png" ] && ok || bad "missing pack should fail without output"
+
 # Bundled fixtures and real data.
 for f in "$src"/fixtures/*/; do
   "$bin" info "$f" --quiet >/dev/null && ok || bad "info fixture $f"

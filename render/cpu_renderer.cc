@@ -1,0 +1,40 @@
+#include "render/cpu_renderer.h"
+
+#include "core/parallel.h"
+#include "core/shading/evaluate.h"
+#include "render/gpu_material.h"
+#include "render/scene.h"
+
+namespace matfit::render {
+
+StatusOr<Image> RenderCpu(const MaterialMaps& m, const RenderOptions& o) {
+  std::string why;
+  if (!o.Check(&why)) return InvalidArgument(why);
+  auto packed = PackForGpu(m);  // the same completeness checks as the GPU path
+  if (!packed.ok()) return packed.status();
+  const int S = o.size;
+  Image out(S, S, 4);
+  const Vec3f light(o.LightDirection()), v(0, 0, 1);
+  const Vec3f radiance = Vec3f(o.light_color) * float(o.intensity);
+  const float ambient = float(o.ambient);
+  ParallelFor(0, S, [&](int64_t y0, int64_t y1) {
+    for (int64_t py = y0; py < y1; ++py)
+      for (int px = 0; px < S; ++px) {
+        const SceneHit h = HitScene(o.scene, S, px, int(py), m.width, m.height);
+        const int64_t p = int64_t(h.ty) * m.width + h.tx, q = py * S + px;
+        if (!h.hit || (!m.mask.empty() && m.mask.Plane(0)[p] < 0.5f)) continue;  // background
+        const Vec3f lt(Dot(light, h.t), Dot(light, h.b), Dot(light, h.n));
+        const Vec3f vt(Dot(v, h.t), Dot(v, h.b), Dot(v, h.n));
+        const bool lit = Dot(light, h.n) > 0.0f;
+        for (int c = 0; c < 3; ++c) {
+          const float f = lit ? EvaluateTexel(m, p, c, lt, vt) : 0.0f;
+          const float color = radiance[c] * f + ambient * m.albedo.Plane(c)[p];
+          out.Plane(c)[q] = o.display ? DisplayEncode(color, o) : color;
+        }
+        out.Plane(3)[q] = 1.0f;
+      }
+  });
+  return out;
+}
+
+}  // namespace matfit::render

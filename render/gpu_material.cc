@@ -1,0 +1,95 @@
+#include "render/gpu_material.h"
+
+#include <string>
+
+namespace matfit::render {
+
+namespace {
+
+// Appends the first `count` planes of `img`; false (naming the map) when it is absent or the
+// wrong size.
+bool AddPlanes(const Image& img, int count, int w, int h, std::vector<const float*>* planes,
+               std::string* missing, const char* name) {
+  if (img.width() != w || img.height() != h || img.channels() < count) {
+    *missing = name;
+    return false;
+  }
+  for (int c = 0; c < count; ++c) planes->push_back(img.Plane(c).data());
+  return true;
+}
+
+}  // namespace
+
+StatusOr<GpuMaterial> PackForGpu(const MaterialMaps& m) {
+  GpuMaterial g;
+  g.width = m.width, g.height = m.height;
+  g.model = int(m.model);
+  const int w = m.width, h = m.height;
+  if (w <= 0 || h <= 0) return InvalidArgument("material has no texels");
+  const std::vector<float> ones(size_t(w) * h, 1.0f), zeros(size_t(w) * h, 0.0f);
+  std::vector<const float*> planes;
+  std::string missing;
+  bool ok = true;
+  if (m.normal.empty()) {  // mean/ptm/hsh packs may omit it: flat
+    planes.insert(planes.end(), {zeros.data(), zeros.data(), ones.data()});
+  } else {
+    ok = ok && AddPlanes(m.normal, 3, w, h, &planes, &missing, "normal");
+  }
+  ok = ok && AddPlanes(m.albedo, 3, w, h, &planes, &missing, "albedo");
+  if (ok && m.mask.empty())
+    planes.push_back(ones.data());
+  else
+    ok = ok && AddPlanes(m.mask, 1, w, h, &planes, &missing, "mask");
+  switch (m.model) {
+    case ShadingModel::kBlinnPhong:
+      ok = ok && AddPlanes(m.specular, 1, w, h, &planes, &missing, "specular");
+      ok = ok && AddPlanes(m.exponent, 1, w, h, &planes, &missing, "exponent");
+      break;
+    case ShadingModel::kCookTorrance:
+      ok = ok && AddPlanes(m.specular, 1, w, h, &planes, &missing, "specular (F0)");
+      ok = ok && AddPlanes(m.roughness, 1, w, h, &planes, &missing, "roughness");
+      break;
+    case ShadingModel::kLafortune:
+      g.terms = m.specular.channels();
+      ok = ok && g.terms >= 1 && g.terms <= 4;
+      ok = ok && AddPlanes(m.specular, g.terms, w, h, &planes, &missing, "specular (ρ_s)");
+      ok = ok && AddPlanes(m.lobe_shape, 2 * g.terms, w, h, &planes, &missing, "lobe_shape");
+      break;
+    case ShadingModel::kHeinrich:
+      ok = ok && AddPlanes(m.ambient, 3, w, h, &planes, &missing, "ambient");
+      if (ok && m.normal_scale.empty())
+        planes.push_back(ones.data());
+      else
+        ok = ok && AddPlanes(m.normal_scale, 1, w, h, &planes, &missing, "normal_scale");
+      g.heinrich_specular = !m.specular_color.empty();
+      g.flat_normal = m.specular_flat_normal;
+      if (ok && g.heinrich_specular) {
+        ok = ok && AddPlanes(m.specular_color, 3, w, h, &planes, &missing, "specular_color");
+        ok = ok && AddPlanes(m.exponent, 1, w, h, &planes, &missing, "exponent");
+      }
+      break;
+    case ShadingModel::kPtm:
+    case ShadingModel::kHsh:
+      g.terms = m.basis_terms;
+      g.coef_channels = g.terms > 0 ? m.coefficients.channels() / g.terms : 0;
+      ok = ok && g.terms >= 1 && g.terms <= 16 && (g.coef_channels == 1 || g.coef_channels == 3);
+      ok = ok && AddPlanes(m.coefficients, g.terms * g.coef_channels, w, h, &planes, &missing,
+                           "coefficients");
+      break;
+    default: break;
+  }
+  if (!ok)
+    return InvalidArgument(std::string("material (") + ShadingModelName(m.model) + "): map '" +
+                           (missing.empty() ? "lobe/basis terms" : missing) +
+                           "' is missing or not " + std::to_string(w) + " × " + std::to_string(h));
+  g.layers = int((planes.size() + 3) / 4);
+  g.texels.assign(size_t(g.layers) * w * h * 4, 0.0f);
+  const int64_t n = int64_t(w) * h;
+  for (size_t q = 0; q < planes.size(); ++q) {
+    float* dst = g.texels.data() + (q / 4) * n * 4 + q % 4;
+    for (int64_t p = 0; p < n; ++p) dst[p * 4] = planes[q][p];
+  }
+  return g;
+}
+
+}  // namespace matfit::render

@@ -1,0 +1,30 @@
+// MaterialMaps packed for the shaders: every per-texel parameter the model's GLSL reads, as float
+// planes in a fixed layout (plane q = component q % 4 of layer q / 4 of an RGBA32F 2D array).
+// Layout (material.frag reads the same indices):
+//   0–2 unit normal, 3–5 albedo (mean texture for heinrich, preview for ptm/hsh), 6 mask;
+//   blinn-phong: 7 k_s, 8 exponent;  cook-torrance: 7 F0, 8 roughness;
+//   lafortune (L lobes): 7 + j amplitude, 7 + L + 2j C_xy, 8 + L + 2j exponent;
+//   heinrich: 7–9 ambient, 10 |n_raw|, 11–13 L_spec, 14 exponent;
+//   ptm/hsh: 7 + c·K + j coefficient j of channel c.
+#pragma once
+
+#include <vector>
+
+#include "core/material_maps.h"
+#include "core/status.h"
+
+namespace matfit::render {
+
+struct GpuMaterial {
+  int width = 0, height = 0, layers = 0;
+  int model = 0;  // material.frag's u_model: ShadingModel order
+  int terms = 0;  // ptm/hsh coefficients per channel, lafortune lobes
+  int coef_channels = 3;
+  bool heinrich_specular = false, flat_normal = false;
+  std::vector<float> texels;  // layers × height × width × 4, row 0 = top
+};
+
+// Fails, naming the missing map, when the model's maps are absent or the wrong size.
+StatusOr<GpuMaterial> PackForGpu(const MaterialMaps& maps);
+
+}  // namespace matfit::render

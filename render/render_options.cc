@@ -1,0 +1,43 @@
+#include "render/render_options.h"
+
+#include <cmath>
+
+namespace matfit::render {
+
+StatusOr<Scene> ParseScene(const std::string& name) {
+  if (name == "plane") return Scene::kPlane;
+  if (name == "sphere") return Scene::kSphere;
+  return InvalidArgument("unknown scene '" + name + "'; choose one of: plane, sphere");
+}
+
+StatusOr<Tonemap> ParseTonemap(const std::string& name) {
+  if (name == "clamp") return Tonemap::kClamp;
+  if (name == "reinhard") return Tonemap::kReinhard;
+  return InvalidArgument("unknown tone map '" + name + "'; choose one of: clamp, reinhard");
+}
+
+const char* SceneName(Scene s) { return s == Scene::kPlane ? "plane" : "sphere"; }
+
+bool RenderOptions::Check(std::string* why) const {
+  if (size < 8 || size > 4096) {
+    *why = "--size must be in [8, 4096], got " + std::to_string(size);
+    return false;
+  }
+  if (!(theta_deg >= 0 && theta_deg <= 180) || !std::isfinite(phi_deg)) {
+    *why = "--light THETA,PHI: θ must be in [0, 180] degrees and φ finite";
+    return false;
+  }
+  if (!(intensity >= 0) || !(ambient >= 0) || !(exposure > 0) || !std::isfinite(intensity) ||
+      !std::isfinite(ambient) || !std::isfinite(exposure)) {
+    *why = "intensity and ambient must be ≥ 0 and exposure > 0 (finite)";
+    return false;
+  }
+  return true;
+}
+
+Vec3 RenderOptions::LightDirection() const {
+  const double t = theta_deg * M_PI / 180, p = phi_deg * M_PI / 180;
+  return {std::sin(t) * std::cos(p), std::sin(t) * std::sin(p), std::cos(t)};
+}
+
+}  // namespace matfit::render

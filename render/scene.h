@@ -1,0 +1,23 @@
+// Per-pixel scene geometry of the previews, the CPU twin of material.frag's main(): an
+// orthographic camera looking down −z at a sample plane filling the view, or at a unit sphere
+// (texture: longitude φ ∈ [−π/2, π/2] across u, latitude down v, one copy over the front).
+#pragma once
+
+#include "core/vec3.h"
+#include "render/render_options.h"
+
+namespace matfit::render {
+
+struct SceneHit {
+  bool hit = false;
+  int tx = 0, ty = 0;                        // texel (ty = row from the top)
+  Vec3f t{1, 0, 0}, b{0, 1, 0}, n{0, 0, 1};  // tangent frame in world coordinates
+};
+
+// Pixel (px, py), py = row from the top, of a size × size image; material width × height.
+SceneHit HitScene(Scene scene, int size, int px, int py, int width, int height);
+
+// material.frag's display transform: exposure, tone map, clamp to [0, 1], sRGB encode.
+float DisplayEncode(float linear, const RenderOptions& o);
+
+}  // namespace matfit::render

@@ -1,0 +1,104 @@
+// Material preview: per pixel, hit the scene (plane or sphere, orthographic camera looking down
+// −z), fetch the texel's parameters, evaluate the model in the tangent frame (shading.glsl),
+// add ambient, then expose, tone-map and encode. Mirrors render/cpu_renderer.cc.
+// Parameter planes (render/gpu_material.h): plane q is component q % 4 of layer q / 4.
+uniform sampler2DArray u_params;
+uniform ivec2 u_texels;     // material width, height
+uniform int u_size;         // output is u_size × u_size pixels
+uniform int u_scene;        // 0 plane, 1 sphere
+uniform int u_model;        // 0 mean, 1 lambert, 2 blinn-phong, 3 cook-torrance, 4 heinrich,
+                            // 5 ptm, 6 hsh, 7 lafortune
+uniform int u_terms;        // ptm/hsh coefficients per channel, or lafortune lobes
+uniform int u_coef_channels;  // ptm/hsh: 1 (grey) or 3
+uniform bool u_heinrich_specular, u_flat_normal;
+uniform vec3 u_light;       // unit, world frame (toward the light)
+uniform vec3 u_intensity;   // light colour × intensity
+uniform vec3 u_ambient;     // ambient × albedo is added
+uniform float u_exposure;
+uniform int u_tonemap;      // 0 clamp, 1 Reinhard
+uniform bool u_display;     // true: exposure, tone map and sRGB encode; false: linear radiance
+out vec4 o_color;
+
+ivec2 g_texel;
+float P(int q) { return texelFetch(u_params, ivec3(g_texel, q / 4), 0)[q % 4]; }
+
+float EvaluateChannel(int c, vec3 l, vec3 v) {
+  if (u_model == 0) return P(3 + c);
+  if (u_model == 5 || u_model == 6) {
+    float b[16];
+    if (u_model == 5)
+      PtmBasis(l, b);
+    else
+      HshBasis(int(round(sqrt(float(u_terms)))), l, b);
+    int base = 7 + (u_coef_channels == 1 ? 0 : c) * u_terms;
+    float r = 0.0;
+    for (int j = 0; j < u_terms; ++j) r += b[j] * P(base + j);
+    return r;
+  }
+  vec3 n = vec3(P(0), P(1), P(2));
+  if (u_model == 4) {
+    float r = HeinrichDiffuse(P(3 + c), P(7 + c), n * P(10), l);
+    if (u_heinrich_specular) {
+      vec3 ns = u_flat_normal ? vec3(0.0, 0.0, 1.0) : n;
+      r += HeinrichSpecular(P(11 + c), P(14), ns, l, v);
+    }
+    return r;
+  }
+  float r = Lambert(P(3 + c), n, l);
+  if (u_model == 2) r += BlinnPhongSpecular(P(7), P(8), n, l, v);
+  if (u_model == 3) r += CookTorranceSpecular(P(7), P(8), n, l, v);
+  if (u_model == 7)
+    for (int j = 0; j < u_terms; ++j)
+      r += LafortuneLobe(P(7 + j), P(7 + u_terms + 2 * j), P(8 + u_terms + 2 * j), n, l, v);
+  return r;
+}
+
+float EncodeSrgb(float x) {
+  return x <= 0.0031308 ? 12.92 * x : 1.055 * pow(x, 1.0 / 2.4) - 0.055;
+}
+
+void main() {
+  // Pixel centre in image coordinates (row 0 at the top).
+  float px = floor(gl_FragCoord.x) + 0.5;
+  float py = float(u_size) - floor(gl_FragCoord.y) - 0.5;
+  float S = float(u_size);
+  vec3 T = vec3(1.0, 0.0, 0.0), B = vec3(0.0, 1.0, 0.0), N = vec3(0.0, 0.0, 1.0);
+  float tu, tv;  // texture coordinates in [0, 1), tv from the top row
+  if (u_scene == 0) {
+    tu = px / S;
+    tv = py / S;
+  } else {
+    float x = 2.0 * px / S - 1.0, y = 1.0 - 2.0 * py / S;
+    float r2 = x * x + y * y;
+    if (r2 > 1.0) {
+      o_color = vec4(0.0);
+      return;
+    }
+    N = vec3(x, y, sqrt(1.0 - r2));
+    float phi = atan(N.x, N.z), lat = asin(clamp(N.y, -1.0, 1.0));
+    T = vec3(cos(phi), 0.0, -sin(phi));
+    B = cross(N, T);
+    tu = fract(0.5 + phi / kPi);
+    tv = 0.5 - lat / kPi;
+  }
+  g_texel = clamp(ivec2(int(tu * float(u_texels.x)), int(tv * float(u_texels.y))), ivec2(0),
+                  u_texels - 1);
+  if (P(6) < 0.5) {  // mask: background
+    o_color = vec4(0.0);
+    return;
+  }
+  vec3 v = vec3(0.0, 0.0, 1.0);
+  vec3 lt = vec3(dot(u_light, T), dot(u_light, B), dot(u_light, N));
+  vec3 vt = vec3(dot(v, T), dot(v, B), dot(v, N));
+  vec3 f = vec3(0.0);
+  if (dot(u_light, N) > 0.0)  // the light is above this point's horizon
+    f = vec3(EvaluateChannel(0, lt, vt), EvaluateChannel(1, lt, vt), EvaluateChannel(2, lt, vt));
+  vec3 color = u_intensity * f + u_ambient * vec3(P(3), P(4), P(5));
+  if (u_display) {
+    color *= u_exposure;
+    color = u_tonemap == 1 ? color / (1.0 + max(color, vec3(0.0))) : color;
+    color = clamp(color, 0.0, 1.0);
+    color = vec3(EncodeSrgb(color.r), EncodeSrgb(color.g), EncodeSrgb(color.b));
+  }
+  o_color = vec4(color, 1.0);
+}

@@ -1,0 +1,154 @@
+// Preview renderers: the CPU reference against the shared shading code, and the EGL renderer
+// (the GLSL port of that code) against the CPU reference for every model of the ladder.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <cstdio>
+#include <map>
+#include <memory>
+
+#include "core/color.h"
+#include "core/synth/materials.h"
+#include "core/synth/synth.h"
+#include "fit/method.h"
+#include "render/cpu_renderer.h"
+#include "render/egl_renderer.h"
+
+namespace matfit::render {
+namespace {
+
+// Every model of the ladder on one small material: fitted from a synthetic wool stack (the fit's
+// own output format), plus the synthetic generator's Blinn–Phong / Cook–Torrance truth.
+const std::map<std::string, MaterialMaps>& Materials() {
+  static const auto* all = [] {
+    auto* m = new std::map<std::string, MaterialMaps>;
+    synth::SynthOptions o;
+    o.material = "wool";
+    o.lights = "bonn81";
+    o.size = 32;
+    o.layout = Layout::kLp;
+    const LightStack s = synth::Synthesize(o)->stack;
+    for (const char* name :
+         {"mean", "lambert", "heinrich", "ptm", "hsh2", "hsh3", "lafortune1", "lafortune2"}) {
+      auto method = fit::MakeMethod(name);
+      auto r = method->Fit(s, {});
+      if (r.ok()) (*m)[name] = std::move(r->maps);
+    }
+    (*m)["blinn-phong"] = *synth::MakeMaterial("plastic", 32, 1);
+    (*m)["cook-torrance"] = *synth::MakeMaterial("plastic-ct", 32, 1);
+    return m;
+  }();
+  return *all;
+}
+
+EglRenderer* Egl() {
+  static auto r = EglRenderer::Create();
+  return r.ok() ? r->get() : nullptr;
+}
+
+TEST(CpuRenderer, HeadOnLambertPlaneShowsTheAlbedo) {
+  MaterialMaps m = *synth::MakeMaterial("plaster", 16, 1);
+  for (float& v : m.normal.Plane(0)) v = 0;
+  for (float& v : m.normal.Plane(1)) v = 0;
+  for (float& v : m.normal.Plane(2)) v = 1;
+  RenderOptions o;
+  o.size = 16;
+  o.theta_deg = 0;
+  auto img = RenderCpu(m, o);
+  ASSERT_TRUE(img.ok()) << img.status().ToString();
+  for (int c = 0; c < 3; ++c)
+    for (int64_t p = 0; p < 256; ++p)
+      EXPECT_NEAR(img->Plane(c)[p], LinearToSrgb(m.albedo.Plane(c)[p]), 1e-6);
+  o.display = false;
+  o.theta_deg = 60;  // linear output: ρ cos 60°
+  img = RenderCpu(m, o);
+  ASSERT_TRUE(img.ok());
+  EXPECT_NEAR(img->Plane(1)[37], 0.5 * m.albedo.Plane(1)[37], 1e-6);
+}
+
+TEST(CpuRenderer, SphereHasBackgroundOutsideAndIsDarkOppositeTheLight) {
+  RenderOptions o;
+  o.scene = Scene::kSphere;
+  o.size = 64;
+  o.theta_deg = 60, o.phi_deg = 0;  // light from the right
+  auto img = RenderCpu(Materials().at("lambert"), o);
+  ASSERT_TRUE(img.ok());
+  EXPECT_EQ(img->Plane(3)[0], 0.0f);              // corner: background
+  EXPECT_EQ(img->Plane(3)[32 * 64 + 32], 1.0f);   // centre: sphere
+  EXPECT_GT(img->Plane(1)[32 * 64 + 56], 0.05f);  // lit right limb
+  EXPECT_EQ(img->Plane(1)[32 * 64 + 4], 0.0f);    // left limb faces away from the light
+}
+
+TEST(CpuRenderer, RejectsBadOptionsAndIncompleteMaterials) {
+  RenderOptions o;
+  o.size = 2;
+  EXPECT_FALSE(RenderCpu(Materials().at("lambert"), o).ok());
+  MaterialMaps m = Materials().at("blinn-phong");
+  m.exponent = Image();
+  auto r = RenderCpu(m, {});
+  ASSERT_FALSE(r.ok());
+  EXPECT_NE(r.status().message().find("exponent"), std::string::npos) << r.status().message();
+}
+
+// The agreement contract (docs/render.md): display-encoded 8-bit values of the EGL and CPU
+// renders differ by at most 2/255 per channel on at least 99.5 % of pixels.
+TEST(EglRenderer, MatchesTheCpuReferenceForEveryModel) {
+  if (!Egl()) GTEST_SKIP() << EglRenderer::Create().status().ToString();
+  ASSERT_EQ(Materials().size(), 10u);
+  int64_t all_off = 0, all_total = 0, exact = 0;
+  double all_worst = 0;
+  for (Scene scene : {Scene::kPlane, Scene::kSphere})
+    for (const auto& [name, maps] : Materials())
+      for (double theta : {0.0, 35.0, 70.0}) {
+        RenderOptions o;
+        o.scene = scene;
+        o.size = 96;
+        o.theta_deg = theta, o.phi_deg = 120;
+        o.ambient = 0.05;
+        auto cpu = RenderCpu(maps, o);
+        auto gpu = Egl()->Render(maps, o);
+        ASSERT_TRUE(cpu.ok() && gpu.ok()) << name << ": " << gpu.status().ToString();
+        int64_t off = 0, total = 0;
+        double worst = 0;
+        for (int c = 0; c < 4; ++c)
+          for (int64_t p = 0; p < int64_t(o.size) * o.size; ++p) {
+            const double d =
+                std::abs(std::round(255 * cpu->Plane(c)[p]) - std::round(255 * gpu->Plane(c)[p]));
+            worst = std::max(worst, d);
+            off += d > 2;
+            exact += d == 0;
+            ++total;
+          }
+        all_off += off, all_total += total, all_worst = std::max(all_worst, worst);
+        double lit = 0;  // the render must show the material, not a blank frame
+        for (int64_t p = 0; p < int64_t(o.size) * o.size; ++p) lit += gpu->Plane(1)[p] > 0.02f;
+        EXPECT_GT(lit, 0.3 * o.size * o.size) << name << " " << SceneName(scene);
+        EXPECT_LE(double(off), 0.005 * double(total))
+            << name << " " << SceneName(scene) << " θ=" << theta << ": " << off << " of " << total
+            << " values off by > 2/255 (worst " << worst << ")";
+      }
+  std::printf(
+      "EGL vs CPU, 10 models × 2 scenes × 3 lights: %.4f %% of values off by > 2/255, "
+      "%.2f %% identical, worst %.0f/255\n",
+      100.0 * double(all_off) / double(all_total), 100.0 * double(exact) / double(all_total),
+      all_worst);
+}
+
+TEST(EglRenderer, LinearOutputMatchesTheCpuRadiance) {
+  if (!Egl()) GTEST_SKIP() << EglRenderer::Create().status().ToString();
+  RenderOptions o;
+  o.display = false;
+  o.size = 64;
+  o.theta_deg = 40;
+  const MaterialMaps& m = Materials().at("cook-torrance");
+  auto cpu = RenderCpu(m, o);
+  auto gpu = Egl()->Render(m, o);
+  ASSERT_TRUE(cpu.ok() && gpu.ok());
+  double worst = 0;
+  for (int64_t p = 0; p < 64 * 64; ++p)
+    worst = std::max(worst, double(std::abs(cpu->Plane(0)[p] - gpu->Plane(0)[p])));
+  EXPECT_LT(worst, 1e-3);
+}
+
+}  // namespace
+}  // namespace matfit::render
