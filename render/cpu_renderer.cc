@@ -1,8 +1,8 @@
 #include "render/cpu_renderer.h"
 
+#include "core/pack/shader_params.h"
 #include "core/parallel.h"
 #include "core/shading/evaluate.h"
-#include "render/gpu_material.h"
 #include "render/scene.h"
 
 namespace matfit::render {
@@ -10,7 +10,7 @@ namespace matfit::render {
 StatusOr<Image> RenderCpu(const MaterialMaps& m, const RenderOptions& o) {
   std::string why;
   if (!o.Check(&why)) return InvalidArgument(why);
-  auto packed = PackForGpu(m);  // the same completeness checks as the GPU path
+  auto packed = PackShaderParams(m);  // the same completeness checks as the GPU path
   if (!packed.ok()) return packed.status();
   const int S = o.size;
   Image out(S, S, 4);

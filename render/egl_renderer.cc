@@ -8,7 +8,7 @@
 #include <cstring>
 #include <vector>
 
-#include "render/gpu_material.h"
+#include "core/pack/shader_params.h"
 #include "render/shader_sources.h"
 
 namespace matfit::render {
@@ -140,7 +140,7 @@ std::string EglRenderer::Description() const { return s_->description; }
 StatusOr<Image> EglRenderer::Render(const MaterialMaps& maps, const RenderOptions& o) {
   std::string why;
   if (!o.Check(&why)) return InvalidArgument(why);
-  auto g = PackForGpu(maps);
+  auto g = PackShaderParams(maps);
   if (!g.ok()) return g.status();
   GLint max_size = 0, max_layers = 0;
   glGetIntegerv(GL_MAX_TEXTURE_SIZE, &max_size);

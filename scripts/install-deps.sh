@@ -20,6 +20,8 @@ PACKAGES=(
   libzip-dev
   # render: headless EGL + GLES (Mesa llvmpipe)
   libegl-dev libgles-dev libegl-mesa0 libgl1-mesa-dri
+  # render: the WebGL2 viewer test runs in headless Chromium
+  chromium
   # capture: USB light rigs, V4L2 cameras
   libusb-1.0-0-dev linux-libc-dev
 )

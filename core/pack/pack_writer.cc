@@ -1,6 +1,7 @@
 #include <zip.h>
 
 #include <algorithm>
+#include <bit>
 #include <chrono>
 #include <cmath>
 #include <ctime>
@@ -11,6 +12,7 @@
 #include "core/image_io.h"
 #include "core/pack/gltf.h"
 #include "core/pack/pack.h"
+#include "core/pack/shader_params.h"
 #include "core/shading/evaluate.h"
 #include "core/version.h"
 
@@ -162,6 +164,30 @@ Status WritePack(const MaterialMaps& m, const std::vector<uint8_t>& status, cons
   MATFIT_RETURN_IF_ERROR(put("mask", "mask.png", m.mask, lin8, "1 = sample"));
   MATFIT_RETURN_IF_ERROR(WriteImage((root / "preview.png").string(), Preview(m, status), srgb8));
 
+  // The shaders' parameter planes for the web viewer (core/pack/shader_params.h).
+  json viewer;
+  {
+    auto sp = PackShaderParams(m);
+    if (!sp.ok()) return sp.status();
+    fs::create_directories(root / "viewer", ec);
+    if (ec) return IoError("cannot create '" + (root / "viewer").string() + "': " + ec.message());
+    static_assert(std::endian::native == std::endian::little, "params.bin is little-endian");
+    MATFIT_RETURN_IF_ERROR(
+        WriteFileAtomic((root / "viewer" / "params.bin").string(),
+                        std::string(reinterpret_cast<const char*>(sp->texels.data()),
+                                    sp->texels.size() * sizeof(float))));
+    viewer = {{"params", "viewer/params.bin"},
+              {"encoding", "float32le rgba layers"},
+              {"width", sp->width},
+              {"height", sp->height},
+              {"layers", sp->layers},
+              {"model_index", sp->model},
+              {"terms", sp->terms},
+              {"coef_channels", sp->coef_channels},
+              {"heinrich_specular", sp->heinrich_specular},
+              {"flat_normal", sp->flat_normal}};
+  }
+
   // glTF quad.
   GltfMaterialDesc g;
   g.name = info.method;
@@ -221,6 +247,7 @@ Status WritePack(const MaterialMaps& m, const std::vector<uint8_t>& status, cons
         {"normal_map", "OpenGL (+Y up), rgb = n*0.5+0.5, 16-bit PNG"},
         {"reflectance", "pixel = intensity * R, R = pi * f_r * max(0, n.l)"}}},
       {"gltf", "material.gltf"},
+      {"viewer", viewer},
       {"report", "report.json"},
       {"report_summary", report_summary},
       {"warnings", info.warnings},

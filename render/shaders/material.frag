@@ -1,7 +1,7 @@
 // Material preview: per pixel, hit the scene (plane or sphere, orthographic camera looking down
 // −z), fetch the texel's parameters, evaluate the model in the tangent frame (shading.glsl),
 // add ambient, then expose, tone-map and encode. Mirrors render/cpu_renderer.cc.
-// Parameter planes (render/gpu_material.h): plane q is component q % 4 of layer q / 4.
+// Parameter planes (core/pack/shader_params.h): plane q is component q % 4 of layer q / 4.
 uniform sampler2DArray u_params;
 uniform ivec2 u_texels;     // material width, height
 uniform int u_size;         // output is u_size × u_size pixels

@@ -1,6 +1,8 @@
 // MaterialMaps packed for the shaders: every per-texel parameter the model's GLSL reads, as float
 // planes in a fixed layout (plane q = component q % 4 of layer q / 4 of an RGBA32F 2D array).
-// Layout (material.frag reads the same indices):
+// Packs store it as viewer/params.bin (little-endian float32, layers × height × width × 4), so
+// the web viewer, the EGL renderer and the CPU renderer see exactly the same texels.
+// Layout (render/shaders/material.frag reads the same indices):
 //   0–2 unit normal, 3–5 albedo (mean texture for heinrich, preview for ptm/hsh), 6 mask;
 //   blinn-phong: 7 k_s, 8 exponent;  cook-torrance: 7 F0, 8 roughness;
 //   lafortune (L lobes): 7 + j amplitude, 7 + L + 2j C_xy, 8 + L + 2j exponent;
@@ -13,9 +15,9 @@
 #include "core/material_maps.h"
 #include "core/status.h"
 
-namespace matfit::render {
+namespace matfit {
 
-struct GpuMaterial {
+struct ShaderParams {
   int width = 0, height = 0, layers = 0;
   int model = 0;  // material.frag's u_model: ShadingModel order
   int terms = 0;  // ptm/hsh coefficients per channel, lafortune lobes
@@ -25,6 +27,6 @@ struct GpuMaterial {
 };
 
 // Fails, naming the missing map, when the model's maps are absent or the wrong size.
-StatusOr<GpuMaterial> PackForGpu(const MaterialMaps& maps);
+StatusOr<ShaderParams> PackShaderParams(const MaterialMaps& maps);
 
-}  // namespace matfit::render
+}  // namespace matfit

@@ -1,8 +1,8 @@
-#include "render/gpu_material.h"
+#include "core/pack/shader_params.h"
 
 #include <string>
 
-namespace matfit::render {
+namespace matfit {
 
 namespace {
 
@@ -20,8 +20,8 @@ bool AddPlanes(const Image& img, int count, int w, int h, std::vector<const floa
 
 }  // namespace
 
-StatusOr<GpuMaterial> PackForGpu(const MaterialMaps& m) {
-  GpuMaterial g;
+StatusOr<ShaderParams> PackShaderParams(const MaterialMaps& m) {
+  ShaderParams g;
   g.width = m.width, g.height = m.height;
   g.model = int(m.model);
   const int w = m.width, h = m.height;
@@ -92,4 +92,4 @@ StatusOr<GpuMaterial> PackForGpu(const MaterialMaps& m) {
   return g;
 }
 
-}  // namespace matfit::render
+}  // namespace matfit

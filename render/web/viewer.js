@@ -1,0 +1,155 @@
+// matfit web viewer: WebGL2 preview of a material pack with the same GLSL as the headless EGL
+// renderer (render/shaders, fetched over HTTP and concatenated exactly as shader_sources.cc does)
+// and the same parameter texels (the pack's viewer/params.bin). No dependencies.
+//
+// URL parameters: pack=URL/ (folder with material.json; default ../pack/), shaders=URL/
+// (default ../shaders/), theta, phi (degrees), scene (plane|sphere), size (pixels), exposure,
+// ambient, measured=URL (an image shown side by side), probe=1 (after the first frame, write the
+// RGBA8 pixels as JSON into #probe for tests).
+'use strict';
+
+const MODEL_NAMES = ['mean', 'lambert', 'blinn-phong', 'cook-torrance', 'heinrich', 'ptm', 'hsh',
+                     'lafortune'];
+
+function fail(message) {
+  document.getElementById('error').textContent = 'matfit viewer: ' + message;
+  const probe = document.getElementById('probe');
+  if (probe) probe.textContent = JSON.stringify({error: message});
+  throw new Error(message);
+}
+
+async function fetchOk(url, kind) {
+  const r = await fetch(url);
+  if (!r.ok) fail(`cannot load ${url}: HTTP ${r.status}`);
+  return kind === 'json' ? r.json() : kind === 'buffer' ? r.arrayBuffer() : r.text();
+}
+
+function compile(gl, type, source, name) {
+  const sh = gl.createShader(type);
+  gl.shaderSource(sh, source);
+  gl.compileShader(sh);
+  if (!gl.getShaderParameter(sh, gl.COMPILE_STATUS))
+    fail(`shader ${name} does not compile: ${gl.getShaderInfoLog(sh)}`);
+  return sh;
+}
+
+async function main() {
+  const q = new URLSearchParams(location.search);
+  const pack = q.get('pack') || '../pack/';
+  const shaders = q.get('shaders') || '../shaders/';
+  const [preamble, shading, frag, vert, material] = await Promise.all([
+    fetchOk(shaders + 'preamble.glsl'), fetchOk(shaders + 'shading.glsl'),
+    fetchOk(shaders + 'material.frag'), fetchOk(shaders + 'fullscreen.vert'),
+    fetchOk(pack + 'material.json', 'json'),
+  ]);
+  const v = material.viewer;
+  if (!v || !v.params) fail('material.json has no "viewer" section; re-write the pack with this matfit');
+  const texels = new Float32Array(await fetchOk(pack + v.params, 'buffer'));
+  if (texels.length !== v.layers * v.width * v.height * 4)
+    fail(`${v.params} has ${texels.length} floats, expected ${v.layers * v.width * v.height * 4}`);
+
+  const state = {
+    theta: Number(q.get('theta') ?? 30), phi: Number(q.get('phi') ?? 45),
+    scene: q.get('scene') === 'sphere' ? 1 : 0, exposure: Number(q.get('exposure') ?? 1),
+    ambient: Number(q.get('ambient') ?? 0), tonemap: 0,
+  };
+  const canvas = document.getElementById('canvas');
+  const size = Number(q.get('size') || 512);
+  canvas.width = canvas.height = size;
+  const gl = canvas.getContext('webgl2', {antialias: false, preserveDrawingBuffer: true,
+                                          premultipliedAlpha: false});
+  if (!gl) fail('this browser has no WebGL2');
+
+  const program = gl.createProgram();
+  gl.attachShader(program, compile(gl, gl.VERTEX_SHADER, preamble + vert, 'fullscreen.vert'));
+  gl.attachShader(program, compile(gl, gl.FRAGMENT_SHADER, preamble + shading + frag,
+                                   'material.frag'));
+  gl.linkProgram(program);
+  if (!gl.getProgramParameter(program, gl.LINK_STATUS))
+    fail('shader program does not link: ' + gl.getProgramInfoLog(program));
+  const tex = gl.createTexture();
+  gl.bindTexture(gl.TEXTURE_2D_ARRAY, tex);
+  gl.texParameteri(gl.TEXTURE_2D_ARRAY, gl.TEXTURE_MIN_FILTER, gl.NEAREST);
+  gl.texParameteri(gl.TEXTURE_2D_ARRAY, gl.TEXTURE_MAG_FILTER, gl.NEAREST);
+  gl.texImage3D(gl.TEXTURE_2D_ARRAY, 0, gl.RGBA32F, v.width, v.height, v.layers, 0, gl.RGBA,
+                gl.FLOAT, texels);
+  const vao = gl.createVertexArray();
+  const U = (name) => gl.getUniformLocation(program, name);
+
+  function draw() {
+    const t = state.theta * Math.PI / 180, p = state.phi * Math.PI / 180;
+    gl.viewport(0, 0, size, size);
+    gl.clearColor(0, 0, 0, 0);
+    gl.clear(gl.COLOR_BUFFER_BIT);
+    gl.useProgram(program);
+    gl.uniform1i(U('u_params'), 0);
+    gl.uniform2i(U('u_texels'), v.width, v.height);
+    gl.uniform1i(U('u_size'), size);
+    gl.uniform1i(U('u_scene'), state.scene);
+    gl.uniform1i(U('u_model'), v.model_index);
+    gl.uniform1i(U('u_terms'), v.terms);
+    gl.uniform1i(U('u_coef_channels'), v.coef_channels);
+    gl.uniform1i(U('u_heinrich_specular'), v.heinrich_specular ? 1 : 0);
+    gl.uniform1i(U('u_flat_normal'), v.flat_normal ? 1 : 0);
+    gl.uniform3f(U('u_light'), Math.sin(t) * Math.cos(p), Math.sin(t) * Math.sin(p), Math.cos(t));
+    gl.uniform3f(U('u_intensity'), 1, 1, 1);
+    gl.uniform3f(U('u_ambient'), state.ambient, state.ambient, state.ambient);
+    gl.uniform1f(U('u_exposure'), state.exposure);
+    gl.uniform1i(U('u_tonemap'), state.tonemap);
+    gl.uniform1i(U('u_display'), 1);
+    gl.activeTexture(gl.TEXTURE0);
+    gl.bindTexture(gl.TEXTURE_2D_ARRAY, tex);
+    gl.bindVertexArray(vao);
+    gl.drawArrays(gl.TRIANGLES, 0, 3);
+    document.getElementById('light').textContent =
+        `light θ ${state.theta.toFixed(1)}°, φ ${state.phi.toFixed(1)}°`;
+  }
+
+  // The light follows the pointer: distance from the centre → θ (0–85°), angle → φ.
+  canvas.addEventListener('pointermove', (e) => {
+    const r = canvas.getBoundingClientRect();
+    const x = 2 * (e.clientX - r.left) / r.width - 1, y = 1 - 2 * (e.clientY - r.top) / r.height;
+    state.theta = Math.min(1, Math.hypot(x, y)) * 85;
+    state.phi = Math.atan2(y, x) * 180 / Math.PI;
+    draw();
+  });
+  const bind = (id, key, map) => {
+    const el = document.getElementById(id);
+    el.addEventListener('input', () => { state[key] = map(el.value); draw(); });
+  };
+  document.getElementById('scene').value = String(state.scene);
+  bind('scene', 'scene', Number);
+  bind('tonemap', 'tonemap', Number);
+  bind('exposure', 'exposure', (x) => Math.pow(2, Number(x)));
+  bind('ambient', 'ambient', Number);
+
+  const model = MODEL_NAMES[v.model_index] || material.model?.name;
+  document.getElementById('title').textContent = `matfit viewer: ${model}`;
+  const summary = material.report_summary || {};
+  document.getElementById('info').textContent =
+      `${v.width} × ${v.height} texels, model ${model}` +
+      (summary.rmse !== undefined ? `, fit RMSE ${Number(summary.rmse).toFixed(4)}` : '');
+  if (q.get('measured')) {
+    document.getElementById('measured').src = q.get('measured');
+    document.getElementById('measured-figure').hidden = false;
+  }
+  draw();
+
+  if (q.get('probe')) {
+    const px = new Uint8Array(size * size * 4);
+    gl.readPixels(0, 0, size, size, gl.RGBA, gl.UNSIGNED_BYTE, px);
+    const rows = [];  // top row first, as the other renderers store images
+    for (let y = size - 1; y >= 0; --y) rows.push(px.subarray(y * size * 4, (y + 1) * size * 4));
+    let bin = '';
+    for (const row of rows) for (let i = 0; i < row.length; ++i) bin += String.fromCharCode(row[i]);
+    document.getElementById('probe').textContent = JSON.stringify({
+      size, model, renderer: gl.getParameter(gl.RENDERER), rgba8_base64: btoa(bin),
+    });
+  }
+}
+
+main().catch((e) => {
+  const probe = document.getElementById('probe');
+  if (probe && !probe.textContent) probe.textContent = JSON.stringify({error: String(e)});
+  document.getElementById('error').textContent = String(e);
+});
