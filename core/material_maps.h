@@ -33,7 +33,11 @@ struct MaterialMaps {
   Image exponent;      // 1 plane: Blinn–Phong exponent e
   Image roughness;     // 1 plane: Cook–Torrance perceptual roughness r (GGX α = r²)
   Image thickness;     // 1 plane: leaf thickness in mm
-  Image translucency;  // 3 planes: leaf translucency ρ_t (back-lit transmission factor)
+  Image translucency;  // 3 planes: leaf translucency ρ_t (back-lit transmission factor); a
+                       // material with it is two-sided (EvaluateLeafTexel)
+  Image albedo_back;   // 3 planes: leaf lower-side diffuse albedo (empty: same as albedo)
+  Image hl2;           // 3 planes: HL2 translucency coefficients h_1..h_3 for light from
+                       // behind (empty: diffuse BTDF fallback)
   Image mask;          // 1 plane: 1 = sample, 0 = background
   // Seed method A (METHODS.md §2): albedo holds the mean texture t_c, normal the unit normal.
   Image ambient;                      // 3 planes: ambient factor a_c (grey for the seed fit)

@@ -25,9 +25,12 @@ StatusOr<Image> RenderCpu(const MaterialMaps& m, const RenderOptions& o) {
         if (!h.hit || (!m.mask.empty() && m.mask.Plane(0)[p] < 0.5f)) continue;  // background
         const Vec3f lt(Dot(light, h.t), Dot(light, h.b), Dot(light, h.n));
         const Vec3f vt(Dot(v, h.t), Dot(v, h.b), Dot(v, h.n));
-        const bool lit = Dot(light, h.n) > 0.0f;
+        const bool leaf = !m.translucency.empty();  // two-sided: light from behind transmits
+        const bool lit = leaf || Dot(light, h.n) > 0.0f;
         for (int c = 0; c < 3; ++c) {
-          const float f = lit ? EvaluateTexel(m, p, c, lt, vt) : 0.0f;
+          const float f = !lit   ? 0.0f
+                          : leaf ? EvaluateLeafTexel(m, p, c, lt, vt)
+                                 : EvaluateTexel(m, p, c, lt, vt);
           const float color = radiance[c] * f + ambient * m.albedo.Plane(c)[p];
           out.Plane(c)[q] = o.display ? DisplayEncode(color, o) : color;
         }

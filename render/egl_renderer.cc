@@ -182,6 +182,8 @@ StatusOr<Image> EglRenderer::Render(const MaterialMaps& maps, const RenderOption
     glUniform1i(glGetUniformLocation(p, "u_coef_channels"), g->coef_channels);
     glUniform1i(glGetUniformLocation(p, "u_heinrich_specular"), g->heinrich_specular);
     glUniform1i(glGetUniformLocation(p, "u_flat_normal"), g->flat_normal);
+    glUniform1i(glGetUniformLocation(p, "u_leaf_base"), g->leaf_base);
+    glUniform1i(glGetUniformLocation(p, "u_leaf_hl2"), g->leaf_hl2);
     glUniform3f(glGetUniformLocation(p, "u_light"), float(l.x), float(l.y), float(l.z));
     glUniform3f(glGetUniformLocation(p, "u_intensity"), float(rad.x), float(rad.y), float(rad.z));
     const float a = float(o.ambient);

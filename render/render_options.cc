@@ -7,7 +7,8 @@ namespace matfit::render {
 StatusOr<Scene> ParseScene(const std::string& name) {
   if (name == "plane") return Scene::kPlane;
   if (name == "sphere") return Scene::kSphere;
-  return InvalidArgument("unknown scene '" + name + "'; choose one of: plane, sphere");
+  if (name == "cloth") return Scene::kCloth;
+  return InvalidArgument("unknown scene '" + name + "'; choose one of: plane, sphere, cloth");
 }
 
 StatusOr<Tonemap> ParseTonemap(const std::string& name) {
@@ -16,7 +17,14 @@ StatusOr<Tonemap> ParseTonemap(const std::string& name) {
   return InvalidArgument("unknown tone map '" + name + "'; choose one of: clamp, reinhard");
 }
 
-const char* SceneName(Scene s) { return s == Scene::kPlane ? "plane" : "sphere"; }
+const char* SceneName(Scene s) {
+  switch (s) {
+    case Scene::kPlane: return "plane";
+    case Scene::kSphere: return "sphere";
+    case Scene::kCloth: return "cloth";
+  }
+  return "?";
+}
 
 bool RenderOptions::Check(std::string* why) const {
   if (size < 8 || size > 4096) {

@@ -9,10 +9,10 @@
 
 namespace matfit::render {
 
-enum class Scene { kPlane, kSphere };
+enum class Scene { kPlane, kSphere, kCloth };
 enum class Tonemap { kClamp, kReinhard };
 
-// "plane" | "sphere"; "clamp" | "reinhard".
+// "plane" | "sphere" | "cloth"; "clamp" | "reinhard".
 StatusOr<Scene> ParseScene(const std::string& name);
 StatusOr<Tonemap> ParseTonemap(const std::string& name);
 const char* SceneName(Scene s);

@@ -1,6 +1,8 @@
 // Per-pixel scene geometry of the previews, the CPU twin of material.frag's main(): an
-// orthographic camera looking down −z at a sample plane filling the view, or at a unit sphere
-// (texture: longitude φ ∈ [−π/2, π/2] across u, latitude down v, one copy over the front).
+// orthographic camera looking down −z at a sample plane filling the view, at a unit sphere
+// (texture: longitude φ ∈ [−π/2, π/2] across u, latitude down v, one copy over the front), or
+// at a draped cloth: the height field z = ClothHeight(x, y) over [−1, 1]², seen from above, so
+// each pixel hits it at its own (x, y); texture as on the plane.
 #pragma once
 
 #include "core/vec3.h"
@@ -16,6 +18,9 @@ struct SceneHit {
 
 // Pixel (px, py), py = row from the top, of a size × size image; material width × height.
 SceneHit HitScene(Scene scene, int size, int px, int py, int width, int height);
+
+// The cloth's folds (dimensionless, x, y ∈ [−1, 1]) and their gradient (∂z/∂x, ∂z/∂y).
+float ClothHeight(float x, float y, float* dzdx, float* dzdy);
 
 // material.frag's display transform: exposure, tone map, clamp to [0, 1], sRGB encode.
 float DisplayEncode(float linear, const RenderOptions& o);

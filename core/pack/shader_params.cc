@@ -78,6 +78,14 @@ StatusOr<ShaderParams> PackShaderParams(const MaterialMaps& m) {
       break;
     default: break;
   }
+  if (ok && !m.translucency.empty()) {
+    g.leaf_base = int(planes.size());
+    ok = ok && AddPlanes(m.translucency, 3, w, h, &planes, &missing, "translucency");
+    ok = ok && AddPlanes(m.albedo_back.empty() ? m.albedo : m.albedo_back, 3, w, h, &planes,
+                         &missing, "albedo_back");
+    g.leaf_hl2 = !m.hl2.empty();
+    if (g.leaf_hl2) ok = ok && AddPlanes(m.hl2, 3, w, h, &planes, &missing, "hl2");
+  }
   if (!ok)
     return InvalidArgument(std::string("material (") + ShadingModelName(m.model) + "): map '" +
                            (missing.empty() ? "lobe/basis terms" : missing) +

@@ -7,7 +7,9 @@
 //   blinn-phong: 7 k_s, 8 exponent;  cook-torrance: 7 F0, 8 roughness;
 //   lafortune (L lobes): 7 + j amplitude, 7 + L + 2j C_xy, 8 + L + 2j exponent;
 //   heinrich: 7–9 ambient, 10 |n_raw|, 11–13 L_spec, 14 exponent;
-//   ptm/hsh: 7 + c·K + j coefficient j of channel c.
+//   ptm/hsh: 7 + c·K + j coefficient j of channel c;
+//   two-sided leaves (translucency present), after the model's planes from leaf_base:
+//   +0–2 ρ_t, +3–5 lower-side albedo, +6–8 HL2 h_1..h_3 (when leaf_hl2).
 #pragma once
 
 #include <vector>
@@ -23,6 +25,8 @@ struct ShaderParams {
   int terms = 0;  // ptm/hsh coefficients per channel, lafortune lobes
   int coef_channels = 3;
   bool heinrich_specular = false, flat_normal = false;
+  int leaf_base = -1;         // first leaf plane, −1: not a leaf
+  bool leaf_hl2 = false;      // HL2 coefficients present (else the diffuse BTDF)
   std::vector<float> texels;  // layers × height × width × 4, row 0 = top
 };
 

@@ -130,4 +130,28 @@ inline T HeinrichSpecular(const T& l_spec, const T& exponent, const Vec3T<T>& n_
   return l_spec * pow(nh, exponent);
 }
 
+// Leaf translucency (METHODS.md §5). Half-Life-2 basis H_i (unit vectors) and the functions
+// ℋ_i(ω) = √(3/(2π)) H_i·ω (unclamped; orthonormal on the hemisphere).
+inline constexpr double kHl2[3][3] = {
+    {-0.40824829046386301, -0.70710678118654752, 0.57735026918962576},
+    {-0.40824829046386301, 0.70710678118654752, 0.57735026918962576},
+    {0.81649658092772603, 0.0, 0.57735026918962576}};
+inline constexpr double kHl2Scale = 0.69098829894267105;  // √(3/(2π))
+// Diffuse translucency rebuilt from HL2 coefficients h_i: ρ_t Σ_i h_i ℋ_i(ω), ω the light
+// direction in the frame of the lit side (z out of the lit surface).
+template <typename T>
+inline T Hl2Translucency(const T& rho_t, const T& h1, const T& h2, const T& h3, const Vec3T<T>& w) {
+  const T hs[3] = {h1, h2, h3};
+  T r(0);
+  for (int i = 0; i < 3; ++i)
+    r += hs[i] * T(kHl2Scale) * (T(kHl2[i][0]) * w.x + T(kHl2[i][1]) * w.y + T(kHl2[i][2]) * w.z);
+  return rho_t * Clamp0(r);
+}
+// The fallback without HL2 coefficients: a diffuse BTDF, ρ_t max(0, ω_z) (what h_i = √(2π)/3
+// reconstructs exactly).
+template <typename T>
+inline T DiffuseTranslucency(const T& rho_t, const Vec3T<T>& w) {
+  return rho_t * Clamp0(w.z);
+}
+
 }  // namespace matfit::shading

@@ -5,12 +5,14 @@
 uniform sampler2DArray u_params;
 uniform ivec2 u_texels;     // material width, height
 uniform int u_size;         // output is u_size × u_size pixels
-uniform int u_scene;        // 0 plane, 1 sphere
+uniform int u_scene;        // 0 plane, 1 sphere, 2 cloth
 uniform int u_model;        // 0 mean, 1 lambert, 2 blinn-phong, 3 cook-torrance, 4 heinrich,
                             // 5 ptm, 6 hsh, 7 lafortune
 uniform int u_terms;        // ptm/hsh coefficients per channel, or lafortune lobes
 uniform int u_coef_channels;  // ptm/hsh: 1 (grey) or 3
 uniform bool u_heinrich_specular, u_flat_normal;
+uniform int u_leaf_base;    // −1: one-sided material; else the first leaf plane (two-sided)
+uniform bool u_leaf_hl2;
 uniform vec3 u_light;       // unit, world frame (toward the light)
 uniform vec3 u_intensity;   // light colour × intensity
 uniform vec3 u_ambient;     // ambient × albedo is added
@@ -53,6 +55,28 @@ float EvaluateChannel(int c, vec3 l, vec3 v) {
   return r;
 }
 
+// render/scene.cc ClothHeight: folds over [−1, 1]²; returns (z, ∂z/∂x, ∂z/∂y).
+vec3 ClothHeight(float x, float y) {
+  float a = 3.1 * x + 0.6 * sin(2.0 * y), depth = 0.16 * (1.2 - 0.5 * y);
+  float b = 5.3 * y + 1.3;
+  float dzdx = depth * cos(a) * 3.1;
+  float dzdy = depth * cos(a) * 0.6 * 2.0 * cos(2.0 * y) - 0.08 * sin(a) + 0.04 * 5.3 * cos(b);
+  return vec3(depth * sin(a) + 0.04 * sin(b), dzdx, dzdy);
+}
+
+// core/shading/evaluate.cc EvaluateLeafTexel: the lower side's frame is (x, −y, −z).
+float EvaluateLeafChannel(int c, vec3 l, vec3 v) {
+  bool light_up = l.z > 0.0, view_up = v.z > 0.0;
+  if (light_up && view_up) return EvaluateChannel(c, l, v);
+  vec3 lower = vec3(l.x, -l.y, -l.z);
+  if (!light_up && !view_up) return Lambert(P(u_leaf_base + 3 + c), vec3(0.0, 0.0, 1.0), lower);
+  vec3 w = light_up ? l : lower;
+  float rho_t = P(u_leaf_base + c);
+  if (!u_leaf_hl2) return DiffuseTranslucency(rho_t, w);
+  int hb = u_leaf_base + 6;
+  return Hl2Translucency(rho_t, vec3(P(hb), P(hb + 1), P(hb + 2)), w);
+}
+
 float EncodeSrgb(float x) {
   return x <= 0.0031308 ? 12.92 * x : 1.055 * pow(x, 1.0 / 2.4) - 0.055;
 }
@@ -67,6 +91,13 @@ void main() {
   if (u_scene == 0) {
     tu = px / S;
     tv = py / S;
+  } else if (u_scene == 2) {
+    tu = px / S;
+    tv = py / S;
+    vec3 f = ClothHeight(2.0 * px / S - 1.0, 1.0 - 2.0 * py / S);
+    N = normalize(vec3(-f.y, -f.z, 1.0));
+    T = normalize(vec3(1.0, 0.0, f.y));
+    B = cross(N, T);
   } else {
     float x = 2.0 * px / S - 1.0, y = 1.0 - 2.0 * py / S;
     float r2 = x * x + y * y;
@@ -91,7 +122,10 @@ void main() {
   vec3 lt = vec3(dot(u_light, T), dot(u_light, B), dot(u_light, N));
   vec3 vt = vec3(dot(v, T), dot(v, B), dot(v, N));
   vec3 f = vec3(0.0);
-  if (dot(u_light, N) > 0.0)  // the light is above this point's horizon
+  if (u_leaf_base >= 0)  // two-sided: light from behind is transmitted
+    f = vec3(EvaluateLeafChannel(0, lt, vt), EvaluateLeafChannel(1, lt, vt),
+             EvaluateLeafChannel(2, lt, vt));
+  else if (dot(u_light, N) > 0.0)  // the light is above this point's horizon
     f = vec3(EvaluateChannel(0, lt, vt), EvaluateChannel(1, lt, vt), EvaluateChannel(2, lt, vt));
   vec3 color = u_intensity * f + u_ambient * vec3(P(3), P(4), P(5));
   if (u_display) {

@@ -63,6 +63,17 @@ float HeinrichSpecular(float l_spec, float e, vec3 n_s, vec3 l, vec3 v) {
   return l_spec * pow(nh, e);
 }
 
+// Leaf translucency: ρ_t Σ_i h_i √(3/(2π)) H_i·ω (HL2), or the diffuse BTDF ρ_t max(0, ω_z).
+float Hl2Translucency(float rho_t, vec3 h, vec3 w) {
+  const vec3 H1 = vec3(-0.40824829046386301, -0.70710678118654752, 0.57735026918962576);
+  const vec3 H2 = vec3(-0.40824829046386301, 0.70710678118654752, 0.57735026918962576);
+  const vec3 H3 = vec3(0.81649658092772603, 0.0, 0.57735026918962576);
+  const float kScale = 0.69098829894267105;
+  float r = h.x * kScale * dot(H1, w) + h.y * kScale * dot(H2, w) + h.z * kScale * dot(H3, w);
+  return rho_t * Clamp0(r);
+}
+float DiffuseTranslucency(float rho_t, vec3 w) { return rho_t * Clamp0(w.z); }
+
 // ---- relight_basis.cc ----
 void PtmBasis(vec3 l, out float b[16]) {
   b[0] = l.x * l.x;

@@ -3,7 +3,7 @@
 // and the same parameter texels (the pack's viewer/params.bin). No dependencies.
 //
 // URL parameters: pack=URL/ (folder with material.json; default ../pack/), shaders=URL/
-// (default ../shaders/), theta, phi (degrees), scene (plane|sphere), size (pixels), exposure,
+// (default ../shaders/), theta, phi (degrees), scene (plane|sphere|cloth), size (pixels), exposure,
 // ambient, measured=URL (an image shown side by side), probe=1 (after the first frame, write the
 // RGBA8 pixels as JSON into #probe for tests).
 'use strict';
@@ -50,7 +50,7 @@ async function main() {
 
   const state = {
     theta: Number(q.get('theta') ?? 30), phi: Number(q.get('phi') ?? 45),
-    scene: q.get('scene') === 'sphere' ? 1 : 0, exposure: Number(q.get('exposure') ?? 1),
+    scene: {plane: 0, sphere: 1, cloth: 2}[q.get('scene') || 'plane'] ?? 0, exposure: Number(q.get('exposure') ?? 1),
     ambient: Number(q.get('ambient') ?? 0), tonemap: 0,
   };
   const canvas = document.getElementById('canvas');
@@ -91,6 +91,8 @@ async function main() {
     gl.uniform1i(U('u_coef_channels'), v.coef_channels);
     gl.uniform1i(U('u_heinrich_specular'), v.heinrich_specular ? 1 : 0);
     gl.uniform1i(U('u_flat_normal'), v.flat_normal ? 1 : 0);
+    gl.uniform1i(U('u_leaf_base'), v.leaf_base ?? -1);
+    gl.uniform1i(U('u_leaf_hl2'), v.leaf_hl2 ? 1 : 0);
     gl.uniform3f(U('u_light'), Math.sin(t) * Math.cos(p), Math.sin(t) * Math.sin(p), Math.cos(t));
     gl.uniform3f(U('u_intensity'), 1, 1, 1);
     gl.uniform3f(U('u_ambient'), state.ambient, state.ambient, state.ambient);
@@ -109,7 +111,9 @@ async function main() {
   canvas.addEventListener('pointermove', (e) => {
     const r = canvas.getBoundingClientRect();
     const x = 2 * (e.clientX - r.left) / r.width - 1, y = 1 - 2 * (e.clientY - r.top) / r.height;
-    state.theta = Math.min(1, Math.hypot(x, y)) * 85;
+    // Leaves are two-sided: past the rim the light goes behind the leaf (θ up to 180°).
+    const rim = v.leaf_base >= 0 ? 180 : 85;
+    state.theta = Math.min(1, Math.hypot(x, y)) * rim;
     state.phi = Math.atan2(y, x) * 180 / Math.PI;
     draw();
   });

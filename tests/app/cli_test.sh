@@ -84,7 +84,7 @@ out=$("$bin" render "$tmp/pack-heinrich" --light 60,0 --sweep 4 --size 32 --back
 expect_contains "render sweep size" "$out" "64 × 64"
 msg=$("$bin" render "$tmp/pack-lambert" --scene cube --out "$tmp/x.png" 2>&1); rc=$?
 [ $rc -ne 0 ] && ok || bad "unknown scene should fail"
-expect_contains "render scene" "$msg" "choose one of: plane, sphere"
+expect_contains "render scene" "$msg" "choose one of: plane, sphere, cloth"
 msg=$("$bin" render "$tmp/pack-lambert" --out "$tmp/x.jpg" 2>&1); rc=$?
 [ $rc -ne 0 ] && ok || bad "jpg output should fail"
 expect_contains "render out" "$msg" ".png (8-bit sRGB) or .exr"
