@@ -112,7 +112,7 @@ void RegisterRender(CLI::App& app, int* exit_code) {
   sub->add_option("PACK", args->pack, "material pack folder")->required();
   sub->add_option("--out", args->out, "output .png (8-bit sRGB) or .exr (linear)")->required();
   sub->add_option("--light", args->light, "light THETA,PHI in degrees")->capture_default_str();
-  sub->add_option("--scene", args->scene, "plane or sphere")->capture_default_str();
+  sub->add_option("--scene", args->scene, "plane, sphere or cloth")->capture_default_str();
   sub->add_option("--size", args->options.size, "output size in pixels")->capture_default_str();
   sub->add_option("--backend", args->backend, "auto (EGL, else CPU), egl or cpu")
       ->capture_default_str();

@@ -77,6 +77,10 @@ StatusOr<PackContents> ReadPack(const std::string& dir) {
   MATFIT_RETURN_IF_ERROR(load("roughness", &m.roughness));
   MATFIT_RETURN_IF_ERROR(load("lobe_shape", &m.lobe_shape));
   MATFIT_RETURN_IF_ERROR(load("mask", &m.mask));
+  MATFIT_RETURN_IF_ERROR(load("thickness", &m.thickness));
+  MATFIT_RETURN_IF_ERROR(load("translucency", &m.translucency));
+  MATFIT_RETURN_IF_ERROR(load("albedo_back", &m.albedo_back));
+  MATFIT_RETURN_IF_ERROR(load("hl2", &m.hl2));
   if (m.model == ShadingModel::kHeinrich) {
     MATFIT_RETURN_IF_ERROR(load("specular_exact", &m.specular_color));
   } else {

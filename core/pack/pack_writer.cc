@@ -162,6 +162,14 @@ Status WritePack(const MaterialMaps& m, const std::vector<uint8_t>& status, cons
   MATFIT_RETURN_IF_ERROR(
       put("status", "status.png", status_img, lin8, "per-texel fit status code (0 = ok)"));
   MATFIT_RETURN_IF_ERROR(put("mask", "mask.png", m.mask, lin8, "1 = sample"));
+  // Two-sided leaves (METHODS.md §5): render/ reads these; issue #5 fills them from scans.
+  MATFIT_RETURN_IF_ERROR(put("thickness", "thickness.exr", m.thickness, exr, "leaf thickness, mm"));
+  MATFIT_RETURN_IF_ERROR(put("translucency", "translucency.exr", m.translucency, exr,
+                             "leaf translucency rho_t (back-lit transmission)"));
+  MATFIT_RETURN_IF_ERROR(
+      put("albedo_back", "albedo_back.exr", m.albedo_back, exr, "leaf lower-side diffuse albedo"));
+  MATFIT_RETURN_IF_ERROR(put("hl2", "hl2.exr", m.hl2, exr,
+                             "leaf HL2 translucency coefficients h1..h3 (light from behind)"));
   MATFIT_RETURN_IF_ERROR(WriteImage((root / "preview.png").string(), Preview(m, status), srgb8));
 
   // The shaders' parameter planes for the web viewer (core/pack/shader_params.h).

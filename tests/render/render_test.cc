@@ -8,6 +8,8 @@
 #include <memory>
 
 #include "core/color.h"
+#include "core/pack/pack.h"
+#include "core/pack/pack_reader.h"
 #include "core/synth/materials.h"
 #include "core/synth/synth.h"
 #include "fit/method.h"
@@ -108,6 +110,25 @@ TEST(CpuRenderer, BackLitLeafShowsItsTranslucency) {
   auto a = RenderCpu(Materials().at("leaf"), o), b = RenderCpu(leaf, o);
   ASSERT_TRUE(a.ok() && b.ok());
   for (int64_t p = 0; p < 32 * 32; ++p) EXPECT_NEAR(a->Plane(0)[p], b->Plane(0)[p], 1e-6);
+}
+
+TEST(CpuRenderer, LeafPackRoundTripRendersTheSame) {
+  const MaterialMaps& leaf = Materials().at("leaf-hl2");
+  const std::string dir = ::testing::TempDir() + "/matfit-leaf-pack";
+  PackWriteOptions w;
+  w.overwrite = true;
+  ASSERT_TRUE(WritePack(leaf, std::vector<uint8_t>(32 * 32, 0), {}, w, dir).ok());
+  auto back = ReadPack(dir);
+  ASSERT_TRUE(back.ok()) << back.status().ToString();
+  ASSERT_FALSE(back->maps.hl2.empty());
+  ASSERT_FALSE(back->maps.translucency.empty());
+  for (double theta : {30.0, 150.0}) {
+    RenderOptions o;
+    o.size = 32, o.theta_deg = theta, o.display = false;
+    auto a = RenderCpu(leaf, o), b = RenderCpu(back->maps, o);
+    ASSERT_TRUE(a.ok() && b.ok());
+    for (size_t k = 0; k < a->data().size(); ++k) ASSERT_NEAR(a->data()[k], b->data()[k], 1e-6);
+  }
 }
 
 TEST(CpuRenderer, RejectsBadOptionsAndIncompleteMaterials) {
