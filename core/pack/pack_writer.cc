@@ -193,7 +193,9 @@ Status WritePack(const MaterialMaps& m, const std::vector<uint8_t>& status, cons
               {"terms", sp->terms},
               {"coef_channels", sp->coef_channels},
               {"heinrich_specular", sp->heinrich_specular},
-              {"flat_normal", sp->flat_normal}};
+              {"flat_normal", sp->flat_normal},
+              {"leaf_base", sp->leaf_base},
+              {"leaf_hl2", sp->leaf_hl2}};
   }
 
   // glTF quad.

@@ -2,9 +2,10 @@
 // renderer (render/shaders, fetched over HTTP and concatenated exactly as shader_sources.cc does)
 // and the same parameter texels (the pack's viewer/params.bin). No dependencies.
 //
-// URL parameters: pack=URL/ (folder with material.json; default ../pack/), shaders=URL/
+// URL parameters: pack=URL/ (folder with material.json; default ../pack/; several packs of one
+// sample, comma-separated, get a model switcher), shaders=URL/
 // (default ../shaders/), theta, phi (degrees), scene (plane|sphere|cloth), size (pixels), exposure,
-// ambient, measured=URL (an image shown side by side), probe=1 (after the first frame, write the
+// ambient, select=i (which of several packs to show first), measured=URL (an image shown side by side), probe=1 (after the first frame, write the
 // RGBA8 pixels as JSON into #probe for tests).
 'use strict';
 
@@ -35,19 +36,18 @@ function compile(gl, type, source, name) {
 
 async function main() {
   const q = new URLSearchParams(location.search);
-  const pack = q.get('pack') || '../pack/';
+  const packs = (q.get('pack') || '../pack/').split(',').filter((p) => p);
   const shaders = q.get('shaders') || '../shaders/';
-  const [preamble, shading, frag, vert, material] = await Promise.all([
+  const [preamble, shading, frag, vert, ...materials] = await Promise.all([
     fetchOk(shaders + 'preamble.glsl'), fetchOk(shaders + 'shading.glsl'),
     fetchOk(shaders + 'material.frag'), fetchOk(shaders + 'fullscreen.vert'),
-    fetchOk(pack + 'material.json', 'json'),
+    ...packs.map((p) => fetchOk(p + 'material.json', 'json')),
   ]);
-  const v = material.viewer;
-  if (!v || !v.params) fail('material.json has no "viewer" section; re-write the pack with this matfit');
-  const texels = new Float32Array(await fetchOk(pack + v.params, 'buffer'));
-  if (texels.length !== v.layers * v.width * v.height * 4)
-    fail(`${v.params} has ${texels.length} floats, expected ${v.layers * v.width * v.height * 4}`);
-
+  materials.forEach((m, i) => {
+    if (!m.viewer || !m.viewer.params)
+      fail(`${packs[i]}material.json has no "viewer" section; re-write the pack with this matfit`);
+  });
+  let v = materials[0].viewer;  // the pack on screen
   const state = {
     theta: Number(q.get('theta') ?? 30), phi: Number(q.get('phi') ?? 45),
     scene: {plane: 0, sphere: 1, cloth: 2}[q.get('scene') || 'plane'] ?? 0, exposure: Number(q.get('exposure') ?? 1),
@@ -71,8 +71,29 @@ async function main() {
   gl.bindTexture(gl.TEXTURE_2D_ARRAY, tex);
   gl.texParameteri(gl.TEXTURE_2D_ARRAY, gl.TEXTURE_MIN_FILTER, gl.NEAREST);
   gl.texParameteri(gl.TEXTURE_2D_ARRAY, gl.TEXTURE_MAG_FILTER, gl.NEAREST);
-  gl.texImage3D(gl.TEXTURE_2D_ARRAY, 0, gl.RGBA32F, v.width, v.height, v.layers, 0, gl.RGBA,
-                gl.FLOAT, texels);
+  // Uploads pack i's parameter planes (fetched once, then cached).
+  const cache = new Map();
+  async function loadPack(i) {
+    const mv = materials[i].viewer;
+    if (!cache.has(i)) {
+      const texels = new Float32Array(await fetchOk(packs[i] + mv.params, 'buffer'));
+      if (texels.length !== mv.layers * mv.width * mv.height * 4)
+        fail(`${packs[i]}${mv.params} has ${texels.length} floats, expected ` +
+             `${mv.layers * mv.width * mv.height * 4}`);
+      cache.set(i, texels);
+    }
+    gl.bindTexture(gl.TEXTURE_2D_ARRAY, tex);
+    gl.texImage3D(gl.TEXTURE_2D_ARRAY, 0, gl.RGBA32F, mv.width, mv.height, mv.layers, 0, gl.RGBA,
+                  gl.FLOAT, cache.get(i));
+    v = mv;
+    const model = MODEL_NAMES[v.model_index] || materials[i].model?.name;
+    document.getElementById('title').textContent = `matfit viewer: ${model}`;
+    const summary = materials[i].report_summary || {};
+    document.getElementById('info').textContent =
+        `${v.width} × ${v.height} texels, model ${model}` +
+        (summary.rmse !== undefined ? `, fit RMSE ${Number(summary.rmse).toFixed(4)}` : '');
+    return model;
+  }
   const vao = gl.createVertexArray();
   const U = (name) => gl.getUniformLocation(program, name);
 
@@ -127,12 +148,18 @@ async function main() {
   bind('exposure', 'exposure', (x) => Math.pow(2, Number(x)));
   bind('ambient', 'ambient', Number);
 
-  const model = MODEL_NAMES[v.model_index] || material.model?.name;
-  document.getElementById('title').textContent = `matfit viewer: ${model}`;
-  const summary = material.report_summary || {};
-  document.getElementById('info').textContent =
-      `${v.width} × ${v.height} texels, model ${model}` +
-      (summary.rmse !== undefined ? `, fit RMSE ${Number(summary.rmse).toFixed(4)}` : '');
+  const select = document.getElementById('model');
+  materials.forEach((m, i) => {
+    const opt = document.createElement('option');
+    opt.value = String(i);
+    opt.textContent = `${m.model?.method || m.model?.name || 'pack ' + i}`;
+    select.appendChild(opt);
+  });
+  document.getElementById('model-label').hidden = materials.length < 2;
+  select.addEventListener('input', async () => { await loadPack(Number(select.value)); draw(); });
+  const first = Math.min(materials.length - 1, Math.max(0, Number(q.get('select') || 0)));
+  select.value = String(first);
+  const model = await loadPack(first);
   if (q.get('measured')) {
     document.getElementById('measured').src = q.get('measured');
     document.getElementById('measured-figure').hidden = false;

@@ -88,6 +88,13 @@ expect_contains "render scene" "$msg" "choose one of: plane, sphere, cloth"
 msg=$("$bin" render "$tmp/pack-lambert" --out "$tmp/x.jpg" 2>&1); rc=$?
 [ $rc -ne 0 ] && ok || bad "jpg output should fail"
 expect_contains "render out" "$msg" ".png (8-bit sRGB) or .exr"
+# No EGL display (glvnd pointed at no vendor): a clear error with --backend egl, the CPU otherwise.
+msg=$(__EGL_VENDOR_LIBRARY_FILENAMES=/nonexistent.json "$bin" render "$tmp/pack-lambert" --backend egl --out "$tmp/noegl.png" 2>&1); rc=$?
+[ $rc -ne 0 ] && [ ! -e "$tmp/noegl.png" ] && ok || bad "--backend egl without EGL should fail"
+expect_contains "no egl" "$msg" "EGL renderer unavailable"
+msg=$(__EGL_VENDOR_LIBRARY_FILENAMES=/nonexistent.json "$bin" render "$tmp/pack-lambert" --out "$tmp/noegl.png" 2>&1) \
+  && ok || bad "auto backend without EGL should fall back: $msg"
+expect_contains "cpu fallback" "$msg" "with the CPU reference renderer"
 msg=$("$bin" render "$tmp/nonexistent-pack" --out "$tmp/x.png" 2>&1); rc=$?
 [ $rc -ne 0 ] && [ ! -e "$tmp/x.png" ] && ok || bad "missing pack should fail without output"
 

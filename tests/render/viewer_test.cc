@@ -67,6 +67,7 @@ struct Case {
   const char* material;
   const char* scene;
   double theta, phi;
+  const char* other = nullptr;  // a second pack listed first: the model switcher selects ours
 };
 
 TEST(WebViewer, HeadlessChromiumDrawsWhatTheEglRendererDraws) {
@@ -86,7 +87,7 @@ TEST(WebViewer, HeadlessChromiumDrawsWhatTheEglRendererDraws) {
 
   auto egl = EglRenderer::Create();
   for (const Case& c : {Case{"plastic", "sphere", 40, 30}, Case{"plastic-ct", "plane", 55, 200},
-                        Case{"wool", "plane", 30, 45}}) {
+                        Case{"wool", "plane", 30, 45}, Case{"leaf", "plane", 150, 30, "wool"}}) {
     const MaterialMaps maps = *synth::MakeMaterial(c.material, 48, 3);
     const std::string name = c.material;
     ASSERT_TRUE(
