@@ -14,7 +14,8 @@ namespace matfit::app {
 namespace {
 
 struct RenderArgs {
-  std::string pack, out, light = "30,45", scene = "plane", backend = "auto", tonemap = "clamp";
+  std::string pack, out, light = "30,45", camera = "0,0", scene = "plane", backend = "auto",
+                         tonemap = "clamp";
   render::RenderOptions options;
   int sweep = 0;
   bool quiet = false;
@@ -29,6 +30,8 @@ int RunRender(RenderArgs a) {
   render::RenderOptions& o = a.options;
   if (!ParseViewArg(a.light.c_str(), &o.theta_deg, &o.phi_deg))
     return Fail("render", ("--light wants THETA,PHI in degrees, got '" + a.light + "'").c_str());
+  if (!ParseViewArg(a.camera.c_str(), &o.camera_theta_deg, &o.camera_phi_deg))
+    return Fail("render", ("--camera wants THETA,PHI in degrees, got '" + a.camera + "'").c_str());
   auto scene = render::ParseScene(a.scene);
   if (!scene.ok()) return Fail("render", scene.status().message().c_str());
   o.scene = *scene;
@@ -112,6 +115,9 @@ void RegisterRender(CLI::App& app, int* exit_code) {
   sub->add_option("PACK", args->pack, "material pack folder")->required();
   sub->add_option("--out", args->out, "output .png (8-bit sRGB) or .exr (linear)")->required();
   sub->add_option("--light", args->light, "light THETA,PHI in degrees")->capture_default_str();
+  sub->add_option("--camera", args->camera,
+                  "orthographic camera THETA,PHI in degrees (0,0 = straight down; θ ≤ 80)")
+      ->capture_default_str();
   sub->add_option("--scene", args->scene, "plane, sphere or cloth")->capture_default_str();
   sub->add_option("--size", args->options.size, "output size in pixels")->capture_default_str();
   sub->add_option("--backend", args->backend, "auto (EGL, else CPU), egl or cpu")

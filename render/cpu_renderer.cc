@@ -14,13 +14,14 @@ StatusOr<Image> RenderCpu(const MaterialMaps& m, const RenderOptions& o) {
   if (!packed.ok()) return packed.status();
   const int S = o.size;
   Image out(S, S, 4);
-  const Vec3f light(o.LightDirection()), v(0, 0, 1);
+  const CameraFrame cam = MakeCamera(o.camera_theta_deg, o.camera_phi_deg);
+  const Vec3f light(o.LightDirection()), v = cam.v;
   const Vec3f radiance = Vec3f(o.light_color) * float(o.intensity);
   const float ambient = float(o.ambient);
   ParallelFor(0, S, [&](int64_t y0, int64_t y1) {
     for (int64_t py = y0; py < y1; ++py)
       for (int px = 0; px < S; ++px) {
-        const SceneHit h = HitScene(o.scene, S, px, int(py), m.width, m.height);
+        const SceneHit h = HitScene(o.scene, cam, S, px, int(py), m.width, m.height);
         const int64_t p = int64_t(h.ty) * m.width + h.tx, q = py * S + px;
         if (!h.hit || (!m.mask.empty() && m.mask.Plane(0)[p] < 0.5f)) continue;  // background
         const Vec3f lt(Dot(light, h.t), Dot(light, h.b), Dot(light, h.n));

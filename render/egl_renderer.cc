@@ -185,6 +185,10 @@ StatusOr<Image> EglRenderer::Render(const MaterialMaps& maps, const RenderOption
     glUniform1i(glGetUniformLocation(p, "u_leaf_base"), g->leaf_base);
     glUniform1i(glGetUniformLocation(p, "u_leaf_hl2"), g->leaf_hl2);
     glUniform3f(glGetUniformLocation(p, "u_light"), float(l.x), float(l.y), float(l.z));
+    const CameraFrame cam = MakeCamera(o.camera_theta_deg, o.camera_phi_deg);
+    glUniform3f(glGetUniformLocation(p, "u_cam_v"), cam.v.x, cam.v.y, cam.v.z);
+    glUniform3f(glGetUniformLocation(p, "u_cam_r"), cam.r.x, cam.r.y, cam.r.z);
+    glUniform3f(glGetUniformLocation(p, "u_cam_u"), cam.u.x, cam.u.y, cam.u.z);
     glUniform3f(glGetUniformLocation(p, "u_intensity"), float(rad.x), float(rad.y), float(rad.z));
     const float a = float(o.ambient);
     glUniform3f(glGetUniformLocation(p, "u_ambient"), a, a, a);

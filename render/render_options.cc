@@ -40,7 +40,22 @@ bool RenderOptions::Check(std::string* why) const {
     *why = "intensity and ambient must be ≥ 0 and exposure > 0 (finite)";
     return false;
   }
+  if (!(camera_theta_deg >= 0 && camera_theta_deg <= 80) || !std::isfinite(camera_phi_deg)) {
+    *why = "--camera THETA,PHI: θ must be in [0, 80] degrees and φ finite";
+    return false;
+  }
   return true;
+}
+
+CameraFrame MakeCamera(double theta_deg, double phi_deg) {
+  const double t = theta_deg * M_PI / 180, p = phi_deg * M_PI / 180;
+  const double ct = std::cos(t), st = std::sin(t), cp = std::cos(p), sp = std::sin(p);
+  const Vec3 v(st * cp, st * sp, ct), et(ct * cp, ct * sp, -st), ep(-sp, cp, 0);
+  CameraFrame c;
+  c.v = Vec3f(v);
+  c.r = Vec3f(et * cp - ep * sp);
+  c.u = Vec3f(et * sp + ep * cp);
+  return c;
 }
 
 Vec3 RenderOptions::LightDirection() const {

@@ -28,10 +28,20 @@ struct RenderOptions {
   double exposure = 1;        // > 0, display output only
   Tonemap tonemap = Tonemap::kClamp;
   bool display = true;  // true: exposure, tone map, sRGB-encoded [0, 1]; false: linear radiance
+  // Orthographic camera: view direction (toward the camera) at elevation θ_c ∈ [0, 80] from the
+  // sample normal, azimuth φ_c; 0, 0 looks straight down. The view spans [−1, 1]² in camera units.
+  double camera_theta_deg = 0, camera_phi_deg = 0;
 
   bool Check(std::string* why) const;
   // Unit direction toward the light in the world frame (x right, y up, z toward the camera).
   Vec3 LightDirection() const;
 };
+
+// Camera frame: v toward the camera, r image right, u image up (r = x, u = y at θ_c = 0 for any
+// φ_c), as float so that every backend uses the same values.
+struct CameraFrame {
+  Vec3f v{0, 0, 1}, r{1, 0, 0}, u{0, 1, 0};
+};
+CameraFrame MakeCamera(double theta_deg, double phi_deg);
 
 }  // namespace matfit::render

@@ -15,29 +15,69 @@ float ClothHeight(float x, float y, float* dzdx, float* dzdy) {
   return depth * std::sin(a) + 0.04f * std::sin(b);
 }
 
-SceneHit HitScene(Scene scene, int size, int px, int py, int width, int height) {
+namespace {
+
+// The cloth's height field minus the ray's height at parameter t.
+float ClothGap(const Vec3f& o, const Vec3f& d, float t) {
+  const Vec3f p = o + d * t;
+  float fx, fy;
+  return p.z - ClothHeight(p.x, p.y, &fx, &fy);
+}
+
+}  // namespace
+
+SceneHit HitScene(Scene scene, const CameraFrame& cam, int size, int px, int py, int width,
+                  int height) {
   SceneHit h;
-  const float S = float(size), cx = float(px) + 0.5f, cy = float(py) + 0.5f;
+  const float S = float(size);
+  const float x = 2.0f * (float(px) + 0.5f) / S - 1.0f, y = 1.0f - 2.0f * (float(py) + 0.5f) / S;
+  const Vec3f o = cam.r * x + cam.u * y + cam.v * 3.0f, d = cam.v * -1.0f;
   float tu, tv;
-  if (scene == Scene::kPlane) {
-    tu = cx / S, tv = cy / S;
-  } else if (scene == Scene::kCloth) {
-    tu = cx / S, tv = cy / S;
-    float fx, fy;
-    ClothHeight(2.0f * cx / S - 1.0f, 1.0f - 2.0f * cy / S, &fx, &fy);
-    h.n = Normalize(Vec3f(-fx, -fy, 1.0f));
-    h.t = Normalize(Vec3f(1.0f, 0.0f, fx));
-    h.b = Cross(h.n, h.t);
-  } else {
-    const float x = 2.0f * cx / S - 1.0f, y = 1.0f - 2.0f * cy / S, r2 = x * x + y * y;
-    if (r2 > 1.0f) return h;
-    h.n = Vec3f(x, y, std::sqrt(1.0f - r2));
+  if (scene == Scene::kSphere) {
+    const float b = Dot(o, d), c = Dot(o, o) - 1.0f, disc = b * b - c;
+    if (disc < 0.0f) return h;
+    const Vec3f p = o + d * (-b - std::sqrt(disc));
+    h.n = Normalize(p);
     const float phi = std::atan2(h.n.x, h.n.z), lat = std::asin(std::clamp(h.n.y, -1.0f, 1.0f));
     h.t = Vec3f(std::cos(phi), 0.0f, -std::sin(phi));
     h.b = Cross(h.n, h.t);
     const float u = 0.5f + phi / float(M_PI);
     tu = u - std::floor(u);
     tv = 0.5f - lat / float(M_PI);
+  } else {
+    float t = o.z / cam.v.z;  // plane z = 0
+    if (scene == Scene::kCloth) {
+      // March from z = 0.4 down to z = −0.4 (the folds stay within ±0.3), then bisect.
+      const float t0 = (o.z - 0.4f) / cam.v.z, t1 = (o.z + 0.4f) / cam.v.z;
+      float a = t0, b = t0;
+      bool found = false;
+      for (int i = 1; i <= 128 && !found; ++i) {
+        b = t0 + (t1 - t0) * float(i) / 128.0f;
+        if (ClothGap(o, d, b) <= 0.0f)
+          found = true;
+        else
+          a = b;
+      }
+      if (!found) return h;
+      for (int i = 0; i < 20; ++i) {
+        const float m = 0.5f * (a + b);
+        if (ClothGap(o, d, m) <= 0.0f)
+          b = m;
+        else
+          a = m;
+      }
+      t = b;
+    }
+    const Vec3f p = o + d * t;
+    if (p.x < -1.0f || p.x > 1.0f || p.y < -1.0f || p.y > 1.0f) return h;
+    tu = 0.5f * (p.x + 1.0f), tv = 0.5f * (1.0f - p.y);
+    if (scene == Scene::kCloth) {
+      float fx, fy;
+      ClothHeight(p.x, p.y, &fx, &fy);
+      h.n = Normalize(Vec3f(-fx, -fy, 1.0f));
+      h.t = Normalize(Vec3f(1.0f, 0.0f, fx));
+      h.b = Cross(h.n, h.t);
+    }
   }
   h.hit = true;
   h.tx = std::clamp(int(tu * float(width)), 0, width - 1);

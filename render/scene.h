@@ -17,7 +17,11 @@ struct SceneHit {
 };
 
 // Pixel (px, py), py = row from the top, of a size × size image; material width × height.
-SceneHit HitScene(Scene scene, int size, int px, int py, int width, int height);
+// The orthographic ray through the pixel starts at x r + y u + 3 v (x, y ∈ [−1, 1]) and runs
+// along −v: the plane z = 0 and the cloth are clipped to [−1, 1]², the cloth is found by 128
+// march steps and 20 bisections.
+SceneHit HitScene(Scene scene, const CameraFrame& camera, int size, int px, int py, int width,
+                  int height);
 
 // The cloth's folds (dimensionless, x, y ∈ [−1, 1]) and their gradient (∂z/∂x, ∂z/∂y).
 float ClothHeight(float x, float y, float* dzdx, float* dzdy);

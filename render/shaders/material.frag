@@ -14,6 +14,7 @@ uniform bool u_heinrich_specular, u_flat_normal;
 uniform int u_leaf_base;    // −1: one-sided material; else the first leaf plane (two-sided)
 uniform bool u_leaf_hl2;
 uniform vec3 u_light;       // unit, world frame (toward the light)
+uniform vec3 u_cam_v, u_cam_r, u_cam_u;  // camera: toward the camera, image right, image up
 uniform vec3 u_intensity;   // light colour × intensity
 uniform vec3 u_ambient;     // ambient × albedo is added
 uniform float u_exposure;
@@ -77,40 +78,69 @@ float EvaluateLeafChannel(int c, vec3 l, vec3 v) {
   return Hl2Translucency(rho_t, vec3(P(hb), P(hb + 1), P(hb + 2)), w);
 }
 
+float ClothGap(vec3 o, vec3 d, float t) {
+  vec3 p = o + d * t;
+  return p.z - ClothHeight(p.x, p.y).x;
+}
+
 float EncodeSrgb(float x) {
   return x <= 0.0031308 ? 12.92 * x : 1.055 * pow(x, 1.0 / 2.4) - 0.055;
 }
 
 void main() {
-  // Pixel centre in image coordinates (row 0 at the top).
+  // Pixel centre in image coordinates (row 0 at the top); render/scene.cc HitScene.
   float px = floor(gl_FragCoord.x) + 0.5;
   float py = float(u_size) - floor(gl_FragCoord.y) - 0.5;
   float S = float(u_size);
+  float x = 2.0 * px / S - 1.0, y = 1.0 - 2.0 * py / S;
+  vec3 o = u_cam_r * x + u_cam_u * y + u_cam_v * 3.0, d = u_cam_v * -1.0;
   vec3 T = vec3(1.0, 0.0, 0.0), B = vec3(0.0, 1.0, 0.0), N = vec3(0.0, 0.0, 1.0);
   float tu, tv;  // texture coordinates in [0, 1), tv from the top row
-  if (u_scene == 0) {
-    tu = px / S;
-    tv = py / S;
-  } else if (u_scene == 2) {
-    tu = px / S;
-    tv = py / S;
-    vec3 f = ClothHeight(2.0 * px / S - 1.0, 1.0 - 2.0 * py / S);
-    N = normalize(vec3(-f.y, -f.z, 1.0));
-    T = normalize(vec3(1.0, 0.0, f.y));
-    B = cross(N, T);
-  } else {
-    float x = 2.0 * px / S - 1.0, y = 1.0 - 2.0 * py / S;
-    float r2 = x * x + y * y;
-    if (r2 > 1.0) {
+  if (u_scene == 1) {
+    float b = dot(o, d), c = dot(o, o) - 1.0, disc = b * b - c;
+    if (disc < 0.0) {
       o_color = vec4(0.0);
       return;
     }
-    N = vec3(x, y, sqrt(1.0 - r2));
+    N = normalize(o + d * (-b - sqrt(disc)));
     float phi = atan(N.x, N.z), lat = asin(clamp(N.y, -1.0, 1.0));
     T = vec3(cos(phi), 0.0, -sin(phi));
     B = cross(N, T);
     tu = fract(0.5 + phi / kPi);
     tv = 0.5 - lat / kPi;
+  } else {
+    float t = o.z / u_cam_v.z;  // plane z = 0
+    if (u_scene == 2) {
+      float t0 = (o.z - 0.4) / u_cam_v.z, t1 = (o.z + 0.4) / u_cam_v.z;
+      float a = t0, bt = t0;
+      bool found = false;
+      for (int i = 1; i <= 128 && !found; ++i) {
+        bt = t0 + (t1 - t0) * float(i) / 128.0;
+        if (ClothGap(o, d, bt) <= 0.0) found = true; else a = bt;
+      }
+      if (!found) {
+        o_color = vec4(0.0);
+        return;
+      }
+      for (int i = 0; i < 20; ++i) {
+        float m = 0.5 * (a + bt);
+        if (ClothGap(o, d, m) <= 0.0) bt = m; else a = m;
+      }
+      t = bt;
+    }
+    vec3 p = o + d * t;
+    if (p.x < -1.0 || p.x > 1.0 || p.y < -1.0 || p.y > 1.0) {
+      o_color = vec4(0.0);
+      return;
+    }
+    tu = 0.5 * (p.x + 1.0);
+    tv = 0.5 * (1.0 - p.y);
+    if (u_scene == 2) {
+      vec3 f = ClothHeight(p.x, p.y);
+      N = normalize(vec3(-f.y, -f.z, 1.0));
+      T = normalize(vec3(1.0, 0.0, f.y));
+      B = cross(N, T);
+    }
   }
   g_texel = clamp(ivec2(int(tu * float(u_texels.x)), int(tv * float(u_texels.y))), ivec2(0),
                   u_texels - 1);
@@ -118,7 +148,7 @@ void main() {
     o_color = vec4(0.0);
     return;
   }
-  vec3 v = vec3(0.0, 0.0, 1.0);
+  vec3 v = u_cam_v;
   vec3 lt = vec3(dot(u_light, T), dot(u_light, B), dot(u_light, N));
   vec3 vt = vec3(dot(v, T), dot(v, B), dot(v, N));
   vec3 f = vec3(0.0);

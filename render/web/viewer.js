@@ -5,7 +5,7 @@
 // URL parameters: pack=URL/ (folder with material.json; default ../pack/; several packs of one
 // sample, comma-separated, get a model switcher), shaders=URL/
 // (default ../shaders/), theta, phi (degrees), scene (plane|sphere|cloth), size (pixels), exposure,
-// ambient, select=i (which of several packs to show first), measured=URL (an image shown side by side), probe=1 (after the first frame, write the
+// ambient, camera_theta, camera_phi (degrees), select=i (which of several packs to show first), measured=URL (an image shown side by side), probe=1 (after the first frame, write the
 // RGBA8 pixels as JSON into #probe for tests).
 'use strict';
 
@@ -52,6 +52,7 @@ async function main() {
     theta: Number(q.get('theta') ?? 30), phi: Number(q.get('phi') ?? 45),
     scene: {plane: 0, sphere: 1, cloth: 2}[q.get('scene') || 'plane'] ?? 0, exposure: Number(q.get('exposure') ?? 1),
     ambient: Number(q.get('ambient') ?? 0), tonemap: 0,
+    cameraTheta: Number(q.get('camera_theta') ?? 0), cameraPhi: Number(q.get('camera_phi') ?? 0),
   };
   const canvas = document.getElementById('canvas');
   const size = Number(q.get('size') || 512);
@@ -115,6 +116,13 @@ async function main() {
     gl.uniform1i(U('u_leaf_base'), v.leaf_base ?? -1);
     gl.uniform1i(U('u_leaf_hl2'), v.leaf_hl2 ? 1 : 0);
     gl.uniform3f(U('u_light'), Math.sin(t) * Math.cos(p), Math.sin(t) * Math.sin(p), Math.cos(t));
+    // render/render_options.cc MakeCamera: v toward the camera, r right, u up.
+    const ct = Math.cos(state.cameraTheta * Math.PI / 180), st = Math.sin(state.cameraTheta * Math.PI / 180);
+    const cp = Math.cos(state.cameraPhi * Math.PI / 180), sp = Math.sin(state.cameraPhi * Math.PI / 180);
+    const et = [ct * cp, ct * sp, -st], ep = [-sp, cp, 0];
+    gl.uniform3f(U('u_cam_v'), st * cp, st * sp, ct);
+    gl.uniform3f(U('u_cam_r'), et[0] * cp - ep[0] * sp, et[1] * cp - ep[1] * sp, et[2] * cp - ep[2] * sp);
+    gl.uniform3f(U('u_cam_u'), et[0] * sp + ep[0] * cp, et[1] * sp + ep[1] * cp, et[2] * sp + ep[2] * cp);
     gl.uniform3f(U('u_intensity'), 1, 1, 1);
     gl.uniform3f(U('u_ambient'), state.ambient, state.ambient, state.ambient);
     gl.uniform1f(U('u_exposure'), state.exposure);
@@ -147,6 +155,10 @@ async function main() {
   bind('tonemap', 'tonemap', Number);
   bind('exposure', 'exposure', (x) => Math.pow(2, Number(x)));
   bind('ambient', 'ambient', Number);
+  document.getElementById('camera-theta').value = String(state.cameraTheta);
+  document.getElementById('camera-phi').value = String(state.cameraPhi);
+  bind('camera-theta', 'cameraTheta', Number);
+  bind('camera-phi', 'cameraPhi', Number);
 
   const select = document.getElementById('model');
   materials.forEach((m, i) => {

@@ -82,6 +82,11 @@ out=$("$bin" render "$tmp/pack-ptm" --light 40,30 --scene sphere --size 64 --out
 out=$("$bin" render "$tmp/pack-heinrich" --light 60,0 --sweep 4 --size 32 --backend cpu --out "$tmp/sweep.exr" 2>&1) \
   && ok || bad "render sweep: $out"
 expect_contains "render sweep size" "$out" "64 × 64"
+out=$("$bin" render "$tmp/pack-lambert" --scene cloth --camera 40,-30 --size 48 --out "$tmp/cloth.png" 2>&1) \
+  && ok || bad "render cloth with a tilted camera: $out"
+msg=$("$bin" render "$tmp/pack-lambert" --camera 85,0 --out "$tmp/x.png" 2>&1); rc=$?
+[ $rc -ne 0 ] && ok || bad "camera θ > 80 should fail"
+expect_contains "render camera" "$msg" "θ must be in [0, 80]"
 msg=$("$bin" render "$tmp/pack-lambert" --scene cube --out "$tmp/x.png" 2>&1); rc=$?
 [ $rc -ne 0 ] && ok || bad "unknown scene should fail"
 expect_contains "render scene" "$msg" "choose one of: plane, sphere, cloth"

@@ -153,6 +153,8 @@ TEST(EglRenderer, MatchesTheCpuReferenceForEveryModel) {
     for (const auto& [name, maps] : Materials())
       for (double theta : {0.0, 35.0, 70.0, 140.0}) {  // 140°: from behind (leaves transmit)
         RenderOptions o;
+        // The camera looks straight down, except for the 35° light: tilted by 40° toward φ 200°.
+        if (theta == 35.0) o.camera_theta_deg = 40, o.camera_phi_deg = 200;
         o.scene = scene;
         o.size = 96;
         o.theta_deg = theta, o.phi_deg = 120;
@@ -175,7 +177,7 @@ TEST(EglRenderer, MatchesTheCpuReferenceForEveryModel) {
         double lit = 0;  // the render must show the material, not a blank frame
         for (int64_t p = 0; p < int64_t(o.size) * o.size; ++p) lit += gpu->Plane(1)[p] > 0.02f;
         if (theta < 90 || name.rfind("leaf", 0) == 0) {
-          EXPECT_GT(lit, 0.1 * o.size * o.size) << name << " " << SceneName(scene) << " " << theta;
+          EXPECT_GT(lit, 0.05 * o.size * o.size) << name << " " << SceneName(scene) << " " << theta;
         }
         EXPECT_LE(double(off), 0.005 * double(total))
             << name << " " << SceneName(scene) << " θ=" << theta << ": " << off << " of " << total

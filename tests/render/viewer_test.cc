@@ -68,6 +68,7 @@ struct Case {
   const char* scene;
   double theta, phi;
   const char* other = nullptr;  // a second pack listed first: the model switcher selects ours
+  double camera_theta = 0, camera_phi = 0;
 };
 
 TEST(WebViewer, HeadlessChromiumDrawsWhatTheEglRendererDraws) {
@@ -87,9 +88,10 @@ TEST(WebViewer, HeadlessChromiumDrawsWhatTheEglRendererDraws) {
 
   auto egl = EglRenderer::Create();
   for (const Case& c : {Case{"plastic", "sphere", 40, 30}, Case{"plastic-ct", "plane", 55, 200},
-                        Case{"wool", "plane", 30, 45}, Case{"leaf", "plane", 150, 30, "wool"}}) {
+                        Case{"wool", "plane", 30, 45}, Case{"leaf", "plane", 150, 30, "wool-plane"},
+                        Case{"plastic", "cloth", 45, 60, nullptr, 35, -40}}) {
     const MaterialMaps maps = *synth::MakeMaterial(c.material, 48, 3);
-    const std::string name = c.material;
+    const std::string name = std::string(c.material) + "-" + c.scene;  // the pack's folder
     ASSERT_TRUE(
         WritePack(maps, std::vector<uint8_t>(size_t(48 * 48), 0), {}, {}, (tmp / name).string())
             .ok());
@@ -97,7 +99,9 @@ TEST(WebViewer, HeadlessChromiumDrawsWhatTheEglRendererDraws) {
     const std::string url =
         "http://127.0.0.1:" + std::to_string(port) + "/web/index.html?pack=/packs/" + name +
         "/&shaders=/shaders/&scene=" + c.scene + "&theta=" + std::to_string(c.theta) +
-        "&phi=" + std::to_string(c.phi) + "&size=" + std::to_string(size) + "&probe=1";
+        "&phi=" + std::to_string(c.phi) + "&size=" + std::to_string(size) +
+        "&camera_theta=" + std::to_string(c.camera_theta) +
+        "&camera_phi=" + std::to_string(c.camera_phi) + "&probe=1";
     const std::string dom = RunCommand(
         chromium +
         " --headless=new --no-sandbox --use-angle=swiftshader --enable-unsafe-swiftshader"
@@ -117,6 +121,7 @@ TEST(WebViewer, HeadlessChromiumDrawsWhatTheEglRendererDraws) {
     o.size = size;
     o.scene = *ParseScene(c.scene);
     o.theta_deg = c.theta, o.phi_deg = c.phi;
+    o.camera_theta_deg = c.camera_theta, o.camera_phi_deg = c.camera_phi;
     auto ref = egl.ok() ? (*egl)->Render(maps, o) : RenderCpu(maps, o);
     ASSERT_TRUE(ref.ok()) << ref.status().ToString();
     int64_t off = 0, lit = 0;
