@@ -3,6 +3,8 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
+#include <cmath>
 #include <string>
 
 #include "core/synth/synth.h"
@@ -29,6 +31,14 @@ inline synth::SynthResult SynthData(const SynthSpec& spec) {
   auto r = synth::Synthesize(o);
   EXPECT_TRUE(r.ok()) << r.status().ToString();
   return r.ok() ? std::move(*r) : synth::SynthResult{};
+}
+
+// Largest absolute difference between two images of the same size (all planes).
+inline double MaxAbsDiff(const Image& a, const Image& b) {
+  double m = 0;
+  for (size_t i = 0; i < a.data().size(); ++i)
+    m = std::max(m, double(std::abs(a.data()[i] - b.data()[i])));
+  return m;
 }
 
 }  // namespace matfit::fit
