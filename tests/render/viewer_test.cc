@@ -14,6 +14,8 @@
 #include <string>
 #include <thread>
 
+#include <unistd.h>
+
 #include "core/pack/pack.h"
 #include "core/synth/materials.h"
 #include "render/cpu_renderer.h"
