@@ -10,8 +10,8 @@ namespace matfit::render {
 StatusOr<Image> RenderCpu(const MaterialMaps& m, const RenderOptions& o) {
   std::string why;
   if (!o.Check(&why)) return InvalidArgument(why);
-  auto packed = PackShaderParams(m);  // the same completeness checks as the GPU path
-  if (!packed.ok()) return packed.status();
+  // The same completeness checks as the GPU path.
+  if (Status st = CheckShaderMaps(m); !st.ok()) return st;
   const int S = o.size;
   Image out(S, S, 4);
   const CameraFrame cam = MakeCamera(o.camera_theta_deg, o.camera_phi_deg);

@@ -32,16 +32,20 @@ bool RenderOptions::Check(std::string* why) const {
     return false;
   }
   if (!(theta_deg >= 0 && theta_deg <= 180) || !std::isfinite(phi_deg)) {
-    *why = "--light THETA,PHI: θ must be in [0, 180] degrees and φ finite";
+    *why = "--light THETA,PHI: θ must be in [0, 180] degrees and φ finite, got " +
+           std::to_string(theta_deg) + "," + std::to_string(phi_deg);
     return false;
   }
   if (!(intensity >= 0) || !(ambient >= 0) || !(exposure > 0) || !std::isfinite(intensity) ||
       !std::isfinite(ambient) || !std::isfinite(exposure)) {
-    *why = "intensity and ambient must be ≥ 0 and exposure > 0 (finite)";
+    *why = "--intensity and --ambient must be ≥ 0 and --exposure > 0 (finite), got " +
+           std::to_string(intensity) + ", " + std::to_string(ambient) + ", " +
+           std::to_string(exposure);
     return false;
   }
   if (!(camera_theta_deg >= 0 && camera_theta_deg <= 80) || !std::isfinite(camera_phi_deg)) {
-    *why = "--camera THETA,PHI: θ must be in [0, 80] degrees and φ finite";
+    *why = "--camera THETA,PHI: θ must be in [0, 80] degrees and φ finite, got " +
+           std::to_string(camera_theta_deg) + "," + std::to_string(camera_phi_deg);
     return false;
   }
   return true;

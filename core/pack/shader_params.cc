@@ -1,5 +1,6 @@
 #include "core/pack/shader_params.h"
 
+#include <algorithm>
 #include <string>
 
 namespace matfit {
@@ -18,26 +19,26 @@ bool AddPlanes(const Image& img, int count, int w, int h, std::vector<const floa
   return true;
 }
 
-}  // namespace
-
-StatusOr<ShaderParams> PackShaderParams(const MaterialMaps& m) {
-  ShaderParams g;
+// Fills g's metadata and the plane list in layout order; `ones` / `zeros` stand in for absent
+// optional maps (they may be null when the planes are only checked, never read).
+Status CollectPlanes(const MaterialMaps& m, const float* ones, const float* zeros,
+                     ShaderParams* out, std::vector<const float*>* out_planes) {
+  ShaderParams& g = *out;
+  std::vector<const float*>& planes = *out_planes;
   g.width = m.width, g.height = m.height;
   g.model = int(m.model);
   const int w = m.width, h = m.height;
   if (w <= 0 || h <= 0) return InvalidArgument("material has no texels");
-  const std::vector<float> ones(size_t(w) * h, 1.0f), zeros(size_t(w) * h, 0.0f);
-  std::vector<const float*> planes;
   std::string missing;
   bool ok = true;
   if (m.normal.empty()) {  // mean/ptm/hsh packs may omit it: flat
-    planes.insert(planes.end(), {zeros.data(), zeros.data(), ones.data()});
+    planes.insert(planes.end(), {zeros, zeros, ones});
   } else {
     ok = ok && AddPlanes(m.normal, 3, w, h, &planes, &missing, "normal");
   }
   ok = ok && AddPlanes(m.albedo, 3, w, h, &planes, &missing, "albedo");
   if (ok && m.mask.empty())
-    planes.push_back(ones.data());
+    planes.push_back(ones);
   else
     ok = ok && AddPlanes(m.mask, 1, w, h, &planes, &missing, "mask");
   switch (m.model) {
@@ -58,7 +59,7 @@ StatusOr<ShaderParams> PackShaderParams(const MaterialMaps& m) {
     case ShadingModel::kHeinrich:
       ok = ok && AddPlanes(m.ambient, 3, w, h, &planes, &missing, "ambient");
       if (ok && m.normal_scale.empty())
-        planes.push_back(ones.data());
+        planes.push_back(ones);
       else
         ok = ok && AddPlanes(m.normal_scale, 1, w, h, &planes, &missing, "normal_scale");
       g.heinrich_specular = !m.specular_color.empty();
@@ -91,6 +92,24 @@ StatusOr<ShaderParams> PackShaderParams(const MaterialMaps& m) {
                            (missing.empty() ? "lobe/basis terms" : missing) +
                            "' is missing or not " + std::to_string(w) + " × " + std::to_string(h));
   g.layers = int((planes.size() + 3) / 4);
+  return Status::Ok();
+}
+
+}  // namespace
+
+Status CheckShaderMaps(const MaterialMaps& m) {
+  ShaderParams g;
+  std::vector<const float*> planes;
+  return CollectPlanes(m, nullptr, nullptr, &g, &planes);
+}
+
+StatusOr<ShaderParams> PackShaderParams(const MaterialMaps& m) {
+  ShaderParams g;
+  std::vector<const float*> planes;
+  const size_t n_texels = size_t(std::max(0, m.width)) * size_t(std::max(0, m.height));
+  const std::vector<float> ones(n_texels, 1.0f), zeros(n_texels, 0.0f);
+  if (Status st = CollectPlanes(m, ones.data(), zeros.data(), &g, &planes); !st.ok()) return st;
+  const int w = m.width, h = m.height;
   g.texels.assign(size_t(g.layers) * w * h * 4, 0.0f);
   const int64_t n = int64_t(w) * h;
   for (size_t q = 0; q < planes.size(); ++q) {

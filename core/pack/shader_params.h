@@ -32,5 +32,7 @@ struct ShaderParams {
 
 // Fails, naming the missing map, when the model's maps are absent or the wrong size.
 StatusOr<ShaderParams> PackShaderParams(const MaterialMaps& maps);
+// The same checks without copying any texel (the CPU renderer's validation).
+Status CheckShaderMaps(const MaterialMaps& maps);
 
 }  // namespace matfit

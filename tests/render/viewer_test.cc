@@ -105,7 +105,7 @@ TEST(WebViewer, HeadlessChromiumDrawsWhatTheEglRendererDraws) {
         "&camera_theta=" + std::to_string(c.camera_theta) +
         "&camera_phi=" + std::to_string(c.camera_phi) + "&probe=1";
     const std::string dom = RunCommand(
-        chromium +
+        "timeout 120 " + chromium +  // a hung browser fails the test instead of stalling CI
         " --headless=new --no-sandbox --use-angle=swiftshader --enable-unsafe-swiftshader"
         " --no-first-run --disable-background-networking --disable-component-update"
         " --disable-sync --user-data-dir=" +
