@@ -24,7 +24,7 @@ Image HorizonMap(const Image& height_mm, double mm_per_texel, int row_of_y,
 inline float SoftVisibility(float elevation, float horizon_elevation) {
   constexpr float kInvWidth = float(90 / 3.14159265358979323846);  // 1 / (2°) in 1/rad
   const float v = (elevation - horizon_elevation) * kInvWidth + 0.5f;
-  return v < 0 ? 0.0f : (v > 1 ? 1.0f : v);
+  return v < 0.0f ? 0.0f : (v > 1.0f ? 1.0f : v);
 }
 
 // Visibility V ∈ [0, 1] of direction w (unit, frame coordinates, w.z > 0) at texel p:

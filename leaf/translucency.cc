@@ -1,5 +1,6 @@
 #include "leaf/translucency.h"
 
+#include <Eigen/Dense>
 #include <algorithm>
 #include <cmath>
 #include <numbers>
@@ -8,6 +9,7 @@
 #include "core/parallel.h"
 #include "leaf/hl2.h"
 #include "leaf/horizon.h"
+#include "leaf/projection_kernel.h"
 
 namespace matfit::leaf {
 
@@ -22,9 +24,10 @@ bool TranslucencyOptions::Check(std::string* why) const {
   if (!(kernel_threshold > 0)) return fail("kernel_threshold must be > 0");
   if (max_kernel_radius < 1 || max_kernel_radius > 1024)
     return fail("max_kernel_radius must be in 1..1024 texels");
-  if (!(bucket_tolerance > 0 && bucket_tolerance < 1))
-    return fail("bucket_tolerance must be in (0, 1)");
-  if (max_buckets < 2 || max_buckets > 1024) return fail("max_buckets must be in 2..1024");
+  if (!(kernel_tolerance > 0 && kernel_tolerance < 1))
+    return fail("kernel_tolerance must be in (0, 1)");
+  if (max_kernel_terms < 1 || max_kernel_terms > 48)
+    return fail("max_kernel_terms must be in 1..48");
   return true;
 }
 
@@ -106,18 +109,27 @@ StatusOr<Prepared> Prepare(const TransportInput& in, const TranslucencyOptions& 
   return p;
 }
 
-// Disk of texel offsets with |offset| ≤ radius and their distances in mm.
+// Disk of texel offsets with |offset| ≤ radius. The kernel is radial, so it is evaluated once
+// per distinct distance (ring) and looked up per offset.
 struct Offsets {
-  std::vector<int> dx, dy;
-  std::vector<double> r_mm;
+  std::vector<int> dx, dy, ring;
+  std::vector<double> r_mm;       // per offset
+  std::vector<double> ring_r_mm;  // per distinct distance
 };
 Offsets DiskOffsets(int radius, double mm) {
   Offsets o;
+  std::vector<int> ring_of_r2(size_t(radius) * radius + 1, -1);
   for (int y = -radius; y <= radius; ++y)
-    for (int x = -radius; x <= radius; ++x)
-      if (x * x + y * y <= radius * radius)
-        o.dx.push_back(x), o.dy.push_back(y),
-            o.r_mm.push_back(mm * std::sqrt(double(x * x + y * y)));
+    for (int x = -radius; x <= radius; ++x) {
+      const int r2 = x * x + y * y;
+      if (r2 > radius * radius) continue;
+      if (ring_of_r2[r2] < 0) {
+        ring_of_r2[r2] = int(o.ring_r_mm.size());
+        o.ring_r_mm.push_back(mm * std::sqrt(double(r2)));
+      }
+      o.dx.push_back(x), o.dy.push_back(y), o.ring.push_back(ring_of_r2[r2]);
+      o.r_mm.push_back(mm * std::sqrt(double(r2)));
+    }
   return o;
 }
 
@@ -145,21 +157,23 @@ Direction MakeDirection(const Vec3& w, int slices) {
 
 // E(x, ω) = ρ V max(0, n·ω) over texels [b, e) into out[b..e).
 void Irradiance(const TransportInput& in, const Prepared& p, const Direction& dir, int64_t b,
-                int64_t e, float* out) {
+                int64_t e, float* __restrict out) {
   const float wx = float(dir.w.x), wy = float(dir.w.y), wz = float(dir.w.z);
-  const float* nx = in.normal ? in.normal->Plane(0).data() : nullptr;
-  const float* ny = in.normal ? in.normal->Plane(1).data() : nullptr;
-  const float* nz = in.normal ? in.normal->Plane(2).data() : nullptr;
-  const bool shadow = in.horizon && !in.horizon->empty() && dir.w.z < 1 - 1e-9;
-  const float* h0 = shadow ? in.horizon->Plane(dir.k0).data() : nullptr;
-  const float* h1 = shadow ? in.horizon->Plane(dir.k1).data() : nullptr;
-  const float t = dir.t, el = dir.elevation;
-  for (int64_t i = b; i < e; ++i) {
-    float c = nx ? nx[i] * wx + ny[i] * wy + nz[i] * wz : wz;
-    c = c > 0 ? c : 0;
-    const float v = shadow ? SoftVisibility(el, h0[i] + (h1[i] - h0[i]) * t) : 1.0f;
-    out[i] = p.rho[i] * v * c;
+  const float* __restrict rho = p.rho.data();
+  if (in.normal) {
+    const float* __restrict nx = in.normal->Plane(0).data();
+    const float* __restrict ny = in.normal->Plane(1).data();
+    const float* __restrict nz = in.normal->Plane(2).data();
+    for (int64_t i = b; i < e; ++i)
+      out[i] = rho[i] * std::max(0.0f, nx[i] * wx + ny[i] * wy + nz[i] * wz);
+  } else {
+    for (int64_t i = b; i < e; ++i) out[i] = rho[i] * std::max(0.0f, wz);
   }
+  if (!in.horizon || in.horizon->empty() || dir.w.z >= 1 - 1e-9) return;
+  const float* __restrict h0 = in.horizon->Plane(dir.k0).data();
+  const float* __restrict h1 = in.horizon->Plane(dir.k1).data();
+  const float t = dir.t, el = dir.elevation;
+  for (int64_t i = b; i < e; ++i) out[i] *= SoftVisibility(el, h0[i] + (h1[i] - h0[i]) * t);
 }
 
 std::vector<Direction> Directions(const TransportInput& in, int n) {
@@ -286,8 +300,10 @@ namespace {
 
 // The discrete kernel A_p max(0, T(r, d)) on the offset disk.
 std::vector<double> KernelValues(const Multipole& mp, const Offsets& off, double ap, double d) {
-  std::vector<double> k(off.r_mm.size());
-  for (size_t i = 0; i < k.size(); ++i) k[i] = ap * mp.Clamped(off.r_mm[i], d);
+  std::vector<double> ring(off.ring_r_mm.size());
+  for (size_t i = 0; i < ring.size(); ++i) ring[i] = ap * mp.Clamped(off.ring_r_mm[i], d);
+  std::vector<double> k(off.ring.size());
+  for (size_t i = 0; i < k.size(); ++i) k[i] = ring[off.ring[i]];
   return k;
 }
 double Sum(const std::vector<double>& v) {
@@ -296,31 +312,81 @@ double Sum(const std::vector<double>& v) {
   return s;
 }
 
-// Geometric thickness buckets; the energy-rescaled hat interpolation between neighbours must
-// stay within `tol` (relative L1) at each midpoint.
-std::vector<double> ChooseBuckets(const Multipole& mp, const Offsets& off, double ap, double lo,
-                                  double hi, double tol, int max_buckets, double* worst) {
-  *worst = 0;
-  if (hi <= lo * (1 + 1e-6)) return {lo};
-  for (int n = 2;; ++n) {
-    std::vector<double> d(n);
-    for (int k = 0; k < n; ++k) d[k] = lo * std::pow(hi / lo, double(k) / (n - 1));
-    double err = 0;
-    for (int k = 0; k + 1 < n; ++k) {
-      const double dm = std::sqrt(d[k] * d[k + 1]);
-      const auto ka = KernelValues(mp, off, ap, d[k]), kb = KernelValues(mp, off, ap, d[k + 1]);
-      const auto km = KernelValues(mp, off, ap, dm);
-      const double gm = Sum(km), sa = gm / Sum(ka), sb = gm / Sum(kb);
-      double e = 0;
-      for (size_t i = 0; i < km.size(); ++i)
-        e += std::abs(0.5 * sa * ka[i] + 0.5 * sb * kb[i] - km[i]);
-      err = std::max(err, e / gm);
+// Low-rank thickness expansion of the kernel family: K(r; d) ≈ Σ_q A_q(d) B_q(r), B_q the
+// leading singular vectors of the unit-energy kernels K(d_j)/g(d_j) at J geometric thickness
+// samples, A_q(d_j) = ⟨K(d_j), B_q⟩ interpolated linearly in log d between samples.
+struct KernelBasis {
+  std::vector<std::vector<double>> B;  // Q × offsets
+  std::vector<std::vector<double>> A;  // Q × J
+  double lo = 0, log_ratio = 0;        // d_j = lo · exp(log_ratio · j / (J − 1))
+  int J = 1;
+  double error = 0;  // worst relative L1 error over the samples and their midpoints
+  // Coefficients at thickness d.
+  void At(double d, double* a) const {
+    if (J == 1) {
+      for (size_t q = 0; q < A.size(); ++q) a[q] = A[q][0];
+      return;
     }
-    if (err <= tol || n >= max_buckets) {
-      *worst = err;
-      return d;
-    }
+    const double f = std::clamp(std::log(d / lo) / log_ratio, 0.0, 1.0) * (J - 1);
+    const int j = std::min(int(f), J - 2);
+    const double t = f - j;
+    for (size_t q = 0; q < A.size(); ++q) a[q] = A[q][j] + (A[q][j + 1] - A[q][j]) * t;
   }
+};
+
+KernelBasis MakeKernelBasis(const Multipole& mp, const Offsets& off, double ap, double lo,
+                            double hi, double tol, int max_terms) {
+  KernelBasis kb;
+  kb.lo = lo;
+  if (hi <= lo * (1 + 1e-6)) {  // one thickness: the kernel itself
+    kb.B = {KernelValues(mp, off, ap, lo)};
+    kb.A = {{1.0}};
+    return kb;
+  }
+  kb.J = 48, kb.log_ratio = std::log(hi / lo);
+  const int J = kb.J;
+  const size_t n = off.ring.size();
+  auto dj = [&](double j) { return lo * std::exp(kb.log_ratio * j / (J - 1)); };
+  std::vector<std::vector<double>> K(J), M(J - 1);  // samples and midpoints
+  Eigen::MatrixXd N(J, n);
+  for (int j = 0; j < J; ++j) {
+    K[j] = KernelValues(mp, off, ap, dj(j));
+    const double g = Sum(K[j]);
+    for (size_t i = 0; i < n; ++i) N(j, i) = K[j][i] / g;
+  }
+  for (int j = 0; j + 1 < J; ++j) M[j] = KernelValues(mp, off, ap, dj(j + 0.5));
+  // Right singular vectors from the J × J Gram matrix: N Nᵀ u = λ u, B = Nᵀ u / √λ.
+  Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> es(N * N.transpose());
+  const Eigen::VectorXd lambda = es.eigenvalues().reverse();
+  const Eigen::MatrixXd U = es.eigenvectors().rowwise().reverse();
+  const int qmax = std::min({max_terms, J, int(n)});
+  std::vector<std::vector<double>> B, A;
+  for (int q = 0; q < qmax && lambda(q) > 1e-300; ++q) {
+    const Eigen::VectorXd b = N.transpose() * U.col(q) / std::sqrt(lambda(q));
+    B.emplace_back(b.data(), b.data() + n);
+    std::vector<double> a(J);
+    for (int j = 0; j < J; ++j)
+      for (size_t i = 0; i < n; ++i) a[j] += K[j][i] * B.back()[i];
+    A.push_back(std::move(a));
+    // Worst relative L1 reconstruction error with these q + 1 terms.
+    double worst = 0;
+    std::vector<double> rec(n);
+    for (int s = 0; s < 2 * J - 1; ++s) {
+      const std::vector<double>& ref = s % 2 == 0 ? K[s / 2] : M[s / 2];
+      std::fill(rec.begin(), rec.end(), 0.0);
+      for (size_t qq = 0; qq < B.size(); ++qq) {
+        const double c = s % 2 == 0 ? A[qq][s / 2] : 0.5 * (A[qq][s / 2] + A[qq][s / 2 + 1]);
+        for (size_t i = 0; i < n; ++i) rec[i] += c * B[qq][i];
+      }
+      double e = 0;
+      for (size_t i = 0; i < n; ++i) e += std::abs(rec[i] - ref[i]);
+      worst = std::max(worst, e / Sum(ref));
+    }
+    kb.error = worst;
+    if (worst <= tol) break;
+  }
+  kb.B = std::move(B), kb.A = std::move(A);
+  return kb;
 }
 
 }  // namespace
@@ -337,95 +403,99 @@ StatusOr<TranslucencyResult> PrecomputeTranslucencyFast(const TransportInput& in
   const double wproj = Hl2ProjectionWeight(nd);
 
   // 1. Project first: ε_i = (2π/N_L) Σ_m ℋ_i(ω_m) E(·, ω_m); signal 3 is ρ (for the response).
+  // Leaf texels are gathered into compact SoA blocks that stay in cache across the directions.
   std::vector<std::vector<float>> sig(4, std::vector<float>(p.n, 0.0f));
+  std::vector<int64_t> leaf_texels;
+  for (int64_t i = 0; i < p.n; ++i)
+    if (p.inside[i] && p.rho[i] > 0) leaf_texels.push_back(i);
+  const int slices = in.horizon && !in.horizon->empty() ? in.horizon->channels() : 0;
+  constexpr int64_t kBlock = 1024;
+  std::vector<ProjectionDirection> pdirs(nd);
+  for (int m = 0; m < nd; ++m) {
+    const Direction& d = dirs[m];
+    ProjectionDirection& q = pdirs[m];
+    q.wx = float(d.w.x), q.wy = float(d.w.y), q.wz = float(d.w.z);
+    q.elevation = d.elevation, q.k0 = d.k0, q.k1 = d.k1, q.t = d.t;
+    q.shadow = slices > 0 && d.w.z < 1 - 1e-9;
+    for (int i = 0; i < 3; ++i) q.c[i] = float(wproj * d.hl2[i]);
+  }
+  ParallelFor(
+      0, int64_t(leaf_texels.size()),
+      [&](int64_t b, int64_t e) {
+        std::vector<float> nx(kBlock), ny(kBlock), nz(kBlock), rho(kBlock), hz(kBlock * slices),
+            s0(kBlock), s1(kBlock), s2(kBlock);
+        for (int64_t b0 = b; b0 < e; b0 += kBlock) {
+          const int64_t n = std::min(kBlock, e - b0);
+          for (int64_t j = 0; j < n; ++j) {
+            const int64_t i = leaf_texels[b0 + j];
+            nx[j] = in.normal ? in.normal->Plane(0)[i] : 0.0f;
+            ny[j] = in.normal ? in.normal->Plane(1)[i] : 0.0f;
+            nz[j] = in.normal ? in.normal->Plane(2)[i] : 1.0f;
+            rho[j] = p.rho[i];
+            for (int k = 0; k < slices; ++k) hz[k * kBlock + j] = in.horizon->Plane(k)[i];
+            s0[j] = s1[j] = s2[j] = 0;
+          }
+          ProjectIrradianceBlock(nx.data(), ny.data(), nz.data(), rho.data(), hz.data(), kBlock, n,
+                                 pdirs, s0.data(), s1.data(), s2.data());
+          for (int64_t j = 0; j < n; ++j) {
+            const int64_t i = leaf_texels[b0 + j];
+            sig[0][i] = s0[j], sig[1][i] = s1[j], sig[2][i] = s2[j], sig[3][i] = rho[j];
+          }
+        }
+      },
+      kBlock);
+
+  // 2. The kernel family as a few thickness-separable terms; per-texel coefficients.
+  const Offsets off = DiskOffsets(p.radius, in.mm_per_texel);
+  TranslucencyResult r;
+  const KernelBasis kb =
+      MakeKernelBasis(mp, off, p.ap, p.d_lo, p.d_hi, o.kernel_tolerance, o.max_kernel_terms);
+  const int nq = int(kb.B.size());
+  r.kernel_terms = nq, r.kernel_error = kb.error;
+  std::vector<float> coef(size_t(nq) * p.n);
   ParallelFor(
       0, p.n,
       [&](int64_t b, int64_t e) {
-        std::vector<float> tmp(e - b);
-        for (int m = 0; m < nd; ++m) {
-          Irradiance(in, p, dirs[m], b, e, tmp.data() - b);
-          const float c0 = float(wproj * dirs[m].hl2[0]), c1 = float(wproj * dirs[m].hl2[1]),
-                      c2 = float(wproj * dirs[m].hl2[2]);
-          float *s0 = sig[0].data(), *s1 = sig[1].data(), *s2 = sig[2].data();
-          for (int64_t i = b; i < e; ++i) {
-            const float v = tmp[i - b];
-            s0[i] += c0 * v, s1[i] += c1 * v, s2[i] += c2 * v;
-          }
+        std::vector<double> a(nq);
+        for (int64_t i = b; i < e; ++i) {
+          if (!p.inside[i]) continue;
+          kb.At(p.d[i], a.data());
+          for (int q = 0; q < nq; ++q) coef[size_t(q) * p.n + i] = float(a[q]);
         }
-        for (int64_t i = b; i < e; ++i) sig[3][i] = p.rho[i];
       },
       4096);
 
-  // 2. Thickness buckets and the per-texel bucket weights w_k(d)·g(d)/g(d_k).
-  const Offsets off = DiskOffsets(p.radius, in.mm_per_texel);
-  TranslucencyResult r;
-  const auto dk = ChooseBuckets(mp, off, p.ap, p.d_lo, p.d_hi, o.bucket_tolerance, o.max_buckets,
-                                &r.kernel_error);
-  const int nb = int(dk.size());
-  r.buckets = nb;
-  std::vector<double> gk(nb);
-  for (int k = 0; k < nb; ++k) gk[k] = Sum(KernelValues(mp, off, p.ap, dk[k]));
-  // g(d) tabulated on a fine geometric grid (smooth in log d), interpolated per texel.
-  const int ng = 257;
-  std::vector<double> gtab(ng);
-  const double lr = nb > 1 ? std::log(p.d_hi / p.d_lo) : 0;
-  for (int j = 0; j < ng; ++j)
-    gtab[j] = Sum(KernelValues(mp, off, p.ap, p.d_lo * std::exp(lr * j / (ng - 1))));
-  auto bucket_of = [&](float d, int* k, float* wk, float* wk1) {
-    if (nb == 1) {
-      *k = 0, *wk = 1, *wk1 = 0;
-      return;
-    }
-    const double u = std::clamp(std::log(d / p.d_lo) / lr, 0.0, 1.0);
-    const double fg = u * (ng - 1);
-    const int jg = std::min(int(fg), ng - 2);
-    const double g = gtab[jg] + (gtab[jg + 1] - gtab[jg]) * (fg - jg);
-    const double fb = u * (nb - 1);
-    *k = std::min(int(fb), nb - 2);
-    const double t = fb - *k;
-    *wk = float((1 - t) * g / gk[*k]), *wk1 = float(t * g / gk[*k + 1]);
-  };
-
-  // 3. FFT convolution per bucket, spectra summed over buckets, one inverse per signal.
+  // 3. L = Σ_q B_q ∗ (A_q(d) · signal): FFT convolutions, spectra summed over the terms, one
+  // inverse per signal. Zero padding of R texels on one side suffices for a linear result.
   const int R = p.radius;
-  const int fw = cv::getOptimalDFTSize(p.w + 2 * R), fh = cv::getOptimalDFTSize(p.h + 2 * R);
-  std::vector<cv::Mat> kspec(nb);
-  ParallelFor(0, nb, [&](int64_t b, int64_t e) {
-    for (int64_t k = b; k < e; ++k) {
+  const int fw = cv::getOptimalDFTSize(p.w + R), fh = cv::getOptimalDFTSize(p.h + R);
+  std::vector<cv::Mat> kspec(nq);
+  ParallelFor(0, nq, [&](int64_t b, int64_t e) {
+    for (int64_t q = b; q < e; ++q) {
       cv::Mat kern = cv::Mat::zeros(fh, fw, CV_32F);
-      const auto kv = KernelValues(mp, off, p.ap, dk[k]);
-      for (size_t i = 0; i < kv.size(); ++i)
-        kern.at<float>((off.dy[i] + fh) % fh, (off.dx[i] + fw) % fw) = float(kv[i]);
-      cv::dft(kern, kspec[k], 0);
+      for (size_t i = 0; i < off.ring.size(); ++i)
+        kern.at<float>((off.dy[i] + fh) % fh, (off.dx[i] + fw) % fw) = float(kb.B[q][i]);
+      cv::dft(kern, kspec[q], 0);
     }
   });
-  std::vector<int> bk(p.n);
-  std::vector<float> w0(p.n), w1(p.n);
-  for (int64_t i = 0; i < p.n; ++i) bucket_of(p.d[i], &bk[i], &w0[i], &w1[i]);
   std::vector<cv::Mat> outs(4);
   ParallelFor(0, 4, [&](int64_t b, int64_t e) {
     for (int64_t s = b; s < e; ++s) {
-      cv::Mat acc = cv::Mat::zeros(fh, fw, CV_32F), in_pad(fh, fw, CV_32F), spec, prod;
-      for (int k = 0; k < nb; ++k) {
-        in_pad.setTo(0);
-        bool any = false;
+      cv::Mat acc = cv::Mat::zeros(fh, fw, CV_32F), in_pad = cv::Mat::zeros(fh, fw, CV_32F);
+      cv::Mat spec, prod;
+      for (int q = 0; q < nq; ++q) {
+        const float* c = coef.data() + size_t(q) * p.n;
         for (int y = 0; y < p.h; ++y) {
           float* row = in_pad.ptr<float>(y);
-          for (int x = 0; x < p.w; ++x) {
-            const int64_t i = int64_t(y) * p.w + x;
-            const float v = sig[s][i];
-            if (v == 0) continue;
-            const float wt = bk[i] == k ? w0[i] : (nb > 1 && bk[i] + 1 == k ? w1[i] : 0.0f);
-            row[x] = v * wt;
-            any = any || wt != 0;
-          }
+          const float* sv = sig[s].data() + int64_t(y) * p.w;
+          const float* cv_ = c + int64_t(y) * p.w;
+          for (int x = 0; x < p.w; ++x) row[x] = sv[x] * cv_[x];
         }
-        if (!any) continue;
         cv::dft(in_pad, spec, 0, p.h);
-        cv::mulSpectrums(spec, kspec[k], prod, 0);
-        acc += prod;
+        cv::mulSpectrums(spec, kspec[q], prod, 0);
+        cv::add(acc, prod, acc);
       }
-      cv::dft(acc, outs[s], cv::DFT_INVERSE | cv::DFT_SCALE | cv::DFT_REAL_OUTPUT);
+      cv::dft(acc, outs[s], cv::DFT_INVERSE | cv::DFT_SCALE | cv::DFT_REAL_OUTPUT, p.h);
     }
   });
   r.hl2_raw = Image(p.w, p.h, 3), r.response = Image(p.w, p.h, 1);

@@ -36,10 +36,11 @@ struct TranslucencyOptions {
   int directions = 128;            // N_L
   double kernel_threshold = 1e-6;  // kernel radius: where T falls below this, 1/mm²
   int max_kernel_radius = 128;     // texels; larger kernels are cut (with a warning)
-  // Fast method: thickness buckets are added until the interpolated kernel's relative L1 error
-  // at every bucket midpoint is below this.
-  double bucket_tolerance = 0.002;
-  int max_buckets = 64;
+  // Fast method: terms of the kernel's thickness expansion are added until its relative L1
+  // error at every thickness sample and midpoint is below this (the precomputed maps differ
+  // from the reference by much less: the kernel errors have both signs).
+  double kernel_tolerance = 0.01;
+  int max_kernel_terms = 16;
   bool Check(std::string* why) const;
 };
 
@@ -51,8 +52,8 @@ struct TranslucencyResult {
   int64_t thin_texels = 0;
   int kernel_radius = 0;    // texels
   bool kernel_cut = false;  // the radius hit max_kernel_radius
-  int buckets = 0;          // fast method: thickness buckets used
-  double kernel_error = 0;  // fast method: worst midpoint relative L1 kernel error
+  int kernel_terms = 0;     // fast method: terms of the kernel's thickness expansion
+  double kernel_error = 0;  // fast method: their worst relative L1 kernel error
   std::vector<std::string> warnings;
 };
 
@@ -60,9 +61,9 @@ struct TranslucencyResult {
 StatusOr<TranslucencyResult> PrecomputeTranslucencyReference(const TransportInput& in,
                                                              const TranslucencyOptions& o);
 // Projection first (3 convolutions instead of N_L, exact by linearity), then the
-// non-stationary kernel as a sum over thickness buckets of FFT convolutions: the kernel at d is
-// interpolated between bucket kernels with hat weights, each rescaled by the energy ratio
-// g(d)/g(d_k) so that the interpolation only has to carry the kernel's change of shape.
+// non-stationary kernel as a short thickness-separable expansion K(r; d) ≈ Σ_q A_q(d) B_q(r)
+// (leading singular vectors of the kernel family over the leaf's thickness range), so each
+// convolution is Σ_q B_q ∗ (A_q(d)·ε): a few FFT convolutions, whatever the thickness range.
 StatusOr<TranslucencyResult> PrecomputeTranslucencyFast(const TransportInput& in,
                                                         const TranslucencyOptions& o);
 // L_t^D(·, ω) for one light direction (lit-side frame, ω.z > 0) by the direct sum.
