@@ -3,6 +3,7 @@
 // texel along azimuth φ_k = 2πk/S of the frame: atan max_s (Δheight / horizontal distance).
 #pragma once
 
+#include <algorithm>
 #include <span>
 
 #include "core/image.h"
@@ -21,10 +22,10 @@ Image HorizonMap(const Image& height_mm, double mm_per_texel, int row_of_y,
                  const HorizonOptions& options);
 
 // Soft step over ±1° of elevation: 1 well above the horizon angle, 0 well below (radians).
+inline constexpr float kSoftInvWidth = float(90 / 3.14159265358979323846);  // 1 / (2°), 1/rad
 inline float SoftVisibility(float elevation, float horizon_elevation) {
-  constexpr float kInvWidth = float(90 / 3.14159265358979323846);  // 1 / (2°) in 1/rad
-  const float v = (elevation - horizon_elevation) * kInvWidth + 0.5f;
-  return v < 0.0f ? 0.0f : (v > 1.0f ? 1.0f : v);
+  const float v = (elevation - horizon_elevation) * kSoftInvWidth + 0.5f;
+  return std::min(1.0f, std::max(0.0f, v));  // branch-free: vectorises
 }
 
 // Visibility V ∈ [0, 1] of direction w (unit, frame coordinates, w.z > 0) at texel p:

@@ -25,8 +25,10 @@ void ProjectIrradianceBlock(const float* __restrict nx, const float* __restrict 
       const float* __restrict h1 = hz + d.k1 * hz_stride;
       const float t = d.t, el = d.elevation;
       for (int64_t j = 0; j < n; ++j) {
-        const float e = rho[j] * std::max(0.0f, nx[j] * wx + ny[j] * wy + nz[j] * wz) *
-                        SoftVisibility(el, h0[j] + (h1[j] - h0[j]) * t);
+        // SoftVisibility(el, horizon), spelled out so that the loop vectorises.
+        float v = (el - (h0[j] + (h1[j] - h0[j]) * t)) * kSoftInvWidth + 0.5f;
+        v = std::min(1.0f, std::max(0.0f, v));
+        const float e = rho[j] * std::max(0.0f, nx[j] * wx + ny[j] * wy + nz[j] * wz) * v;
         s0[j] += c0 * e, s1[j] += c1 * e, s2[j] += c2 * e;
       }
     } else {

@@ -468,7 +468,19 @@ StatusOr<TranslucencyResult> PrecomputeTranslucencyFast(const TransportInput& in
   // 3. L = Σ_q B_q ∗ (A_q(d) · signal): FFT convolutions, spectra summed over the terms, one
   // inverse per signal. Zero padding of R texels on one side suffices for a linear result.
   const int R = p.radius;
-  const int fw = cv::getOptimalDFTSize(p.w + R), fh = cv::getOptimalDFTSize(p.h + R);
+  // Only the leaf's bounding box is transformed (sources and outputs both lie inside it).
+  int x0 = p.w, y0 = p.h, x1 = -1, y1 = -1;
+  for (int y = 0; y < p.h; ++y)
+    for (int x = 0; x < p.w; ++x)
+      if (p.inside[int64_t(y) * p.w + x])
+        x0 = std::min(x0, x), x1 = std::max(x1, x), y0 = std::min(y0, y), y1 = std::max(y1, y);
+  r.hl2_raw = Image(p.w, p.h, 3), r.response = Image(p.w, p.h, 1);
+  if (x1 < 0) {  // empty mask
+    Finish(p, &r);
+    return r;
+  }
+  const int bw = x1 - x0 + 1, bh = y1 - y0 + 1;
+  const int fw = cv::getOptimalDFTSize(bw + R), fh = cv::getOptimalDFTSize(bh + R);
   std::vector<cv::Mat> kspec(nq);
   ParallelFor(0, nq, [&](int64_t b, int64_t e) {
     for (int64_t q = b; q < e; ++q) {
@@ -485,26 +497,26 @@ StatusOr<TranslucencyResult> PrecomputeTranslucencyFast(const TransportInput& in
       cv::Mat spec, prod;
       for (int q = 0; q < nq; ++q) {
         const float* c = coef.data() + size_t(q) * p.n;
-        for (int y = 0; y < p.h; ++y) {
+        for (int y = 0; y < bh; ++y) {
           float* row = in_pad.ptr<float>(y);
-          const float* sv = sig[s].data() + int64_t(y) * p.w;
-          const float* cv_ = c + int64_t(y) * p.w;
-          for (int x = 0; x < p.w; ++x) row[x] = sv[x] * cv_[x];
+          const int64_t at = int64_t(y + y0) * p.w + x0;
+          const float* sv = sig[s].data() + at;
+          const float* cq = c + at;
+          for (int x = 0; x < bw; ++x) row[x] = sv[x] * cq[x];
         }
-        cv::dft(in_pad, spec, 0, p.h);
+        cv::dft(in_pad, spec, 0, bh);
         cv::mulSpectrums(spec, kspec[q], prod, 0);
         cv::add(acc, prod, acc);
       }
-      cv::dft(acc, outs[s], cv::DFT_INVERSE | cv::DFT_SCALE | cv::DFT_REAL_OUTPUT, p.h);
+      cv::dft(acc, outs[s], cv::DFT_INVERSE | cv::DFT_SCALE | cv::DFT_REAL_OUTPUT, bh);
     }
   });
-  r.hl2_raw = Image(p.w, p.h, 3), r.response = Image(p.w, p.h, 1);
-  for (int y = 0; y < p.h; ++y)
-    for (int x = 0; x < p.w; ++x) {
+  for (int y = y0; y <= y1; ++y)
+    for (int x = x0; x <= x1; ++x) {
       const int64_t i = int64_t(y) * p.w + x;
       if (!p.inside[i]) continue;
-      for (int c = 0; c < 3; ++c) r.hl2_raw.Plane(c)[i] = outs[c].at<float>(y, x);
-      r.response.Plane(0)[i] = outs[3].at<float>(y, x);
+      for (int c = 0; c < 3; ++c) r.hl2_raw.Plane(c)[i] = outs[c].at<float>(y - y0, x - x0);
+      r.response.Plane(0)[i] = outs[3].at<float>(y - y0, x - x0);
     }
   Finish(p, &r);
   return r;
