@@ -188,7 +188,8 @@ Status WriteImage(const std::string& path, const Image& image, const ImageWriteO
   OIIO::TypeDesc buffer_type = type;
   auto encoded = [&](int c, int64_t p) {
     const float v = image.Plane(c)[p];
-    return srgb ? LinearToSrgb(std::clamp(v, 0.0f, 1.0f)) : v;
+    // RGBA: the alpha plane stays linear.
+    return srgb && !(ch == 4 && c == 3) ? LinearToSrgb(std::clamp(v, 0.0f, 1.0f)) : v;
   };
   if (options.format == PixelFormat::kUint8) {
     q8.resize(size_t(n) * ch);

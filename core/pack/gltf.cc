@@ -61,6 +61,17 @@ std::string MakeQuadGltf(const GltfMaterialDesc& m, const std::string& bin_uri,
     mat["extensions"]["KHR_materials_ior"] = {{"ior", m.ior}};
     used.push_back("KHR_materials_ior");
   }
+  if (!m.diffuse_transmission_uri.empty()) {
+    const int tex = add_texture(m.diffuse_transmission_uri);
+    mat["extensions"]["KHR_materials_diffuse_transmission"] = {
+        {"diffuseTransmissionFactor", 1.0},
+        {"diffuseTransmissionTexture", {{"index", tex}}},
+        {"diffuseTransmissionColorFactor", {1.0, 1.0, 1.0}},
+        {"diffuseTransmissionColorTexture", {{"index", tex}}}};
+    used.push_back("KHR_materials_diffuse_transmission");
+  }
+  if (m.double_sided) mat["doubleSided"] = true;
+  if (m.alpha_mask) mat["alphaMode"] = "MASK", mat["alphaCutoff"] = 0.5;
   json attributes = {{"POSITION", 0}, {"NORMAL", 1}, {"TANGENT", 2}, {"TEXCOORD_0", 3}};
   json g = {
       {"asset", {{"version", "2.0"}, {"generator", std::string("matfit ") + kMatfitVersion}}},

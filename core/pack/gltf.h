@@ -9,13 +9,18 @@ namespace matfit {
 
 struct GltfMaterialDesc {
   std::string name;
-  std::string base_color_uri;            // sRGB PNG
-  std::string normal_uri;                // empty: no normal map
-  std::string specular_color_uri;        // KHR_materials_specular colour texture; empty: none
-  double specular_factor = 1.0;          // KHR_materials_specular specularFactor (0 = no specular)
-  double roughness = 1.0;                // pbrMetallicRoughness roughnessFactor
-  std::string metallic_roughness_uri;    // G = roughness, B = metallic (0); empty: factor only
-  double ior = 0;                        // KHR_materials_ior; 0 = not written
+  std::string base_color_uri;          // sRGB PNG
+  std::string normal_uri;              // empty: no normal map
+  std::string specular_color_uri;      // KHR_materials_specular colour texture; empty: none
+  double specular_factor = 1.0;        // KHR_materials_specular specularFactor (0 = no specular)
+  double roughness = 1.0;              // pbrMetallicRoughness roughnessFactor
+  std::string metallic_roughness_uri;  // G = roughness, B = metallic (0); empty: factor only
+  double ior = 0;                      // KHR_materials_ior; 0 = not written
+  // Thin two-sided sheets (leaves): KHR_materials_diffuse_transmission from an RGBA texture
+  // (RGB = transmission colour, A = transmission factor); empty: none.
+  std::string diffuse_transmission_uri;
+  bool double_sided = false;
+  bool alpha_mask = false;               // alphaMode MASK on the base colour's alpha (cutoff 0.5)
   double width_m = 0.1, height_m = 0.1;  // quad size in metres
 };
 

@@ -5,12 +5,19 @@
 #include <cstdint>
 #include <map>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "core/material_maps.h"
 #include "core/status.h"
 
 namespace matfit {
+
+// A map beyond the model's own (e.g. a leaf's derived maps), written under maps/.
+struct PackExtraMap {
+  std::string name, file, semantic;  // file: e.g. "bump.png" (8-bit) or "absorption.exr"
+  Image image;
+};
 
 struct PackInfo {
   std::string method;                              // fitting method name
@@ -19,6 +26,9 @@ struct PackInfo {
   std::map<std::string, double> model_parameters;  // e.g. exponent
   double mm_per_texel = 0;                         // 0 = unknown
   std::vector<std::string> warnings;
+  std::vector<PackExtraMap> extra_maps;
+  // Extra preview renders at the pack root (file name → linear image, written as sRGB PNG).
+  std::vector<std::pair<std::string, Image>> previews;
 };
 
 struct PackWriteOptions {

@@ -170,7 +170,43 @@ Status WritePack(const MaterialMaps& m, const std::vector<uint8_t>& status, cons
       put("albedo_back", "albedo_back.exr", m.albedo_back, exr, "leaf lower-side diffuse albedo"));
   MATFIT_RETURN_IF_ERROR(put("hl2", "hl2.exr", m.hl2, exr,
                              "leaf HL2 translucency coefficients h1..h3 (light from behind)"));
+  for (const PackExtraMap& e : info.extra_maps) {
+    const bool png = fs::path(e.file).extension() == ".png";
+    MATFIT_RETURN_IF_ERROR(
+        put(e.name.c_str(), e.file.c_str(), e.image, png ? lin8 : exr, e.semantic.c_str()));
+  }
+  // Leaves in glTF terms (KHR_materials_diffuse_transmission): of the light not reflected
+  // specularly, a fraction t = lum(ρ_t) / (lum(ρ_d) + lum(ρ_t)) is transmitted with colour
+  // ρ_t / t and the rest reflected with colour ρ_d / (1 − t), so that a glTF renderer
+  // reproduces the measured reflectance ρ_d and transmittance ρ_t. Alpha = mask.
+  const bool leaf = !m.translucency.empty();
+  if (leaf) {
+    const int64_t np = int64_t(m.width) * m.height;
+    Image base(m.width, m.height, 4), trans(m.width, m.height, 4);
+    auto lum = [](const Image& im, int64_t p) {
+      return 0.2126 * im.Plane(0)[p] + 0.7152 * im.Plane(1)[p] + 0.0722 * im.Plane(2)[p];
+    };
+    for (int64_t p = 0; p < np; ++p) {
+      const double ld = lum(m.albedo, p), lt = lum(m.translucency, p);
+      const double tf = ld + lt > 1e-6 ? lt / (ld + lt) : 0.0;
+      for (int c = 0; c < 3; ++c) {
+        base.Plane(c)[p] = float(std::min(1.0, m.albedo.Plane(c)[p] / std::max(1e-6, 1 - tf)));
+        trans.Plane(c)[p] = float(std::min(1.0, m.translucency.Plane(c)[p] / std::max(1e-6, tf)));
+      }
+      base.Plane(3)[p] = m.mask.empty() ? 1.0f : m.mask.Plane(0)[p];
+      trans.Plane(3)[p] = float(tf);
+    }
+    MATFIT_RETURN_IF_ERROR(put("gltf_base_color", "gltf_base_color.png", base, srgb8,
+                               "glTF base colour rho_d/(1-t), alpha = mask"));
+    MATFIT_RETURN_IF_ERROR(put("gltf_diffuse_transmission", "gltf_diffuse_transmission.png", trans,
+                               srgb8, "glTF diffuse transmission: rgb = rho_t/t, a = t (linear)"));
+  }
   MATFIT_RETURN_IF_ERROR(WriteImage((root / "preview.png").string(), Preview(m, status), srgb8));
+  json previews = json::array({"preview.png"});
+  for (const auto& [name, img] : info.previews) {
+    MATFIT_RETURN_IF_ERROR(WriteImage((root / name).string(), img, srgb8));
+    previews.push_back(name);
+  }
 
   // The shaders' parameter planes for the web viewer (core/pack/shader_params.h).
   json viewer;
@@ -201,7 +237,11 @@ Status WritePack(const MaterialMaps& m, const std::vector<uint8_t>& status, cons
   // glTF quad.
   GltfMaterialDesc g;
   g.name = info.method;
-  g.base_color_uri = "maps/albedo.png";
+  g.base_color_uri = leaf ? "maps/gltf_base_color.png" : "maps/albedo.png";
+  if (leaf) {
+    g.diffuse_transmission_uri = "maps/gltf_diffuse_transmission.png";
+    g.double_sided = true, g.alpha_mask = !m.mask.empty();
+  }
   if (has_normal) g.normal_uri = "maps/normal.png";
   g.specular_factor = 0.0;
   if (heinrich && !m.specular_color.empty()) {
@@ -257,6 +297,7 @@ Status WritePack(const MaterialMaps& m, const std::vector<uint8_t>& status, cons
         {"normal_map", "OpenGL (+Y up), rgb = n*0.5+0.5, 16-bit PNG"},
         {"reflectance", "pixel = intensity * R, R = pi * f_r * max(0, n.l)"}}},
       {"gltf", "material.gltf"},
+      {"previews", previews},
       {"viewer", viewer},
       {"report", "report.json"},
       {"report_summary", report_summary},

@@ -5,6 +5,7 @@
 #include <numbers>
 
 #include "leaf/hl2.h"
+#include "leaf/hl2_error.h"
 #include "leaf/horizon.h"
 #include "leaf/multipole.h"
 #include "leaf/synthetic_leaf.h"
@@ -185,35 +186,13 @@ TEST(Translucency, FastMatchesTheReferenceOnTheSyntheticLeaf) {
   EXPECT_LE(resp, 0.01);
 }
 
-// Mean relative error of the HL2 reconstruction Σ h_i ℋ_i(ω) against the direct multipole
-// L_t^D(ω), over leaf texels, at one light elevation above the tangent plane (four azimuths).
-// Texels lit by less than 5 % of the unshadowed response (deep shadow) carry no signal to compare.
-// `hist` (optional) counts errors in bins < 1, 2, 5, 10, 20, ≥ 20 %.
 double Hl2Error(const SyntheticLeaf& s, const TranslucencyOptions& o, const TranslucencyResult& r,
                 double elev, std::array<int64_t, 6>* hist = nullptr) {
-  double sum = 0;
-  int64_t n = 0;
-  for (double az : {0.3, 1.9, 3.5, 5.1}) {
-    const Vec3 w(std::cos(elev) * std::cos(az), std::cos(elev) * std::sin(az), std::sin(elev));
-    auto L = DirectionalTranslucency(s.input, o, w);
-    EXPECT_TRUE(L.ok());
-    for (size_t i = 0; i < s.mask.size(); ++i) {
-      const double ref = L->Plane(0)[i];
-      if (!s.mask[i] || !(ref > 0.05 * r.response.Plane(0)[i] * w.z)) continue;
-      const std::array<double, 3> h = {r.hl2_raw.Plane(0)[i], r.hl2_raw.Plane(1)[i],
-                                       r.hl2_raw.Plane(2)[i]};
-      const double e = std::abs(Hl2Reconstruct(h, w) - ref) / ref;
-      sum += e, ++n;
-      if (hist) {
-        const double edges[5] = {0.01, 0.02, 0.05, 0.10, 0.20};
-        int b = 0;
-        while (b < 5 && e >= edges[b]) ++b;
-        ++(*hist)[b];
-      }
-    }
-    if (elev == kPi / 2) break;  // azimuth is meaningless straight overhead
-  }
-  return n ? sum / n : 0;
+  auto e = Hl2ReconstructionError(s.input, o, r, elev);
+  EXPECT_TRUE(e.ok());
+  if (hist)
+    for (int b = 0; b < 6; ++b) (*hist)[b] += e->histogram[b];
+  return e->mean;
 }
 
 TEST(Translucency, Hl2ReconstructsTheMultipoleWithinThePublishedError) {

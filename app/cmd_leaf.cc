@@ -1,0 +1,126 @@
+// `matfit leaf DIR --out DIR`: one translucent leaf material per leaf of a scanned sheet.
+#include <CLI/CLI.hpp>
+#include <algorithm>
+#include <cstdio>
+#include <memory>
+#include <string>
+
+#include "app/commands.h"
+#include "core/parallel.h"
+#include "core/progress.h"
+#include "leaf/leaf_job.h"
+#include "render/cpu_renderer.h"
+
+namespace matfit::app {
+namespace {
+
+struct LeafArgs {
+  leaf::LeafJobOptions job;
+  std::string precompute = "fast";
+  int preview_size = 256;
+  bool no_preview = false, quiet = false;
+  int threads = 0;
+};
+
+// The leaf centred on a square of background (mask 0), so that the square preview keeps its
+// aspect ratio.
+MaterialMaps PadToSquare(const MaterialMaps& m) {
+  const int s = std::max(m.width, m.height), ox = (s - m.width) / 2, oy = (s - m.height) / 2;
+  MaterialMaps p = m;
+  p.width = p.height = s;
+  auto pad = [&](Image& img, float fill_last) {
+    if (img.empty()) return;
+    Image out(s, s, img.channels());
+    for (int c = 0; c < img.channels(); ++c) {
+      if (c == img.channels() - 1)
+        for (float& v : out.Plane(c)) v = fill_last;
+      for (int y = 0; y < m.height; ++y)
+        for (int x = 0; x < m.width; ++x) out.At(c, y + oy, x + ox) = img.At(c, y, x);
+    }
+    img = std::move(out);
+  };
+  pad(p.normal, 1.0f);  // (0, 0, 1) outside
+  for (Image* img : {&p.albedo, &p.height_map, &p.specular, &p.exponent, &p.roughness, &p.thickness,
+                     &p.translucency, &p.albedo_back, &p.hl2, &p.mask, &p.ambient, &p.normal_scale,
+                     &p.specular_color, &p.coefficients, &p.lobe_shape})
+    pad(*img, 0.0f);
+  return p;
+}
+
+int RunLeaf(LeafArgs& a) {
+  if (a.precompute != "fast" && a.precompute != "reference")
+    return Fail("leaf", ("--precompute '" + a.precompute + "': choose fast or reference").c_str());
+  a.job.material.reference_precompute = a.precompute == "reference";
+  if (a.preview_size < 16 || a.preview_size > 4096)
+    return Fail("leaf", "--preview-size must be in 16..4096");
+  std::string why;
+  if (!a.job.Check(&why)) return Fail("leaf", why.c_str());
+  SetNumThreads(a.threads);
+  if (!a.no_preview) {
+    const int size = a.preview_size;
+    // The renderer's leaf shading, CPU backend: lit from the front (θ 30°) and from behind
+    // (θ 150°: the light passes through the leaf toward the camera).
+    a.job.preview = [size](const MaterialMaps& m, bool behind) {
+      render::RenderOptions ro;
+      ro.size = size, ro.theta_deg = behind ? 150 : 30, ro.phi_deg = 45, ro.ambient = 0.02;
+      return render::RenderCpu(PadToSquare(m), ro);
+    };
+  }
+  std::unique_ptr<ProgressReporter> bar;
+  std::string current;
+  auto progress = [&](const std::string& stage, int64_t done, int64_t total) {
+    if (a.quiet) return true;
+    if (stage != current) bar = std::make_unique<ProgressReporter>(stage), current = stage;
+    bar->Update(done, total);
+    return true;
+  };
+  auto r = leaf::RunLeafJob(a.job, progress);
+  bar.reset();
+  if (!r.ok()) return Fail("leaf", r.status().message().c_str());
+  std::printf("found       %d leaves, %d twigs, %d markers (%d specks dropped)\n", r->leaves,
+              r->twigs, r->markers, r->specks);
+  std::printf("scale       %.4g mm/pixel (%s)\n", r->mm_per_pixel, r->scale_source.c_str());
+  double worst = 0, mean = 0;
+  for (const auto& s : r->summary)
+    worst = std::max(worst, s.mean_hl2_error), mean += s.mean_hl2_error;
+  if (!r->summary.empty())
+    std::printf("hl2 error   mean %.2f %%, worst leaf %.2f %% (vs multipole at π/2, π/4, π/8)\n",
+                100 * mean / r->summary.size(), 100 * worst);
+  std::printf("time        %.2f s (sheet %.2f s, leaves %.2f s)\n", r->seconds_total,
+              r->seconds_sheet, r->seconds_leaves);
+  for (const auto& w : r->warnings) std::printf("warning     %s\n", w.c_str());
+  std::printf("out         %s (%zu leaf packs, leaves.json)\n", a.job.out.c_str(),
+              r->summary.size());
+  return 0;
+}
+
+}  // namespace
+
+void RegisterLeaf(CLI::App& app, int* exit_code) {
+  auto args = std::make_shared<LeafArgs>();
+  auto& j = args->job;
+  CLI::App* sub = app.add_subcommand(
+      "leaf", "Segment a scanned leaf sheet and write one translucent leaf material per leaf");
+  sub->add_option("DIR", j.input, "leaf-scan folder")->required();
+  sub->add_option("--out", j.out, "output folder (leaves.json + one pack per leaf)")->required();
+  sub->add_option("--manifest", j.manifest, "leaf-scan manifest (default: DIR/leaf.json)");
+  sub->add_option("--nl", j.material.translucency.directions,
+                  "light directions N_L of the HL2 projection")
+      ->capture_default_str();
+  sub->add_option("--max-thickness-mm", j.max_thickness_mm,
+                  "measured maximum leaf thickness (scales the thickness estimate)");
+  sub->add_option("--mm-per-pixel", j.mm_per_pixel, "physical scale of the scan");
+  sub->add_option("--marker-size-mm", j.marker_size_mm, "side of the square markers (for scale)");
+  sub->add_option("--precompute", args->precompute, "fast or reference (the direct method)")
+      ->capture_default_str();
+  sub->add_option("--leaf", j.only_leaf, "process only this leaf id");
+  sub->add_option("--preview-size", args->preview_size, "preview render size in pixels")
+      ->capture_default_str();
+  sub->add_flag("--no-preview", args->no_preview, "skip the front/back preview renders");
+  sub->add_option("--threads", args->threads, "worker threads (0 = all)")->capture_default_str();
+  sub->add_flag("--force", j.overwrite, "replace --out if it exists");
+  sub->add_flag("--quiet", args->quiet, "no progress bars");
+  sub->callback([args, exit_code] { *exit_code = RunLeaf(*args); });
+}
+
+}  // namespace matfit::app

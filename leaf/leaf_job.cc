@@ -1,0 +1,272 @@
+#include "leaf/leaf_job.h"
+
+#include <algorithm>
+#include <chrono>
+#include <cstdio>
+#include <filesystem>
+#include <nlohmann/json.hpp>
+
+#include "core/atomic_file.h"
+#include "core/image_io.h"
+#include "core/pack/pack.h"
+#include "core/version.h"
+#include "fit/fit_types.h"
+#include "leaf/scan.h"
+
+namespace matfit::leaf {
+
+namespace fs = std::filesystem;
+using nlohmann::json;
+
+bool LeafJobOptions::Check(std::string* why) const {
+  auto fail = [&](const std::string& m) {
+    if (why) *why = m;
+    return false;
+  };
+  if (input.empty()) return fail("the leaf-scan folder is empty");
+  if (out.empty()) return fail("--out DIR is required");
+  if (mm_per_pixel < 0 || mm_per_pixel > 100) return fail("--mm-per-pixel must be in (0, 100]");
+  if (marker_size_mm < 0 || marker_size_mm > 1000)
+    return fail("--marker-size-mm must be in (0, 1000]");
+  if (max_thickness_mm < 0 || max_thickness_mm > 10)
+    return fail("--max-thickness-mm must be in (0, 10]");
+  if (!(default_mm_per_pixel > 0)) return fail("default mm per pixel must be > 0");
+  if (only_leaf < 0) return fail("--leaf must be ≥ 1");
+  return sheet.Check(why) && material.Check(why);
+}
+
+namespace {
+
+double Since(std::chrono::steady_clock::time_point t0) {
+  return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+}
+
+json Bbox(const Component& c) { return {c.x0, c.y0, c.x1 - c.x0 + 1, c.y1 - c.y0 + 1}; }
+
+// Colour overlay of the segmentation: leaves in distinct hues, twigs red, markers blue, specks
+// yellow, on the darkened transmission.
+Image Overlay(const SheetAnalysis& a) {
+  const auto& s = a.segmentation;
+  Image vis(a.width, a.height, 3);
+  std::vector<const Component*> by_label(s.components.size() + 1, nullptr);
+  int max_label = 0;
+  for (const auto& c : s.components) max_label = std::max(max_label, c.label);
+  by_label.assign(max_label + 1, nullptr);
+  for (const auto& c : s.components) by_label[c.label] = &c;
+  for (int64_t i = 0; i < vis.plane_size(); ++i) {
+    const int l = s.labels[i];
+    float col[3];
+    const float t = 0.5f * std::min(1.0f, a.luminance.Plane(0)[i]);
+    col[0] = col[1] = col[2] = t;
+    if (l > 0 && by_label[l]) {
+      const Component& c = *by_label[l];
+      switch (c.kind) {
+        case ComponentKind::kLeaf: {
+          const float hue = float(c.id * 0.618034 - std::floor(c.id * 0.618034));
+          for (int k = 0; k < 3; ++k)
+            col[k] = 0.35f + 0.6f * std::max(0.0f, 1 - std::abs(std::fmod(hue * 3 + k, 3.0f) - 1));
+          break;
+        }
+        case ComponentKind::kTwig: col[0] = 1, col[1] = col[2] = 0.1f; break;
+        case ComponentKind::kMarker: col[0] = col[1] = 0.1f, col[2] = 1; break;
+        case ComponentKind::kSpeck: col[0] = col[1] = 1, col[2] = 0; break;
+      }
+    }
+    for (int k = 0; k < 3; ++k) vis.Plane(k)[i] = col[k];
+  }
+  return vis;
+}
+
+std::string LeafReport(const LeafMaterial& L, const LeafMaterialOptions& o, int64_t flagged) {
+  json e = json::array();
+  const double el[3] = {1.5707963267948966, 0.7853981633974483, 0.39269908169872414};
+  for (int k = 0; k < 3; ++k)
+    e.push_back({{"elevation_rad", el[k]},
+                 {"mean_percent", 100 * L.hl2_error[k].mean},
+                 {"texel_directions", L.hl2_error[k].texels},
+                 {"histogram_percent_bins", {"<1", "1-2", "2-5", "5-10", "10-20", ">=20"}},
+                 {"histogram", L.hl2_error[k].histogram}});
+  json r = {
+      {"schema", "matfit.leaf-report/1"},
+      {"leaf", L.component.id},
+      {"size", {{"width", L.maps.width}, {"height", L.maps.height}}},
+      {"mm_per_texel", L.mm_per_texel},
+      {"area_px", L.component.area_px},
+      {"translucency",
+       {{"method", o.reference_precompute ? "reference" : "fast"},
+        {"directions", o.translucency.directions},
+        {"kernel_radius_texels", L.translucency.kernel_radius},
+        {"kernel_terms", L.translucency.kernel_terms},
+        {"kernel_error", L.translucency.kernel_error},
+        {"thin_texels", L.translucency.thin_texels},
+        {"hl2_vs_multipole", e}}},
+      {"thickness_estimated", L.thickness_estimated},
+      {"specular_fitted", L.specular_fitted},
+      {"flagged_texels", flagged},
+      {"timings_seconds",
+       {{"maps", L.seconds_maps},
+        {"translucency", L.seconds_translucency},
+        {"hl2_error", L.seconds_hl2_error}}},
+      {"warnings", L.warnings},
+  };
+  return r.dump(2) + "\n";
+}
+
+}  // namespace
+
+StatusOr<LeafJobResult> RunLeafJob(const LeafJobOptions& o, const LeafProgress& progress) {
+  std::string why;
+  if (!o.Check(&why)) return InvalidArgument(why);
+  const auto t0 = std::chrono::steady_clock::now();
+  auto step = [&](const char* stage, int64_t d, int64_t t) {
+    return !progress || progress(stage, d, t);
+  };
+  std::error_code ec;
+  if (fs::exists(o.out, ec) && !o.overwrite)
+    return InvalidArgument("output '" + o.out +
+                           "' already exists; choose another --out or pass --force");
+  if (!step("read", 0, 1)) return Status(StatusCode::kCancelled, "cancelled");
+  auto scan = ReadLeafScan(o.input, o.manifest);
+  if (!scan.ok()) return scan.status();
+  if (o.max_thickness_mm > 0) scan->max_thickness_mm = o.max_thickness_mm;
+  if (!step("sheet", 0, 1)) return Status(StatusCode::kCancelled, "cancelled");
+  auto sheet = AnalyzeSheet(*scan, o.sheet);
+  if (!sheet.ok()) return sheet.status();
+  LeafJobResult res;
+  res.seconds_sheet = Since(t0);
+  res.warnings = scan->warnings;
+  for (const auto& w : sheet->warnings) res.warnings.push_back(w);
+  const auto& comps = sheet->segmentation.components;
+  std::vector<double> sides;
+  for (const auto& c : comps) {
+    res.leaves += c.kind == ComponentKind::kLeaf;
+    res.twigs += c.kind == ComponentKind::kTwig;
+    res.specks += c.kind == ComponentKind::kSpeck;
+    if (c.kind == ComponentKind::kMarker) ++res.markers, sides.push_back(c.side_px);
+  }
+  if (res.leaves == 0)
+    return DataError("no leaves found on '" + o.input +
+                     "': nothing darker than half the back light; check the back-lit images");
+  // Scale.
+  const double marker_mm = o.marker_size_mm > 0 ? o.marker_size_mm : scan->marker_size_mm;
+  if (o.mm_per_pixel > 0) {
+    res.mm_per_pixel = o.mm_per_pixel, res.scale_source = "option";
+  } else if (scan->mm_per_pixel > 0) {
+    res.mm_per_pixel = scan->mm_per_pixel, res.scale_source = "manifest";
+  } else if (marker_mm > 0 && !sides.empty()) {
+    std::nth_element(sides.begin(), sides.begin() + sides.size() / 2, sides.end());
+    res.mm_per_pixel = marker_mm / sides[sides.size() / 2], res.scale_source = "markers";
+  } else {
+    res.mm_per_pixel = o.default_mm_per_pixel, res.scale_source = "default";
+    res.warnings.push_back(
+        std::string("no physical scale: ") +
+        (marker_mm > 0 ? "no square markers were found" : "give mm_per_pixel or marker_size_mm") +
+        "; assumed " + std::to_string(o.default_mm_per_pixel) +
+        " mm per pixel for the translucency kernel, areas in mm² are not reported");
+  }
+  const bool scale_known = res.scale_source != "default";
+
+  AtomicDir dir(o.out);
+  MATFIT_RETURN_IF_ERROR(dir.Begin(o.overwrite));
+  const fs::path root(dir.temp_path());
+  const auto t_leaves = std::chrono::steady_clock::now();
+  json leaves = json::array(), others = json::array();
+  int done = 0;
+  for (const auto& c : comps) {
+    if (c.kind != ComponentKind::kLeaf) {
+      if (c.kind != ComponentKind::kSpeck)
+        others.push_back({{"kind", ComponentKindName(c.kind)},
+                          {"bbox", Bbox(c)},
+                          {"area_px", c.area_px},
+                          {"touches_border", c.touches_border}});
+      continue;
+    }
+    if (o.only_leaf && c.id != o.only_leaf) continue;
+    if (!step("leaves", done, o.only_leaf ? 1 : res.leaves))
+      return Status(StatusCode::kCancelled, "cancelled");
+    auto L = MakeLeafMaterial(*scan, *sheet, c, res.mm_per_pixel, o.material);
+    if (!L.ok())
+      return Status(L.status().code(),
+                    "leaf " + std::to_string(c.id) + ": " + L.status().message());
+    char name[32];
+    std::snprintf(name, sizeof name, "leaf_%02d", c.id);
+    int64_t flagged = 0;
+    for (uint8_t s : L->status) flagged += s != fit::kTexelOk && s != fit::kTexelMasked;
+    if (c.touches_border)
+      L->warnings.push_back("the leaf touches the image border: it is probably cut off");
+    PackInfo info;
+    info.method = "leaf";
+    info.source = o.input;
+    info.mm_per_texel = scale_known ? res.mm_per_pixel : 0;
+    info.report_json = LeafReport(*L, o.material, flagged);
+    info.warnings = L->warnings;
+    info.model_parameters["leaf_id"] = c.id;
+    info.extra_maps.push_back({"thickness_variation", "thickness_variation.png",
+                               "2005: inverted transmission luminance", L->thickness_variation});
+    info.extra_maps.push_back(
+        {"absorption", "absorption.png", "2005: absorption modulation A(x)", L->absorption});
+    info.extra_maps.push_back(
+        {"bump", "bump.png", "2005: high-passed upper-side luminance (bump)", L->bump});
+    if (o.preview) {
+      for (bool behind : {false, true}) {
+        auto img = o.preview(L->maps, behind);
+        if (!img.ok()) return img.status();
+        info.previews.push_back(
+            {behind ? "preview_back.png" : "preview_front.png", std::move(*img)});
+      }
+    }
+    MATFIT_RETURN_IF_ERROR(WritePack(L->maps, L->status, info, {}, (root / name).string()));
+    LeafSummary sm;
+    sm.id = c.id, sm.name = name, sm.area_px = c.area_px, sm.flagged_texels = flagged;
+    sm.mean_hl2_error = (L->hl2_error[0].mean + L->hl2_error[1].mean + L->hl2_error[2].mean) / 3;
+    res.summary.push_back(sm);
+    const double a_mm2 = c.area_px * res.mm_per_pixel * res.mm_per_pixel;
+    leaves.push_back({{"id", c.id},
+                      {"name", name},
+                      {"pack", name},
+                      {"bbox", Bbox(c)},
+                      {"crop", {L->crop_x, L->crop_y, L->maps.width, L->maps.height}},
+                      {"area_px", c.area_px},
+                      {"area_mm2", scale_known ? json(a_mm2) : json()},
+                      {"touches_border", c.touches_border},
+                      {"thickness_estimated", L->thickness_estimated},
+                      {"flagged_texels", flagged},
+                      {"hl2_error_percent", 100 * sm.mean_hl2_error}});
+    ++done;
+  }
+  res.seconds_leaves = Since(t_leaves);
+  if (!step("write", 0, 1)) return Status(StatusCode::kCancelled, "cancelled");
+  MATFIT_RETURN_IF_ERROR(WriteImage((root / "segmentation.png").string(), Overlay(*sheet),
+                                    {PixelFormat::kUint8, TransferFunction::kLinear}));
+  MATFIT_RETURN_IF_ERROR(WriteImage((root / "transmission.exr").string(), sheet->transmission,
+                                    {PixelFormat::kHalf, TransferFunction::kLinear}));
+  res.seconds_total = Since(t0);
+  json index = {
+      {"schema", "matfit.leaves/1"},
+      {"source", o.input},
+      {"size", {{"width", sheet->width}, {"height", sheet->height}}},
+      {"scale", {{"mm_per_pixel", res.mm_per_pixel}, {"source", res.scale_source}}},
+      {"counts",
+       {{"leaves", res.leaves},
+        {"twigs", res.twigs},
+        {"markers", res.markers},
+        {"specks", res.specks}}},
+      {"leaves", leaves},
+      {"others", others},
+      {"segmentation", "segmentation.png"},
+      {"transmission", "transmission.exr"},
+      {"background_fit_rms_log",
+       {{"back_lit", sheet->back_rms_log}, {"top_lit", sheet->top_rms_log}}},
+      {"timings_seconds",
+       {{"sheet", res.seconds_sheet},
+        {"leaves", res.seconds_leaves},
+        {"total", res.seconds_total}}},
+      {"warnings", res.warnings},
+      {"version", std::string("matfit ") + kMatfitVersion},
+  };
+  MATFIT_RETURN_IF_ERROR(WriteFileAtomic((root / "leaves.json").string(), index.dump(2) + "\n"));
+  MATFIT_RETURN_IF_ERROR(dir.Commit());
+  return res;
+}
+
+}  // namespace matfit::leaf

@@ -1,0 +1,56 @@
+// The whole `matfit leaf` path: read the scan → analyse the sheet (flat field, fused
+// transmission, segmentation) → one leaf material per leaf → a pack per leaf + leaves.json,
+// written atomically as one output folder. The CLI and the server share it.
+#pragma once
+
+#include <functional>
+#include <string>
+#include <vector>
+
+#include "core/image.h"
+#include "core/material_maps.h"
+#include "core/status.h"
+#include "leaf/leaf_material.h"
+#include "leaf/sheet.h"
+
+namespace matfit::leaf {
+
+struct LeafJobOptions {
+  std::string input;     // leaf-scan folder
+  std::string manifest;  // optional manifest path (else DIR/leaf.json or detection)
+  std::string out;       // output folder
+  bool overwrite = false;
+  SheetOptions sheet;
+  LeafMaterialOptions material;
+  // Overrides of the manifest (0 = keep).
+  double mm_per_pixel = 0, marker_size_mm = 0, max_thickness_mm = 0;
+  double default_mm_per_pixel = 0.5;  // used, with a warning, when no scale is known
+  int only_leaf = 0;                  // process just this leaf id (0 = every leaf)
+  // Preview renders of a leaf pack lit from the front / from behind (render/); empty = none.
+  std::function<StatusOr<Image>(const MaterialMaps&, bool from_behind)> preview;
+  bool Check(std::string* why) const;
+};
+
+struct LeafSummary {
+  int id = 0;
+  std::string name;  // "leaf_01"
+  int64_t area_px = 0;
+  double mean_hl2_error = 0;  // mean over the three elevations, fraction
+  int64_t flagged_texels = 0;
+};
+
+struct LeafJobResult {
+  int leaves = 0, twigs = 0, markers = 0, specks = 0;
+  double mm_per_pixel = 0;
+  std::string scale_source;  // "option", "manifest", "markers", "default"
+  std::vector<LeafSummary> summary;
+  double seconds_total = 0, seconds_sheet = 0, seconds_leaves = 0;
+  std::vector<std::string> warnings;
+};
+
+// stage: "read", "sheet", "leaves", "write"; return false to cancel.
+using LeafProgress = std::function<bool(const std::string& stage, int64_t done, int64_t total)>;
+StatusOr<LeafJobResult> RunLeafJob(const LeafJobOptions& options,
+                                   const LeafProgress& progress = {});
+
+}  // namespace matfit::leaf

@@ -1,0 +1,151 @@
+#include "leaf/sheet.h"
+
+#include <algorithm>
+#include <cmath>
+#include <opencv2/imgproc.hpp>
+
+namespace matfit::leaf {
+
+bool SheetOptions::Check(std::string* why) const {
+  if (!segment.Check(why) || !background.Check(why)) return false;
+  if (back_margin_px < 0 || back_margin_px > 64 || top_margin_px < 0 || top_margin_px > 64) {
+    if (why) *why = "background margins must be in 0..64 pixels";
+    return false;
+  }
+  if (!(saturation > 0 && saturation <= 1)) {
+    if (why) *why = "saturation level must be in (0, 1]";
+    return false;
+  }
+  return true;
+}
+
+Image Luminance(const Image& rgb) {
+  if (rgb.channels() < 3) return rgb;
+  Image l(rgb.width(), rgb.height(), 1);
+  for (int64_t i = 0; i < rgb.plane_size(); ++i)
+    l.Plane(0)[i] =
+        0.2126f * rgb.Plane(0)[i] + 0.7152f * rgb.Plane(1)[i] + 0.0722f * rgb.Plane(2)[i];
+  return l;
+}
+
+namespace {
+
+// Pixels at least `margin` away from any non-background label.
+std::vector<uint8_t> BareSheet(const std::vector<int32_t>& labels, int w, int h, int margin) {
+  cv::Mat obj(h, w, CV_8U);
+  for (int y = 0; y < h; ++y)
+    for (int x = 0; x < w; ++x) obj.at<uint8_t>(y, x) = labels[size_t(y) * w + x] ? 255 : 0;
+  if (margin > 0) {
+    const cv::Mat se =
+        cv::getStructuringElement(cv::MORPH_ELLIPSE, cv::Size(2 * margin + 1, 2 * margin + 1));
+    cv::dilate(obj, obj, se);
+  }
+  std::vector<uint8_t> bg(size_t(w) * h);
+  for (int y = 0; y < h; ++y)
+    for (int x = 0; x < w; ++x) bg[size_t(y) * w + x] = obj.at<uint8_t>(y, x) == 0;
+  return bg;
+}
+
+// Fused transmission: per channel Σ_k I_k / Σ_k B_k over the unclipped samples (a ratio of sums
+// weighs each image by its back light: bright, well-exposed shots count most).
+Status FuseBack(const LeafScan& scan, const std::vector<uint8_t>& bg, const SheetOptions& o,
+                SheetAnalysis* a) {
+  const int w = a->width, h = a->height, c3 = 3;
+  const int64_t n = int64_t(w) * h;
+  std::vector<double> num(size_t(c3) * n, 0.0), den(size_t(c3) * n, 0.0);
+  a->back_rms_log = 0, a->saturated_back_samples = 0;
+  for (size_t k = 0; k < scan.back.size(); ++k) {
+    const Image& img = scan.back[k];
+    for (int c = 0; c < c3; ++c) {
+      const int sc = std::min(c, img.channels() - 1);
+      auto fit = FitBackground(img.Plane(sc), w, h, bg, o.background);
+      if (!fit.ok())
+        return DataError("back-lit image '" + scan.back_files[k] + "': " + fit.status().message());
+      a->back_rms_log = std::max(a->back_rms_log, fit->rms_log);
+      const std::span<const float> p = img.Plane(sc), b = fit->level.Plane(0);
+      for (int64_t i = 0; i < n; ++i) {
+        if (!(p[i] < o.saturation)) {
+          ++a->saturated_back_samples;
+          continue;
+        }
+        num[c * n + i] += p[i], den[c * n + i] += b[i];
+      }
+    }
+  }
+  a->transmission = Image(w, h, c3);
+  for (int c = 0; c < c3; ++c)
+    for (int64_t i = 0; i < n; ++i)
+      a->transmission.Plane(c)[i] =
+          den[c * n + i] > 0 ? float(std::clamp(num[c * n + i] / den[c * n + i], 0.0, 4.0)) : 1.0f;
+  a->luminance = Luminance(a->transmission);
+  return Status::Ok();
+}
+
+}  // namespace
+
+StatusOr<SheetAnalysis> AnalyzeSheet(const LeafScan& scan, const SheetOptions& o) {
+  std::string why;
+  if (!o.Check(&why)) return InvalidArgument("sheet options: " + why);
+  if (scan.back.empty()) return DataError("the leaf scan has no back-lit images");
+  SheetAnalysis a;
+  a.width = scan.width(), a.height = scan.height();
+  const int w = a.width, h = a.height;
+  const int64_t n = int64_t(w) * h;
+  // 1. First guess: back-lit luminance over its bright level (90th percentile ≈ bare sheet).
+  Image first(w, h, 1);
+  {
+    Image sum(w, h, 1);
+    for (const Image& b : scan.back) {
+      const Image l = Luminance(b);
+      for (int64_t i = 0; i < n; ++i) sum.Plane(0)[i] += l.Plane(0)[i];
+    }
+    std::vector<float> v(sum.data());
+    std::nth_element(v.begin(), v.begin() + v.size() * 9 / 10, v.end());
+    const float p90 = std::max(v[v.size() * 9 / 10], 1e-6f);
+    for (int64_t i = 0; i < n; ++i) first.Plane(0)[i] = sum.Plane(0)[i] / p90;
+  }
+  Segmentation seg = Segment(first, o.segment);
+  // 2. Twice: background from the bare sheet → fused transmission → segmentation.
+  for (int round = 0; round < 2; ++round) {
+    a.background = BareSheet(seg.labels, w, h, o.back_margin_px);
+    MATFIT_RETURN_IF_ERROR(FuseBack(scan, a.background, o, &a));
+    seg = Segment(a.luminance, o.segment);
+  }
+  a.segmentation = std::move(seg);
+  if (a.saturated_back_samples > 0)
+    a.warnings.push_back(std::to_string(a.saturated_back_samples) +
+                         " clipped back-lit samples were left out of the fused transmission");
+  // 3. Top-lit images (or the front-lit photo) over the bare sheet's brightness.
+  const auto top_bg = BareSheet(a.segmentation.labels, w, h, o.top_margin_px);
+  if (scan.top.num_images() > 0) {
+    a.top = scan.top;  // copies planes, lights and provenance
+    const int ch = a.top.channels();
+    for (int m = 0; m < a.top.num_images(); ++m) {
+      const double cos_t = std::max(0.05, a.top.lights()[m].direction.z);
+      for (int c = 0; c < ch; ++c) {
+        auto fit = FitBackground(a.top.Plane(m, c), w, h, top_bg, o.background);
+        if (!fit.ok()) {
+          const std::string f = m < int(a.top.image_files.size()) ? a.top.image_files[m] : "?";
+          return DataError("top-lit image '" + f + "': " + fit.status().message());
+        }
+        a.top_rms_log = std::max(a.top_rms_log, fit->rms_log);
+        auto p = a.top.Plane(m, c);
+        const auto b = fit->level.Plane(0);
+        for (int64_t i = 0; i < n; ++i) p[i] = float(p[i] / std::max(b[i], 1e-6f) * cos_t);
+      }
+    }
+  } else if (!scan.front.empty()) {
+    a.front = scan.front;
+    for (int c = 0; c < a.front.channels(); ++c) {
+      auto fit = FitBackground(a.front.Plane(c), w, h, top_bg, o.background);
+      if (!fit.ok()) return DataError("front-lit photo: " + fit.status().message());
+      a.top_rms_log = std::max(a.top_rms_log, fit->rms_log);
+      auto p = a.front.Plane(c);
+      const auto b = fit->level.Plane(0);
+      for (int64_t i = 0; i < n; ++i) p[i] = p[i] / std::max(b[i], 1e-6f);
+    }
+  }
+  return a;
+}
+
+}  // namespace matfit::leaf
