@@ -1,5 +1,6 @@
 // matfit synth: write a synthetic dataset with ground truth.
 #include <CLI/CLI.hpp>
+#include <algorithm>
 #include <chrono>
 #include <cstdio>
 
@@ -8,6 +9,7 @@
 #include "core/parallel.h"
 #include "core/synth/materials.h"
 #include "core/synth/synth.h"
+#include "leaf/synthetic_scan.h"
 
 namespace matfit::app {
 namespace {
@@ -15,7 +17,7 @@ namespace {
 struct SynthArgs {
   synth::SynthOptions options;
   std::string layout = "bonn", out;
-  bool force = false, list = false;
+  bool force = false, list = false, leaf_scan = false, minimal = false;
   int threads = 0;
 };
 
@@ -29,6 +31,25 @@ int RunSynth(SynthArgs& a) {
     return 0;
   }
   if (a.out.empty()) return Fail("synth", "--out DIR is required");
+  if (a.leaf_scan) {
+    // A leaf-rig scan (ring-lit + back-lit sheet with markers) of the synthetic leaf, --size
+    // pixels wide, on a sheet 1.75 × 1.3 times that.
+    leaf::SyntheticScanOptions so;
+    so.leaf_size = a.options.size;
+    so.width = std::max(64, int(a.options.size * 1.75)),
+    so.height = std::max(64, int(a.options.size * 1.3));
+    so.seed = a.options.seed, so.minimal = a.minimal;
+    std::string why;
+    if (!so.Check(&why)) return Fail("synth", ("--leaf-scan: " + why).c_str());
+    const auto s = leaf::MakeSyntheticScan(so);
+    Status st = leaf::WriteLeafScan(s, a.out, a.force);
+    if (!st.ok()) return Fail("synth", st.message().c_str());
+    std::printf(
+        "wrote %s: synthetic leaf scan %dx%d (%s + %zu back-lit images), truth in %s/truth\n",
+        a.out.c_str(), so.width, so.height, a.minimal ? "front-lit photo" : "12 ring lights",
+        s.scan.back.size(), a.out.c_str());
+    return 0;
+  }
   if (!ParseLayout(a.layout, &a.options.layout) || a.options.layout == Layout::kAuto)
     return Fail("synth", ("--layout '" + a.layout +
                           "' is not one of bonn, utia, lp, diligent, "
@@ -89,6 +110,9 @@ void RegisterSynth(CLI::App& app, int* exit_code) {
   sub->add_option("--threads", args->threads, "worker threads (0 = all cores)")
       ->capture_default_str();
   sub->add_flag("--list", args->list, "list materials and light sets");
+  sub->add_flag("--leaf-scan", args->leaf_scan,
+                "write a leaf-rig scan of the synthetic leaf (for `matfit leaf`) instead");
+  sub->add_flag("--minimal", args->minimal, "with --leaf-scan: one front-lit photo, no ring");
   sub->callback([args, exit_code] { *exit_code = RunSynth(*args); });
 }
 

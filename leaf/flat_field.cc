@@ -10,6 +10,10 @@ bool BackgroundOptions::Check(std::string* why) const {
     if (why) *why = "background degree must be in 0..6, got " + std::to_string(degree);
     return false;
   }
+  if (!(saturation > 0 && saturation <= 1)) {
+    if (why) *why = "background saturation level must be in (0, 1]";
+    return false;
+  }
   if (stride < 1 || stride > 64) {
     if (why) *why = "background stride must be in 1..64, got " + std::to_string(stride);
     return false;
@@ -42,22 +46,43 @@ StatusOr<BackgroundFit> FitBackground(std::span<const float> plane, int w, int h
   auto uv = [&](int x, int y, double* u, double* v) {
     *u = w > 1 ? 2.0 * x / (w - 1) - 1 : 0, *v = h > 1 ? 2.0 * y / (h - 1) - 1 : 0;
   };
+  // Clipped samples (at or above the saturation level) only bound the background from below:
+  // they enter a round, at the clipping level, only where the current fit falls below it
+  // (a censored fit). Unclipped samples are trimmed at 2.5σ between rounds.
   struct Sample {
     int x, y;
     double logi;
+    bool clipped;
   };
   std::vector<Sample> s;
   for (int y = 0; y < h; y += o.stride)
     for (int x = 0; x < w; x += o.stride) {
       const size_t i = size_t(y) * w + x;
-      if (background[i] && plane[i] > 1e-6f && std::isfinite(plane[i]))
-        s.push_back({x, y, std::log(double(plane[i]))});
+      if (!background[i] || !(plane[i] > 1e-6f) || !std::isfinite(plane[i])) continue;
+      const bool clipped = plane[i] >= o.saturation;
+      s.push_back({x, y, std::log(clipped ? o.saturation : double(plane[i])), clipped});
     }
-  std::vector<uint8_t> keep(s.size(), 1);
+  int64_t unclipped = 0;
+  for (const auto& e : s) unclipped += !e.clipped;
+  std::vector<uint8_t> keep(s.size());
+  for (size_t k = 0; k < s.size(); ++k) keep[k] = !s[k].clipped;
   Eigen::VectorXd c = Eigen::VectorXd::Zero(nt);
   BackgroundFit fit;
   std::vector<double> m(nt);
-  for (int round = 0; round < 3; ++round) {
+  auto predict = [&](const Sample& e) {
+    double u, v;
+    uv(e.x, e.y, &u, &v);
+    Monomials(u, v, o.degree, m.data());
+    double p = 0;
+    for (int t = 0; t < nt; ++t) p += c[t] * m[t];
+    return p;
+  };
+  if (unclipped < 50 || unclipped < 4 * nt)
+    return DataError("too little unclipped bare background to model the lighting (" +
+                     std::to_string(unclipped) +
+                     " samples): the leaves cover the sheet, the mask "
+                     "is wrong or the exposure clips the sheet everywhere");
+  for (int round = 0; round < 5; ++round) {
     Eigen::MatrixXd ata = Eigen::MatrixXd::Zero(nt, nt);
     Eigen::VectorXd atb = Eigen::VectorXd::Zero(nt);
     int64_t n = 0;
@@ -71,27 +96,19 @@ StatusOr<BackgroundFit> FitBackground(std::span<const float> plane, int w, int h
       atb += a * s[k].logi;
       ++n;
     }
-    if (n < 50 || n < 4 * nt)
-      return DataError("too little bare background to model the lighting (" + std::to_string(n) +
-                       " samples): the leaves cover the sheet, or the mask is wrong");
     ata = ata.selfadjointView<Eigen::Lower>();
     c = ata.ldlt().solve(atb);
-    // Residuals; trim beyond 2.5σ for the next round.
     double ss = 0;
+    int64_t nu = 0;
     std::vector<double> r(s.size());
     for (size_t k = 0; k < s.size(); ++k) {
-      double u, v;
-      uv(s[k].x, s[k].y, &u, &v);
-      Monomials(u, v, o.degree, m.data());
-      double p = 0;
-      for (int t = 0; t < nt; ++t) p += c[t] * m[t];
-      r[k] = s[k].logi - p;
-      if (keep[k]) ss += r[k] * r[k];
+      r[k] = s[k].logi - predict(s[k]);
+      if (keep[k] && !s[k].clipped) ss += r[k] * r[k], ++nu;
     }
-    const double sigma = std::sqrt(ss / n);
+    const double sigma = std::sqrt(ss / std::max<int64_t>(1, nu));
     fit.rms_log = sigma, fit.samples = n;
-    if (round < 2)
-      for (size_t k = 0; k < s.size(); ++k) keep[k] = std::abs(r[k]) <= 2.5 * sigma + 1e-9;
+    for (size_t k = 0; k < s.size(); ++k)
+      keep[k] = s[k].clipped ? r[k] > 0 : std::abs(r[k]) <= 2.5 * sigma + 1e-9;
   }
   fit.level = Image(w, h, 1);
   for (int y = 0; y < h; ++y)

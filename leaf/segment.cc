@@ -29,6 +29,8 @@ bool SegmentOptions::Check(std::string* why) const {
   if (!(marker_rectangularity > 0 && marker_rectangularity <= 1))
     return fail("marker_rectangularity must be in (0, 1]");
   if (!(marker_max_aspect >= 1)) return fail("marker_max_aspect must be ≥ 1");
+  if (!(marker_max_chroma >= 0 && marker_max_chroma <= 1))
+    return fail("marker_max_chroma must be in [0, 1]");
   if (open_radius < 0 || open_radius > 16) return fail("open_radius must be in 0..16");
   return true;
 }
@@ -38,7 +40,7 @@ int Segmentation::leaves() const {
                            [](const Component& c) { return c.kind == ComponentKind::kLeaf; }));
 }
 
-Segmentation Segment(const Image& t, const SegmentOptions& o) {
+Segmentation Segment(const Image& t, const SegmentOptions& o, const Image* color) {
   MATFIT_CHECK(o.Check(nullptr) && t.channels() >= 1);
   const int w = t.width(), h = t.height();
   cv::Mat bin(h, w, CV_8U);
@@ -88,12 +90,30 @@ Segmentation Segment(const Image& t, const SegmentOptions& o) {
       c.elongation = a / b;
       c.rectangularity = std::min(1.0, std::max(filled, double(c.area_px)) / (a * b));
       c.side_px = 0.5 * (a + b);
+      // Corners: the convex hull simplified to 4 % of its perimeter.
+      std::vector<cv::Point> hull, poly;
+      cv::convexHull(all, hull);
+      cv::approxPolyDP(hull, poly, 0.04 * cv::arcLength(hull, true), true);
+      c.corners = int(poly.size());
     }
+    if (color && color->channels() >= 3) {
+      // Σ (max − min) / Σ max: a ratio of sums, so that dark, noisy pixels weigh little.
+      double spread = 0, level = 0;
+      for (int y = c.y0; y <= c.y1; ++y)
+        for (int x = c.x0; x <= c.x1; ++x) {
+          if (lab.at<int32_t>(y, x) != l) continue;
+          const float r = color->At(0, y, x), g = color->At(1, y, x), b = color->At(2, y, x);
+          spread += std::max({r, g, b}) - std::min({r, g, b}), level += std::max({r, g, b});
+        }
+      c.chroma = level > 0 ? spread / level : 0;
+    }
+    const bool achromatic = c.chroma < 0 || c.chroma <= o.marker_max_chroma;
     if (c.area_px < o.min_area_px) {
       c.kind = ComponentKind::kSpeck;
     } else if (c.elongation >= o.twig_elongation) {
       c.kind = ComponentKind::kTwig;
-    } else if (c.rectangularity >= o.marker_rectangularity && c.elongation <= o.marker_max_aspect) {
+    } else if (c.rectangularity >= o.marker_rectangularity && c.elongation <= o.marker_max_aspect &&
+               c.corners == 4 && achromatic) {
       c.kind = ComponentKind::kMarker;
     } else {
       c.kind = ComponentKind::kLeaf;

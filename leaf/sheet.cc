@@ -104,12 +104,25 @@ StatusOr<SheetAnalysis> AnalyzeSheet(const LeafScan& scan, const SheetOptions& o
     const float p90 = std::max(v[v.size() * 9 / 10], 1e-6f);
     for (int64_t i = 0; i < n; ++i) first.Plane(0)[i] = sum.Plane(0)[i] / p90;
   }
-  Segmentation seg = Segment(first, o.segment);
+  // Colour photo for the marker test: the mean top-lit image, or the front-lit photo.
+  Image color;
+  if (scan.top.num_images() > 0 && scan.top.channels() >= 3) {
+    color = Image(w, h, 3);
+    for (int m = 0; m < scan.top.num_images(); ++m)
+      for (int c = 0; c < 3; ++c) {
+        const auto p = scan.top.Plane(m, c);
+        for (int64_t i = 0; i < n; ++i) color.Plane(c)[i] += p[i];
+      }
+  } else if (scan.front.channels() >= 3) {
+    color = scan.front;
+  }
+  const Image* colorp = color.empty() ? nullptr : &color;
+  Segmentation seg = Segment(first, o.segment, colorp);
   // 2. Twice: background from the bare sheet → fused transmission → segmentation.
   for (int round = 0; round < 2; ++round) {
     a.background = BareSheet(seg.labels, w, h, o.back_margin_px);
     MATFIT_RETURN_IF_ERROR(FuseBack(scan, a.background, o, &a));
-    seg = Segment(a.luminance, o.segment);
+    seg = Segment(a.luminance, o.segment, colorp);
   }
   a.segmentation = std::move(seg);
   if (a.saturated_back_samples > 0)

@@ -1,0 +1,64 @@
+// WriteLeafScan: a synthetic scan as the files a leaf rig would leave (docs/formats.md).
+#include <cstdio>
+#include <filesystem>
+#include <nlohmann/json.hpp>
+
+#include "core/atomic_file.h"
+#include "core/image_io.h"
+#include "leaf/synthetic_scan.h"
+
+namespace matfit::leaf {
+
+Status WriteLeafScan(const SyntheticScan& s, const std::string& dir, bool overwrite) {
+  namespace fs = std::filesystem;
+  AtomicDir out(dir);
+  MATFIT_RETURN_IF_ERROR(out.Begin(overwrite));
+  const fs::path root(out.temp_path());
+  const ImageWriteOptions png8{PixelFormat::kUint8, TransferFunction::kSrgb};
+  const ImageWriteOptions exr{PixelFormat::kFloat, TransferFunction::kLinear};
+  nlohmann::json m = {{"schema", "matfit.leafscan/1"},
+                      {"back_lit", "*_BL.png"},
+                      {"marker_size_mm", s.scan.marker_size_mm},
+                      {"max_thickness_mm", s.scan.max_thickness_mm},
+                      {"color_space", "srgb"}};
+  const LightStack& top = s.scan.top;
+  if (top.num_images() > 0) {
+    std::string lp = std::to_string(top.num_images()) + "\n";
+    for (int k = 0; k < top.num_images(); ++k) {
+      Image img(top.width(), top.height(), top.channels());
+      for (int c = 0; c < top.channels(); ++c) {
+        const auto src = top.Plane(k, c);
+        std::copy(src.begin(), src.end(), img.Plane(c).begin());
+      }
+      MATFIT_RETURN_IF_ERROR(WriteImage((root / top.image_files[k]).string(), img, png8));
+      const Vec3& d = top.lights()[k].direction;
+      char line[160];
+      std::snprintf(line, sizeof line, "%s %.6f %.6f %.6f\n", top.image_files[k].c_str(), d.x, d.y,
+                    d.z);
+      lp += line;
+    }
+    MATFIT_RETURN_IF_ERROR(WriteFileAtomic((root / "top_lights.lp").string(), lp));
+    m["top_lit"] = "top_lights.lp";
+  } else {
+    MATFIT_RETURN_IF_ERROR(WriteImage((root / "front.png").string(), s.scan.front, png8));
+    m["front_lit"] = "front.png";
+  }
+  for (size_t k = 0; k < s.scan.back.size(); ++k)
+    MATFIT_RETURN_IF_ERROR(
+        WriteImage((root / s.scan.back_files[k]).string(), s.scan.back[k], png8));
+  MATFIT_RETURN_IF_ERROR(WriteFileAtomic((root / "leaf.json").string(), m.dump(2) + "\n"));
+  std::error_code ec;
+  fs::create_directories(root / "truth", ec);
+  if (ec) return IoError("cannot create '" + (root / "truth").string() + "': " + ec.message());
+  const auto& t = s.truth;
+  MATFIT_RETURN_IF_ERROR(WriteImage((root / "truth" / "albedo.exr").string(), t.albedo, exr));
+  MATFIT_RETURN_IF_ERROR(WriteImage((root / "truth" / "normal.exr").string(), t.normal, exr));
+  MATFIT_RETURN_IF_ERROR(
+      WriteImage((root / "truth" / "translucency.exr").string(), t.translucency, exr));
+  MATFIT_RETURN_IF_ERROR(WriteImage((root / "truth" / "thickness.exr").string(), t.thickness, exr));
+  MATFIT_RETURN_IF_ERROR(WriteImage((root / "truth" / "mask.png").string(), t.mask,
+                                    {PixelFormat::kUint8, TransferFunction::kLinear}));
+  return out.Commit();
+}
+
+}  // namespace matfit::leaf

@@ -1,0 +1,404 @@
+// The leaf pipeline: synthetic scans with ground truth, the shared real sheet, bad input.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <nlohmann/json.hpp>
+#include <numbers>
+
+#include "../core/test_util.h"
+#include "core/image_io.h"
+#include "core/pack/pack_reader.h"
+#include "leaf/leaf_job.h"
+#include "leaf/leaf_material.h"
+#include "leaf/scan.h"
+#include "leaf/sheet.h"
+#include "leaf/synthetic_scan.h"
+
+namespace matfit::leaf {
+namespace {
+
+namespace fs = std::filesystem;
+using matfit::testing::TempDir;
+
+SyntheticScanOptions Small() {
+  SyntheticScanOptions o;
+  o.leaf_size = 96, o.width = 168, o.height = 124;
+  return o;
+}
+
+const Component* FirstLeaf(const Segmentation& s) {
+  for (const auto& c : s.components)
+    if (c.kind == ComponentKind::kLeaf) return &c;
+  return nullptr;
+}
+
+double Pearson(const std::vector<double>& a, const std::vector<double>& b) {
+  double ma = 0, mb = 0;
+  for (size_t i = 0; i < a.size(); ++i) ma += a[i] / a.size(), mb += b[i] / b.size();
+  double sab = 0, saa = 0, sbb = 0;
+  for (size_t i = 0; i < a.size(); ++i)
+    sab += (a[i] - ma) * (b[i] - mb), saa += (a[i] - ma) * (a[i] - ma),
+        sbb += (b[i] - mb) * (b[i] - mb);
+  return sab / std::sqrt(saa * sbb);
+}
+
+TEST(LeafScan, SyntheticScanRecoversTheTruth) {
+  const auto s = MakeSyntheticScan(Small());
+  auto a = AnalyzeSheet(s.scan, SheetOptions{});
+  ASSERT_TRUE(a.ok()) << a.status().ToString();
+  ASSERT_EQ(a->segmentation.leaves(), 1);
+  int markers = 0;
+  for (const auto& c : a->segmentation.components) markers += c.kind == ComponentKind::kMarker;
+  EXPECT_EQ(markers, 4);
+  const Component& leaf = *FirstLeaf(a->segmentation);
+  // Segmentation against the true mask: intersection over union.
+  int64_t inter = 0, uni = 0;
+  for (int64_t i = 0; i < s.truth.mask.plane_size(); ++i) {
+    const bool t = s.truth.mask.Plane(0)[i] > 0.5f, m = a->segmentation.labels[i] == leaf.label;
+    inter += t && m, uni += t || m;
+  }
+  const double iou = double(inter) / uni;
+  // Fused transmission inside the leaf (flat-fielded by the fitted back light).
+  double terr = 0;
+  int64_t tn = 0;
+  for (int64_t i = 0; i < s.truth.mask.plane_size(); ++i)
+    if (s.truth.mask.Plane(0)[i] > 0.5f && a->segmentation.labels[i] == leaf.label)
+      for (int c = 0; c < 3; ++c) {
+        const double t = s.truth.translucency.Plane(c)[i];
+        if (t > 0.02) terr += std::abs(a->transmission.Plane(c)[i] - t) / t, ++tn;
+      }
+  terr /= tn;
+  auto L = MakeLeafMaterial(s.scan, *a, leaf, 0.2, LeafMaterialOptions{});
+  ASSERT_TRUE(L.ok()) << L.status().ToString();
+  // Normals, albedo and thickness against the truth, over leaf texels fitted ok.
+  double nerr = 0, aerr = 0;
+  int64_t nn = 0;
+  std::vector<double> est, truth;
+  for (int y = 0; y < L->maps.height; ++y)
+    for (int x = 0; x < L->maps.width; ++x) {
+      const int64_t i = int64_t(y) * L->maps.width + x;
+      const int X = L->crop_x + x, Y = L->crop_y + y;
+      if (L->status[i] != 0 || s.truth.mask.At(0, Y, X) < 0.5f) continue;
+      const Vec3 n(L->maps.normal.Plane(0)[i], L->maps.normal.Plane(1)[i],
+                   L->maps.normal.Plane(2)[i]);
+      const Vec3 t(s.truth.normal.At(0, Y, X), s.truth.normal.At(1, Y, X),
+                   s.truth.normal.At(2, Y, X));
+      nerr += std::acos(std::clamp(Dot(n, t), -1.0, 1.0)) * 180 / std::numbers::pi;
+      aerr += std::abs(L->maps.albedo.Plane(1)[i] - s.truth.albedo.At(1, Y, X)) /
+              s.truth.albedo.At(1, Y, X);
+      est.push_back(L->maps.thickness.Plane(0)[i]), truth.push_back(s.truth.thickness.At(0, Y, X));
+      ++nn;
+    }
+  nerr /= nn, aerr /= nn;
+  const double r = Pearson(est, truth);
+  std::printf(
+      "synthetic scan: mask IoU %.4f, transmission error %.2f %%, normal MAE %.2f°, "
+      "albedo (G) error %.2f %%, thickness estimate correlation r = %.4f (%lld texels)\n",
+      iou, 100 * terr, nerr, 100 * aerr, r, (long long)nn);
+  EXPECT_GE(iou, 0.97);
+  EXPECT_LE(terr, 0.03);
+  EXPECT_LE(nerr, 3.0);
+  EXPECT_LE(aerr, 0.05);
+  EXPECT_GE(r, 0.9);
+  EXPECT_TRUE(L->thickness_estimated);
+  EXPECT_FALSE(L->specular_fitted);  // one ring of lights: the leaf default
+  // The HL2 maps are in the renderer's convention and finite.
+  ASSERT_EQ(L->maps.hl2.channels(), 3);
+  for (float v : L->maps.hl2.data()) EXPECT_TRUE(std::isfinite(v));
+  EXPECT_LE(L->hl2_error[0].mean, 0.03);
+}
+
+TEST(LeafScan, MinimalFrontAndBackPhotos) {
+  auto o = Small();
+  o.minimal = true;
+  const auto s = MakeSyntheticScan(o);
+  auto a = AnalyzeSheet(s.scan, SheetOptions{});
+  ASSERT_TRUE(a.ok()) << a.status().ToString();
+  ASSERT_EQ(a->segmentation.leaves(), 1);
+  auto L = MakeLeafMaterial(s.scan, *a, *FirstLeaf(a->segmentation), 0.2, LeafMaterialOptions{});
+  ASSERT_TRUE(L.ok()) << L.status().ToString();
+  double aerr = 0;
+  int64_t nn = 0;
+  for (int64_t i = 0; i < L->maps.mask.plane_size(); ++i) {
+    if (L->maps.mask.Plane(0)[i] < 0.5f) continue;
+    EXPECT_EQ(L->maps.normal.Plane(2)[i], 1.0f);  // flat: no photometric stereo
+    const int X = L->crop_x + int(i % L->maps.width), Y = L->crop_y + int(i / L->maps.width);
+    if (s.truth.mask.At(0, Y, X) < 0.5f) continue;
+    // A front light overhead: the photo is ρ (n·z) over the sheet's 1.
+    const double want = s.truth.albedo.At(1, Y, X) * s.truth.normal.At(2, Y, X);
+    aerr += std::abs(L->maps.albedo.Plane(1)[i] - want) / want, ++nn;
+  }
+  std::printf("minimal scan: albedo (G) error %.2f %% over %lld texels\n", 100 * aerr / nn,
+              (long long)nn);
+  EXPECT_LE(aerr / nn, 0.05);
+}
+
+TEST(LeafScan, FastMatchesTheReferenceOnARealLeaf) {
+  MATFIT_REQUIRE_SHARED_DATA("leaf-sheet");
+  auto scan = ReadLeafScan(shared_dir + "/leaf-sheet");
+  ASSERT_TRUE(scan.ok()) << scan.status().ToString();
+  auto a = AnalyzeSheet(*scan, SheetOptions{});
+  ASSERT_TRUE(a.ok());
+  const Component* big = nullptr;  // the largest leaf
+  for (const auto& c : a->segmentation.components)
+    if (c.kind == ComponentKind::kLeaf && (!big || c.area_px > big->area_px)) big = &c;
+  ASSERT_NE(big, nullptr);
+  LeafMaterialOptions o;
+  o.report_hl2_error = false;
+  // 0.25 mm/pixel: the scale of an A4 sheet across 500 pixels is about 0.6; finer makes the
+  // kernel wider and the comparison harder.
+  auto fast = MakeLeafMaterial(*scan, *a, *big, 0.25, o);
+  o.reference_precompute = true;
+  auto ref = MakeLeafMaterial(*scan, *a, *big, 0.25, o);
+  ASSERT_TRUE(fast.ok() && ref.ok());
+  double worst = 0;
+  for (int c = 0; c < 3; ++c) {
+    double d = 0, s = 0;
+    for (int64_t i = 0; i < fast->maps.mask.plane_size(); ++i) {
+      if (fast->maps.mask.Plane(0)[i] < 0.5f) continue;
+      d += std::abs(fast->translucency.hl2_raw.Plane(c)[i] - ref->translucency.hl2_raw.Plane(c)[i]);
+      s += std::abs(ref->translucency.hl2_raw.Plane(c)[i]);
+    }
+    std::printf("real leaf %d (%lld px): h%d fast vs reference mean relative difference %.4f %%\n",
+                big->id, (long long)big->area_px, c + 1, 100 * d / s);
+    worst = std::max(worst, d / s);
+  }
+  EXPECT_LE(worst, 0.01);
+}
+
+TEST(LeafScan, FindsEveryLeafOfTheSharedSheet) {
+  MATFIT_REQUIRE_SHARED_DATA("leaf-sheet");
+  auto scan = ReadLeafScan(shared_dir + "/leaf-sheet");
+  ASSERT_TRUE(scan.ok()) << scan.status().ToString();
+  EXPECT_EQ(scan->top.num_images(), 12);
+  EXPECT_EQ(scan->back.size(), 12u);
+  auto a = AnalyzeSheet(*scan, SheetOptions{});
+  ASSERT_TRUE(a.ok()) << a.status().ToString();
+  // Counted by eye on 1_TL.png: 23 leaves (several small, dry and curled), two twigs, four
+  // fiducial markers and the white reference patch at the bottom left.
+  int twigs = 0, markers = 0;
+  for (const auto& c : a->segmentation.components) {
+    if (c.kind == ComponentKind::kTwig && !c.touches_border) ++twigs;
+    if (c.kind == ComponentKind::kMarker) ++markers;
+    if (c.kind == ComponentKind::kLeaf) {
+      EXPECT_GE(c.area_px, 100) << "leaf " << c.id;
+      EXPECT_GT(c.chroma, 0.3) << "leaf " << c.id;  // no marker among the leaves
+    }
+  }
+  EXPECT_EQ(a->segmentation.leaves(), 23);
+  EXPECT_EQ(twigs, 2);
+  EXPECT_EQ(markers, 5);
+  // Stable ids: the same input gives the same numbering; ids run 1..23 in reading order.
+  auto b = AnalyzeSheet(*scan, SheetOptions{});
+  ASSERT_TRUE(b.ok());
+  for (size_t k = 0; k < a->segmentation.components.size(); ++k) {
+    const auto &p = a->segmentation.components[k], &q = b->segmentation.components[k];
+    EXPECT_EQ(p.id, q.id);
+    EXPECT_EQ(p.x0, q.x0);
+    EXPECT_EQ(p.y0, q.y0);
+  }
+  EXPECT_EQ(a->segmentation.components[0].id, 1);
+  EXPECT_LT(a->segmentation.components[0].cy, a->segmentation.components[22].cy);
+  // The fall-off across the frame is real (near lights; a third of the pixels clip) and the flat
+  // field removes it. Measured on the unclipped bare sheet by a 3 × 3 grid of cells (cells whose
+  // sheet is mostly unclipped: in a mostly clipped cell the unclipped pixels are the shadowed
+  // ones; medians, since cast shadows are a minority): the ratio of the
+  // brightest to the darkest cell drops from 1.2–3.4× to < 1.1×, and the flat-fielded sheet reads
+  // cos θ = 0.707 (median) within 5 %. Where the sheet clips, the fitted level is at least the
+  // clipping level (it reads at most cos θ).
+  for (int m = 0; m < a->top.num_images(); ++m) {
+    std::vector<float> flat, cell_raw[9], cell_flat[9], clipped;
+    int64_t cell_all[9] = {};
+    for (int64_t i = 0; i < a->top.plane_size(); ++i) {
+      if (!a->background[i]) continue;
+      const float r = scan->top.Plane(m, 1)[i], f = a->top.Plane(m, 1)[i];
+      ++cell_all[3 * int(3 * (i / a->width) / a->height) + int(3 * (i % a->width) / a->width)];
+      if (r >= 0.995f) {
+        clipped.push_back(f);
+        continue;
+      }
+      flat.push_back(f);
+      const int cell = 3 * int(3 * (i / a->width) / a->height) + int(3 * (i % a->width) / a->width);
+      cell_raw[cell].push_back(r), cell_flat[cell].push_back(f);
+    }
+    auto pct = [](std::vector<float> v, double p) {
+      std::nth_element(v.begin(), v.begin() + size_t(p * (v.size() - 1)), v.end());
+      return double(v[size_t(p * (v.size() - 1))]);
+    };
+    double rmin = 1e9, rmax = 0, fmin = 1e9, fmax = 0;
+    for (int c = 0; c < 9; ++c) {
+      if (cell_raw[c].size() < 1000 || 2 * int64_t(cell_raw[c].size()) < cell_all[c]) continue;
+      const double r = pct(cell_raw[c], 0.5), f = pct(cell_flat[c], 0.5);
+      rmin = std::min(rmin, r), rmax = std::max(rmax, r), fmin = std::min(fmin, f),
+      fmax = std::max(fmax, f);
+    }
+    std::printf("top-lit %2d: cell medians spread %.3fx raw, %.3fx flat-fielded; median %.4f\n",
+                m + 1, rmax / rmin, fmax / fmin, pct(flat, 0.5));
+    EXPECT_GT(rmax / rmin, 1.1) << "image " << m + 1;
+    EXPECT_LT(fmax / fmin, 1.1) << "image " << m + 1;
+    EXPECT_LT(fmax / fmin, rmax / rmin) << "image " << m + 1;
+    EXPECT_NEAR(pct(flat, 0.5), 0.7071, 0.05 * 0.7071) << "image " << m + 1;
+    if (!clipped.empty()) {
+      EXPECT_LE(pct(clipped, 0.5), 1.05 * 0.7071) << "image " << m + 1;
+    }
+  }
+}
+
+TEST(LeafScan, ThinLeavesAreFlaggedNotCrashed) {
+  auto s = MakeSyntheticScan(Small());
+  s.scan.max_thickness_mm = 0.12;  // below the model's 1.5 l ≈ 0.152 mm almost everywhere
+  auto a = AnalyzeSheet(s.scan, SheetOptions{});
+  ASSERT_TRUE(a.ok());
+  auto L = MakeLeafMaterial(s.scan, *a, *FirstLeaf(a->segmentation), 0.2, LeafMaterialOptions{});
+  ASSERT_TRUE(L.ok()) << L.status().ToString();
+  int64_t thin = 0;
+  for (uint8_t st : L->status) thin += st == kLeafTexelThin;
+  EXPECT_GT(thin, 0);
+  EXPECT_EQ(thin, L->translucency.thin_texels);
+  bool warned = false;
+  for (const auto& w : L->warnings) warned = warned || w.find("validity") != std::string::npos;
+  EXPECT_TRUE(warned);
+  for (float v : L->maps.hl2.data()) EXPECT_TRUE(std::isfinite(v));
+}
+
+TEST(LeafScan, LeafCutByTheBorderIsMarked) {
+  auto s = MakeSyntheticScan(Small());
+  // Cut the frame through the leaf: keep columns from the leaf's middle on.
+  const int cut = s.leaf_x0 + s.scan.width() / 8 + 20;
+  auto crop = [&](const Image& im) {
+    Image o(im.width() - cut, im.height(), im.channels());
+    for (int c = 0; c < im.channels(); ++c)
+      for (int y = 0; y < im.height(); ++y)
+        for (int x = cut; x < im.width(); ++x) o.At(c, y, x - cut) = im.At(c, y, x);
+    return o;
+  };
+  for (auto& b : s.scan.back) b = crop(b);
+  LightStack top(s.scan.top.width() - cut, s.scan.top.height(), 3, s.scan.top.num_images());
+  for (int k = 0; k < top.num_images(); ++k)
+    for (int c = 0; c < 3; ++c)
+      for (int y = 0; y < top.height(); ++y)
+        for (int x = 0; x < top.width(); ++x) top.At(k, c, y, x) = s.scan.top.At(k, c, y, x + cut);
+  top.lights() = s.scan.top.lights();
+  s.scan.top = std::move(top);
+  auto a = AnalyzeSheet(s.scan, SheetOptions{});
+  ASSERT_TRUE(a.ok()) << a.status().ToString();
+  const Component* leaf = FirstLeaf(a->segmentation);
+  ASSERT_NE(leaf, nullptr);
+  EXPECT_TRUE(leaf->touches_border);
+}
+
+// ---- Files: the job, the manifest, bad input ----
+
+TEST(LeafJob, WritesOnePackPerLeafAndAnIndexAtomically) {
+  TempDir tmp;
+  const auto s = MakeSyntheticScan(Small());
+  ASSERT_TRUE(WriteLeafScan(s, tmp / "scan", false).ok());
+  LeafJobOptions o;
+  o.input = tmp / "scan", o.out = tmp / "out";
+  auto r = RunLeafJob(o);
+  ASSERT_TRUE(r.ok()) << r.status().ToString();
+  EXPECT_EQ(r->leaves, 1);
+  EXPECT_EQ(r->scale_source, "markers");
+  EXPECT_NEAR(r->mm_per_pixel, 0.2, 1e-9);
+  std::ifstream in(tmp / "out/leaves.json");
+  const auto idx = nlohmann::json::parse(in);
+  ASSERT_EQ(idx["leaves"].size(), 1u);
+  const auto& l0 = idx["leaves"][0];
+  EXPECT_NEAR(l0["area_mm2"].get<double>(), l0["area_px"].get<double>() * 0.04, 1e-6);
+  EXPECT_EQ(idx["counts"]["markers"], 4);
+  auto pack = ReadPack(tmp / "out/leaf_01");
+  ASSERT_TRUE(pack.ok()) << pack.status().ToString();
+  EXPECT_FALSE(pack->maps.translucency.empty());
+  EXPECT_FALSE(pack->maps.hl2.empty());
+  EXPECT_FALSE(pack->maps.thickness.empty());
+  std::ifstream g(tmp / "out/leaf_01/material.gltf");
+  const auto gltf = nlohmann::json::parse(g);
+  const auto& mat = gltf["materials"][0];
+  EXPECT_TRUE(mat["extensions"].contains("KHR_materials_diffuse_transmission"));
+  EXPECT_EQ(mat["doubleSided"], true);
+  EXPECT_EQ(mat["alphaMode"], "MASK");
+  for (const char* f : {"report.json", "maps/thickness_variation.png", "maps/absorption.png",
+                        "maps/bump.png", "maps/gltf_diffuse_transmission.png"})
+    EXPECT_TRUE(fs::exists(tmp / (std::string("out/leaf_01/") + f))) << f;
+  std::ifstream rj(tmp / "out/leaf_01/report.json");
+  const auto rep = nlohmann::json::parse(rj);
+  EXPECT_EQ(rep["translucency"]["hl2_vs_multipole"].size(), 3u);
+  // A second run without overwrite fails and leaves the first output alone.
+  auto again = RunLeafJob(o);
+  EXPECT_FALSE(again.ok());
+  EXPECT_TRUE(fs::exists(tmp / "out/leaves.json"));
+  // Without markers' size the scale falls back to the default, with a warning.
+  nlohmann::json m;
+  {
+    std::ifstream mf(tmp / "scan/leaf.json");
+    m = nlohmann::json::parse(mf);
+  }
+  m.erase("marker_size_mm");
+  matfit::testing::WriteText(tmp / "scan/leaf.json", m.dump());
+  o.out = tmp / "out2";
+  auto r2 = RunLeafJob(o);
+  ASSERT_TRUE(r2.ok()) << r2.status().ToString();
+  EXPECT_EQ(r2->scale_source, "default");
+  bool warned = false;
+  for (const auto& w : r2->warnings)
+    warned = warned || w.find("no physical scale") != std::string::npos;
+  EXPECT_TRUE(warned);
+  std::ifstream in2(tmp / "out2/leaves.json");
+  EXPECT_TRUE(nlohmann::json::parse(in2)["leaves"][0]["area_mm2"].is_null());
+}
+
+TEST(LeafJob, BadInputNamesTheProblem) {
+  TempDir tmp;
+  const auto s = MakeSyntheticScan(Small());
+  ASSERT_TRUE(WriteLeafScan(s, tmp / "scan", false).ok());
+  auto expect_error = [&](const std::string& dir, const std::string& manifest,
+                          const std::string& needle) {
+    auto r = ReadLeafScan(dir, manifest);
+    ASSERT_FALSE(r.ok()) << needle;
+    EXPECT_NE(r.status().message().find(needle), std::string::npos) << r.status().message();
+  };
+  expect_error(tmp / "missing", "", "does not exist");
+  // No back-lit images.
+  fs::create_directories(tmp / "noback");
+  fs::copy_file(tmp / "scan/1_TL.png", tmp / "noback/1_TL.png");
+  expect_error(tmp / "noback", "", "no back-lit images");
+  // Back-lit only: nothing lit from the front.
+  fs::create_directories(tmp / "backonly");
+  fs::copy_file(tmp / "scan/1_BL.png", tmp / "backonly/1_BL.png");
+  expect_error(tmp / "backonly", "", "neither top-lit images");
+  // Malformed manifest fields.
+  matfit::testing::WriteText(tmp / "bad1.json", "{\"back_lit\": 3}");
+  expect_error(tmp / "scan", tmp / "bad1.json", "'back_lit'");
+  matfit::testing::WriteText(tmp / "bad2.json", "{\"max_thickness_mm\": -1}");
+  expect_error(tmp / "scan", tmp / "bad2.json", "'max_thickness_mm'");
+  matfit::testing::WriteText(tmp / "bad3.json", "[1, 2");
+  expect_error(tmp / "scan", tmp / "bad3.json", "not a JSON object");
+  // A back-lit image of another size.
+  fs::create_directories(tmp / "mixed");
+  for (const auto& e : fs::directory_iterator(tmp / "scan"))
+    if (e.is_regular_file()) fs::copy_file(e.path(), tmp / "mixed" / e.path().filename());
+  ASSERT_TRUE(WriteImage(tmp / "mixed/2_BL.png", Image(40, 30, 3, 0.5f),
+                         {PixelFormat::kUint8, TransferFunction::kSrgb})
+                  .ok());
+  expect_error(tmp / "mixed", "", "one pixel grid");
+  // An empty sheet: no leaves → a clear job error, and no output folder.
+  fs::create_directories(tmp / "empty");
+  const Image white(96, 64, 3, 0.8f);
+  ASSERT_TRUE(
+      WriteImage(tmp / "empty/1_BL.png", white, {PixelFormat::kUint8, TransferFunction::kSrgb})
+          .ok());
+  ASSERT_TRUE(
+      WriteImage(tmp / "empty/front.png", white, {PixelFormat::kUint8, TransferFunction::kSrgb})
+          .ok());
+  LeafJobOptions o;
+  o.input = tmp / "empty", o.out = tmp / "emptyout";
+  auto r = RunLeafJob(o);
+  ASSERT_FALSE(r.ok());
+  EXPECT_NE(r.status().message().find("no leaves"), std::string::npos);
+  EXPECT_FALSE(fs::exists(tmp / "emptyout"));
+}
+
+}  // namespace
+}  // namespace matfit::leaf
