@@ -36,8 +36,8 @@ int RunSynth(SynthArgs& a) {
     // pixels wide, on a sheet 1.75 × 1.3 times that.
     leaf::SyntheticScanOptions so;
     so.leaf_size = a.options.size;
-    so.width = std::max(64, int(a.options.size * 1.75)),
-    so.height = std::max(64, int(a.options.size * 1.3));
+    so.width = std::max(64, int(a.options.size * 1.75));
+    so.height = std::max({64, int(a.options.size * 1.3), a.options.size + 24});
     so.seed = a.options.seed, so.minimal = a.minimal;
     std::string why;
     if (!so.Check(&why)) return Fail("synth", ("--leaf-scan: " + why).c_str());

@@ -46,6 +46,15 @@ Status WriteLeafScan(const SyntheticScan& s, const std::string& dir, bool overwr
   for (size_t k = 0; k < s.scan.back.size(); ++k)
     MATFIT_RETURN_IF_ERROR(
         WriteImage((root / s.scan.back_files[k]).string(), s.scan.back[k], png8));
+  if (!s.scan.upper_displacement.empty()) {
+    MATFIT_RETURN_IF_ERROR(
+        WriteImage((root / "upper_displacement.exr").string(), s.scan.upper_displacement, exr));
+    MATFIT_RETURN_IF_ERROR(
+        WriteImage((root / "lower_displacement.exr").string(), s.scan.lower_displacement, exr));
+    m["upper_displacement"] = "upper_displacement.exr";
+    m["lower_displacement"] = "lower_displacement.exr";
+    m["displacement_scale_mm"] = s.scan.displacement_scale_mm;
+  }
   MATFIT_RETURN_IF_ERROR(WriteFileAtomic((root / "leaf.json").string(), m.dump(2) + "\n"));
   std::error_code ec;
   fs::create_directories(root / "truth", ec);

@@ -88,7 +88,10 @@ SyntheticScan MakeSyntheticScan(const SyntheticScanOptions& o) {
     s.scan.front = Image(W, H, 3);
   }
   for (int k = 0; k < nl; ++k) {
-    const double az = (225.0 - 30.0 * k) * std::numbers::pi / 180, el = std::numbers::pi / 4;
+    // The shared rig's ring at 45°, or (two_rings) alternately at 30° and 60° elevation.
+    const double el_deg = o.two_rings ? (k % 2 ? 30.0 : 60.0) : 45.0;
+    const double az = (225.0 - 30.0 * k) * std::numbers::pi / 180,
+                 el = el_deg * std::numbers::pi / 180;
     const Vec3 l =
         o.minimal ? Vec3(0, 0, 1)
                   : Vec3(std::cos(el) * std::cos(az), std::cos(el) * std::sin(az), std::sin(el));
@@ -147,6 +150,19 @@ SyntheticScan MakeSyntheticScan(const SyntheticScanOptions& o) {
   for (int c = 0; c < 3; ++c)
     for (int64_t i = 0; i < np; ++i)
       if (t.mask.Plane(0)[i] < 0.5f) t.translucency.Plane(c)[i] = 0, t.albedo.Plane(c)[i] = 0;
+  if (o.displacement) {
+    // Registered displacement scans of both sides (mm): the upper surface's height field and the
+    // lower one beneath it by the thickness.
+    s.scan.upper_displacement = Image(W, H, 1), s.scan.lower_displacement = Image(W, H, 1);
+    for (int y = 0; y < N; ++y)
+      for (int x = 0; x < N; ++x) {
+        const int X = s.leaf_x0 + x, Y = s.leaf_y0 + y;
+        const float hmm = float(lm.height_map.At(0, y, x) * o.mm_per_pixel);
+        s.scan.upper_displacement.At(0, Y, X) = hmm;
+        s.scan.lower_displacement.At(0, Y, X) = hmm - t.thickness.At(0, Y, X);
+      }
+    s.scan.displacement_scale_mm = 1.0;
+  }
   s.scan.source = "synthetic";
   s.scan.marker_size_mm = o.marker_mm;
   float dmax = 0;

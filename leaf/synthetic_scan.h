@@ -19,7 +19,9 @@ struct SyntheticScanOptions {
   double mm_per_pixel = 0.2;
   double marker_mm = 4.0;  // side of the square markers
   bool minimal = false;    // one front-lit photo (light overhead) instead of the ring
-  bool quantize = true;    // round every image to 8-bit sRGB codes, as files would be
+  bool two_rings = false;  // lights alternately at 30° and 60° elevation (a lobe can be fitted)
+  bool displacement = false;  // also registered displacement scans of both sides (mm)
+  bool quantize = true;       // round every image to 8-bit sRGB codes, as files would be
   uint64_t seed = 7;
   bool Check(std::string* why) const;
 };

@@ -1,6 +1,7 @@
 #!/usr/bin/env bash
 # The README's main job: install dependencies, build, then on the bundled data: summarise
-# every dataset, synthesise one with ground truth, fit it → material pack → summary table.
+# every dataset, synthesise one with ground truth, fit it → material pack → summary table;
+# preview renders; leaf materials from the bundled leaf scan (and the shared sheet if present).
 set -euo pipefail
 root=$(cd "$(dirname "$0")/.." && pwd)
 "$root/scripts/install-deps.sh"
@@ -33,5 +34,15 @@ echo "== matfit render: previews of the fitted packs (EGL if available, else CPU
 "$matfit" render "$out/corduroy-heinrich-pack" --light 60,0 --sweep 8 --size 128 \
   --out "$out/corduroy-heinrich-sweep.png"
 echo
+echo "== matfit leaf: the bundled synthetic leaf scan → one translucent leaf material per leaf =="
+"$matfit" leaf "$root/fixtures/leaf-scan" --out "$out/leaf-scan-leaves" --force --quiet
+sheet="$root/../shared/data/leaf-sheet"
+if [ -d "$sheet" ]; then
+  echo
+  echo "== matfit leaf: the shared real leaf sheet (23 leaves) =="
+  "$matfit" leaf "$sheet" --out "$out/leaf-sheet-leaves" --force --quiet
+fi
+echo
 echo "packs written to $out/*-pack (material.json, material.gltf, maps/, report.json, preview.png)"
 echo "previews: $out/plastic-blinn-phong-sphere.png, $out/corduroy-heinrich-sweep.png"
+echo "leaf materials: $out/leaf-scan-leaves/leaves.json (and leaf-sheet-leaves/ with the shared data)"

@@ -135,6 +135,49 @@ TEST(LeafScan, MinimalFrontAndBackPhotos) {
   EXPECT_LE(aerr / nn, 0.05);
 }
 
+TEST(LeafScan, LightsAtSeveralElevationsFitTheSpecularLobe) {
+  auto o = Small();
+  o.two_rings = true;
+  const auto s = MakeSyntheticScan(o);
+  auto a = AnalyzeSheet(s.scan, SheetOptions{});
+  ASSERT_TRUE(a.ok()) << a.status().ToString();
+  auto L = MakeLeafMaterial(s.scan, *a, *FirstLeaf(a->segmentation), 0.2, LeafMaterialOptions{});
+  ASSERT_TRUE(L.ok()) << L.status().ToString();
+  EXPECT_TRUE(L->specular_fitted);
+  // The synthetic upper side is Lambertian: the fitted lobe is weak.
+  double f0 = 0;
+  int64_t n = 0;
+  for (int64_t i = 0; i < L->maps.mask.plane_size(); ++i)
+    if (L->status[i] == 0) f0 += L->maps.specular.Plane(0)[i], ++n;
+  std::printf("two rings: mean fitted F0 %.4f over %lld texels (truth: Lambertian)\n", f0 / n,
+              (long long)n);
+  EXPECT_LT(f0 / n, 0.02);
+}
+
+TEST(LeafScan, DisplacementScansGiveTheThickness) {
+  auto o = Small();
+  o.displacement = true;
+  const auto s = MakeSyntheticScan(o);
+  auto a = AnalyzeSheet(s.scan, SheetOptions{});
+  ASSERT_TRUE(a.ok());
+  auto L = MakeLeafMaterial(s.scan, *a, *FirstLeaf(a->segmentation), 0.2, LeafMaterialOptions{});
+  ASSERT_TRUE(L.ok()) << L.status().ToString();
+  EXPECT_FALSE(L->thickness_estimated);
+  double err = 0;
+  int64_t n = 0;
+  for (int y = 0; y < L->maps.height; ++y)
+    for (int x = 0; x < L->maps.width; ++x) {
+      const int64_t i = int64_t(y) * L->maps.width + x;
+      if (L->maps.mask.Plane(0)[i] < 0.5f) continue;
+      err += std::abs(L->maps.thickness.Plane(0)[i] -
+                      s.truth.thickness.At(0, L->crop_y + y, L->crop_x + x)),
+          ++n;
+    }
+  // max_thickness_mm is the truth's maximum, so the 99th-percentile rescale is nearly exact.
+  std::printf("displacement thickness: MAE %.5f mm\n", err / n);
+  EXPECT_LT(err / n, 0.01);
+}
+
 TEST(LeafScan, FastMatchesTheReferenceOnARealLeaf) {
   MATFIT_REQUIRE_SHARED_DATA("leaf-sheet");
   auto scan = ReadLeafScan(shared_dir + "/leaf-sheet");
