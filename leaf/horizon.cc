@@ -9,45 +9,53 @@
 #include "core/parallel.h"
 
 namespace matfit::leaf {
-namespace {
-
-float Bilinear(const Image& img, double x, double y) {
-  const int w = img.width(), h = img.height();
-  x = std::clamp(x, 0.0, double(w - 1)), y = std::clamp(y, 0.0, double(h - 1));
-  const int x0 = std::min(int(x), std::max(w - 2, 0)), y0 = std::min(int(y), std::max(h - 2, 0));
-  const int x1 = std::min(x0 + 1, w - 1), y1 = std::min(y0 + 1, h - 1);
-  const double fx = x - x0, fy = y - y0;
-  const auto p = img.Plane(0);
-  const double top = p[int64_t(y0) * w + x0] * (1 - fx) + p[int64_t(y0) * w + x1] * fx;
-  const double bot = p[int64_t(y1) * w + x0] * (1 - fx) + p[int64_t(y1) * w + x1] * fx;
-  return float(top * (1 - fy) + bot * fy);
-}
-
-}  // namespace
-
 Image HorizonMap(const Image& height, double mm_per_texel, int row_of_y, const HorizonOptions& o) {
   MATFIT_CHECK(height.channels() == 1 && mm_per_texel > 0 && o.slices >= 4);
   const int w = height.width(), h = height.height();
   Image out(w, h, o.slices);
   std::vector<int> steps;
   for (int s = 1; s <= o.max_steps; s = std::max(s + 1, s * 4 / 3)) steps.push_back(s);
+  // Along a slice, step s lands at the same sub-texel offset from every texel: its integer
+  // offset and bilinear weights are computed once per (slice, step).
+  struct Step {
+    double ox, oy;  // offset in texels (x: columns, y: rows)
+    int ix, iy;     // floor of the offset
+    float w00, w01, w10, w11;
+    float inv_dist;  // 1 / horizontal distance, 1/mm
+  };
+  const auto hp = height.Plane(0);
   ParallelFor(
       0, h,
       [&](int64_t y0, int64_t y1) {
+        std::vector<Step> st(steps.size());
         for (int k = 0; k < o.slices; ++k) {
           const double phi = 2 * std::numbers::pi * k / o.slices;
           const double dx = std::cos(phi), dy = std::sin(phi) * row_of_y;
+          for (size_t j = 0; j < steps.size(); ++j) {
+            Step& e = st[j];
+            e.ox = steps[j] * dx, e.oy = steps[j] * dy;
+            e.ix = int(std::floor(e.ox)), e.iy = int(std::floor(e.oy));
+            const float fx = float(e.ox - e.ix), fy = float(e.oy - e.iy);
+            e.w00 = (1 - fx) * (1 - fy), e.w01 = fx * (1 - fy), e.w10 = (1 - fx) * fy,
+            e.w11 = fx * fy;
+            e.inv_dist = float(1 / (steps[j] * mm_per_texel));
+          }
           auto plane = out.Plane(k);
           for (int64_t y = y0; y < y1; ++y)
             for (int x = 0; x < w; ++x) {
-              const double h0 = height.At(0, int(y), x);
-              double best = -1e30;
-              for (int s : steps) {
-                const double sx = x + s * dx, sy = y + s * dy;
+              const float h0 = hp[y * w + x];
+              float best = -1e30f;
+              for (const Step& e : st) {
+                const double sx = x + e.ox, sy = y + e.oy;
                 if (sx < 0 || sy < 0 || sx > w - 1 || sy > h - 1) break;
-                best = std::max(best, (Bilinear(height, sx, sy) - h0) / (s * mm_per_texel));
+                const int xa = x + e.ix, ya = int(y) + e.iy;
+                const int xb = std::min(xa + 1, w - 1), yb = std::min(ya + 1, h - 1);
+                const float v = e.w00 * hp[int64_t(ya) * w + xa] +
+                                e.w01 * hp[int64_t(ya) * w + xb] +
+                                e.w10 * hp[int64_t(yb) * w + xa] + e.w11 * hp[int64_t(yb) * w + xb];
+                best = std::max(best, (v - h0) * e.inv_dist);
               }
-              plane[y * w + x] = float(std::atan(best));  // elevation angle, rad
+              plane[y * w + x] = std::atan(best);  // elevation angle, rad
             }
         }
       },
