@@ -4,6 +4,7 @@
 #include <algorithm>
 #include <cmath>
 #include <numbers>
+#include <optional>
 #include <opencv2/core.hpp>
 
 #include "core/parallel.h"
@@ -37,6 +38,7 @@ constexpr double kPi = std::numbers::pi;
 
 // Everything both methods derive from the input before transport.
 struct Prepared {
+  std::optional<Multipole> mp;  // the kernel (set once the options are valid)
   int w = 0, h = 0;
   int64_t n = 0;
   double ap = 0;                // texel area, mm²
@@ -74,10 +76,12 @@ Status Validate(const TransportInput& in, const TranslucencyOptions& o) {
   return Status::Ok();
 }
 
-StatusOr<Prepared> Prepare(const TransportInput& in, const TranslucencyOptions& o,
-                           const Multipole& mp) {
+// Validates the input and options, then derives what both methods need.
+StatusOr<Prepared> Prepare(const TransportInput& in, const TranslucencyOptions& o) {
   MATFIT_RETURN_IF_ERROR(Validate(in, o));
   Prepared p;
+  p.mp.emplace(o.multipole);
+  const Multipole& mp = *p.mp;
   p.w = in.rho->width(), p.h = in.rho->height(), p.n = int64_t(p.w) * p.h;
   p.ap = in.mm_per_texel * in.mm_per_texel;
   p.inside.assign(p.n, 1);
@@ -239,11 +243,10 @@ void DirectSum(const Prepared& p, const Multipole& mp, double mm, const std::vec
 
 StatusOr<TranslucencyResult> PrecomputeTranslucencyReference(const TransportInput& in,
                                                              const TranslucencyOptions& o) {
-  MATFIT_RETURN_IF_ERROR(Validate(in, o));
-  const Multipole mp(o.multipole);
-  auto prep = Prepare(in, o, mp);
+  auto prep = Prepare(in, o);
   if (!prep.ok()) return prep.status();
   const Prepared& p = *prep;
+  const Multipole& mp = *p.mp;
   const int nd = o.directions;
   if (p.n * nd > (int64_t(1) << 28))
     return InvalidArgument("the reference precompute holds N_L irradiance planes: " +
@@ -281,12 +284,11 @@ StatusOr<TranslucencyResult> PrecomputeTranslucencyReference(const TransportInpu
 
 StatusOr<Image> DirectionalTranslucency(const TransportInput& in, const TranslucencyOptions& o,
                                         const Vec3& w) {
-  MATFIT_RETURN_IF_ERROR(Validate(in, o));
   if (!(w.z > 0)) return InvalidArgument("DirectionalTranslucency needs a light with w.z > 0");
-  const Multipole mp(o.multipole);
-  auto prep = Prepare(in, o, mp);
+  auto prep = Prepare(in, o);
   if (!prep.ok()) return prep.status();
   const Prepared& p = *prep;
+  const Multipole& mp = *p.mp;
   const int slices = in.horizon && !in.horizon->empty() ? in.horizon->channels() : 0;
   std::vector<float> E(p.n);
   Irradiance(in, p, MakeDirection(Normalize(w), slices), 0, p.n, E.data());
@@ -393,11 +395,10 @@ KernelBasis MakeKernelBasis(const Multipole& mp, const Offsets& off, double ap, 
 
 StatusOr<TranslucencyResult> PrecomputeTranslucencyFast(const TransportInput& in,
                                                         const TranslucencyOptions& o) {
-  MATFIT_RETURN_IF_ERROR(Validate(in, o));
-  const Multipole mp(o.multipole);
-  auto prep = Prepare(in, o, mp);
+  auto prep = Prepare(in, o);
   if (!prep.ok()) return prep.status();
   const Prepared& p = *prep;
+  const Multipole& mp = *p.mp;
   const int nd = o.directions;
   const auto dirs = Directions(in, nd);
   const double wproj = Hl2ProjectionWeight(nd);
