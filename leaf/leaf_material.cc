@@ -235,11 +235,17 @@ StatusOr<LeafMaterial> MakeLeafMaterial(const LeafScan& scan, const SheetAnalysi
     for (int64_t i = 0; i < n; ++i) height_mm.Plane(0)[i] = float(ht.Plane(0)[i] * mm);
   }
   Image lower_height(w, h, 1), lower_normal(w, h, 3);
+  const Image scanned_lower =
+      scan.lower_normal.empty() ? Image() : CropImage(scan.lower_normal, x0, y0, w, h);
   for (int64_t i = 0; i < n; ++i) {
     lower_height.Plane(0)[i] = -height_mm.Plane(0)[i];
-    lower_normal.Plane(0)[i] = -m.normal.Plane(0)[i];
-    lower_normal.Plane(1)[i] = m.normal.Plane(1)[i];
-    lower_normal.Plane(2)[i] = m.normal.Plane(2)[i];
+    Vec3 v(-m.normal.Plane(0)[i], m.normal.Plane(1)[i], m.normal.Plane(2)[i]);
+    if (!scanned_lower.empty() && mask[i])  // a scan of the lower side wins
+      v = Normalize(
+          Vec3(2.0 * scanned_lower.Plane(0)[i] - 1, 2.0 * scanned_lower.Plane(1)[i] - 1,
+               2.0 * scanned_lower.Plane(std::min(2, scanned_lower.channels() - 1))[i] - 1));
+    lower_normal.Plane(0)[i] = float(v.x), lower_normal.Plane(1)[i] = float(v.y);
+    lower_normal.Plane(2)[i] = float(v.z);
   }
   const Image horizon = HorizonMap(lower_height, mm, +1, HorizonOptions{});
   TransportInput in;

@@ -18,7 +18,10 @@ struct LeafScan {
   std::vector<Image> back;  // back-lit (transmission) images, ≥ 1
   std::vector<std::string> back_files;
   // Optional per-side scans on the same grid (empty when absent).
-  Image upper_albedo, lower_albedo, upper_normal, upper_displacement, lower_displacement;
+  // lower_normal is in the lower side's own frame (x' = x, y' = −y, z' out of the lower
+  // surface), registered to the upper side's pixel grid.
+  Image upper_albedo, lower_albedo, upper_normal, lower_normal, upper_displacement,
+      lower_displacement;
   double displacement_scale_mm = 1.0;  // mm per unit of the displacement maps
   // Scale: mm per pixel when known, else the physical side of the square markers (mm).
   double mm_per_pixel = 0, marker_size_mm = 0;

@@ -211,6 +211,7 @@ StatusOr<LeafScan> ReadLeafScan(const std::string& dir, const std::string& manif
   const std::pair<const char*, Image*> opt[] = {{"upper_albedo", &scan.upper_albedo},
                                                 {"lower_albedo", &scan.lower_albedo},
                                                 {"upper_normal", &scan.upper_normal},
+                                                {"lower_normal", &scan.lower_normal},
                                                 {"upper_displacement", &scan.upper_displacement},
                                                 {"lower_displacement", &scan.lower_displacement}};
   for (const auto& [field, img] : opt) {

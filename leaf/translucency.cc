@@ -4,8 +4,8 @@
 #include <algorithm>
 #include <cmath>
 #include <numbers>
-#include <optional>
 #include <opencv2/core.hpp>
+#include <optional>
 
 #include "core/parallel.h"
 #include "leaf/hl2.h"

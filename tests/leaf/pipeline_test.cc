@@ -10,6 +10,7 @@
 #include "../core/test_util.h"
 #include "core/image_io.h"
 #include "core/pack/pack_reader.h"
+#include "leaf/hl2.h"
 #include "leaf/leaf_job.h"
 #include "leaf/leaf_material.h"
 #include "leaf/scan.h"
@@ -176,6 +177,42 @@ TEST(LeafScan, DisplacementScansGiveTheThickness) {
   // max_thickness_mm is the truth's maximum, so the 99th-percentile rescale is nearly exact.
   std::printf("displacement thickness: MAE %.5f mm\n", err / n);
   EXPECT_LT(err / n, 0.01);
+}
+
+TEST(LeafScan, ALowerSideNormalScanShapesTheTranslucency) {
+  auto s = MakeSyntheticScan(Small());
+  // The lower surface tilted 30° toward +x' (its own frame), encoded rgb = n·0.5 + 0.5.
+  const Vec3 n(0.5, 0, std::sqrt(0.75));
+  s.scan.lower_normal = Image(s.scan.width(), s.scan.height(), 3);
+  for (int64_t i = 0; i < s.scan.lower_normal.plane_size(); ++i)
+    for (int c = 0; c < 3; ++c) s.scan.lower_normal.Plane(c)[i] = float(0.5 * n[c] + 0.5);
+  auto a = AnalyzeSheet(s.scan, SheetOptions{});
+  ASSERT_TRUE(a.ok());
+  LeafMaterialOptions o;
+  o.report_hl2_error = false;
+  auto L = MakeLeafMaterial(s.scan, *a, *FirstLeaf(a->segmentation), 0.2, o);
+  ASSERT_TRUE(L.ok()) << L.status().ToString();
+  // Light from behind along ±x' at 45°: the side the lower surface faces transmits more.
+  const Vec3 toward(std::sqrt(0.5), 0, std::sqrt(0.5)), away(-std::sqrt(0.5), 0, std::sqrt(0.5));
+  double lt = 0, la = 0;
+  for (int64_t i = 0; i < L->maps.mask.plane_size(); ++i) {
+    if (L->maps.mask.Plane(0)[i] < 0.5f) continue;
+    const std::array<double, 3> h = {L->maps.hl2.Plane(0)[i], L->maps.hl2.Plane(1)[i],
+                                     L->maps.hl2.Plane(2)[i]};
+    lt += Hl2Reconstruct(h, toward), la += Hl2Reconstruct(h, away);
+  }
+  // Expected (unshadowed): the HL2 projection of max(0, n·ω) reconstructed at the two lights.
+  std::array<double, 3> hp{};
+  for (const Vec3& w : StratifiedHemisphere(4096))
+    for (int k = 0; k < 3; ++k)
+      hp[k] += Hl2ProjectionWeight(4096) * Hl2Basis(k, w) * std::max(0.0, Dot(n, w));
+  const double want = Hl2Reconstruct(hp, toward) / Hl2Reconstruct(hp, away);
+  std::printf(
+      "tilted lower normal: transmitted toward/away %.3f (projection of the clamped "
+      "cosine: %.3f)\n",
+      lt / la, want);
+  EXPECT_GT(lt / la, 2.0);
+  EXPECT_NEAR(lt / la, want, 0.05 * want);
 }
 
 TEST(LeafScan, FastMatchesTheReferenceOnARealLeaf) {
