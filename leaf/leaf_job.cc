@@ -165,6 +165,9 @@ StatusOr<LeafJobResult> RunLeafJob(const LeafJobOptions& o, const LeafProgress& 
         " mm per pixel for the translucency kernel, areas in mm² are not reported");
   }
   const bool scale_known = res.scale_source != "default";
+  if (o.only_leaf > res.leaves)
+    return InvalidArgument("--leaf " + std::to_string(o.only_leaf) + ": the sheet has leaves 1.." +
+                           std::to_string(res.leaves));
 
   AtomicDir dir(o.out);
   MATFIT_RETURN_IF_ERROR(dir.Begin(o.overwrite));

@@ -38,6 +38,8 @@ msg=$("$bin" leaf "$src/fixtures/leaf-scan" --out "$tmp/x" --precompute slow 2>&
 expect_contains "precompute" "$msg" "choose fast or reference"
 msg=$("$bin" leaf "$tmp/nowhere" --out "$tmp/x" 2>&1) && bad "missing folder accepted" || ok
 expect_contains "missing" "$msg" "does not exist"
+msg=$("$bin" leaf "$src/fixtures/leaf-scan" --out "$tmp/x" --leaf 7 2>&1) && bad "--leaf 7 accepted" || ok
+expect_contains "leaf id" "$msg" "the sheet has leaves 1..1"
 mkdir -p "$tmp/noback" && cp "$src/fixtures/leaf-scan/1_TL.png" "$tmp/noback/"
 msg=$("$bin" leaf "$tmp/noback" --out "$tmp/x" 2>&1) && bad "no back-lit images accepted" || ok
 expect_contains "no back" "$msg" "no back-lit images"
