@@ -14,8 +14,8 @@ bool BackgroundOptions::Check(std::string* why) const {
     if (why) *why = "background saturation level must be in (0, 1]";
     return false;
   }
-  if (stride < 1 || stride > 64) {
-    if (why) *why = "background stride must be in 1..64, got " + std::to_string(stride);
+  if (stride < 0 || stride > 64) {
+    if (why) *why = "background stride must be in 0 (auto)..64, got " + std::to_string(stride);
     return false;
   }
   return true;
@@ -55,8 +55,10 @@ StatusOr<BackgroundFit> FitBackground(std::span<const float> plane, int w, int h
     bool clipped;
   };
   std::vector<Sample> s;
-  for (int y = 0; y < h; y += o.stride)
-    for (int x = 0; x < w; x += o.stride) {
+  // Stride 0: about 40 000 samples whatever the image size (the model has ≤ 28 terms).
+  const int stride = o.stride > 0 ? o.stride : std::max(1, int(std::sqrt(double(w) * h / 40000.0)));
+  for (int y = 0; y < h; y += stride)
+    for (int x = 0; x < w; x += stride) {
       const size_t i = size_t(y) * w + x;
       if (!background[i] || !(plane[i] > 1e-6f) || !std::isfinite(plane[i])) continue;
       const bool clipped = plane[i] >= o.saturation;
@@ -110,16 +112,25 @@ StatusOr<BackgroundFit> FitBackground(std::span<const float> plane, int w, int h
     for (size_t k = 0; k < s.size(); ++k)
       keep[k] = s[k].clipped ? r[k] > 0 : std::abs(r[k]) <= 2.5 * sigma + 1e-9;
   }
+  // Evaluate row by row: p(u, v) = Σ_a u^a q_a(v) with q_a(v) = Σ_b c_ab v^b.
   fit.level = Image(w, h, 1);
-  for (int y = 0; y < h; ++y)
+  std::vector<double> q(o.degree + 1);
+  for (int y = 0; y < h; ++y) {
+    double u, v;
+    uv(0, y, &u, &v);
+    int k = 0;
+    for (int a = 0; a <= o.degree; ++a) {
+      double acc = 0, vb = 1;
+      for (int b = 0; a + b <= o.degree; ++b, ++k) acc += c[k] * vb, vb *= v;
+      q[a] = acc;
+    }
     for (int x = 0; x < w; ++x) {
-      double u, v;
       uv(x, y, &u, &v);
-      Monomials(u, v, o.degree, m.data());
-      double p = 0;
-      for (int t = 0; t < nt; ++t) p += c[t] * m[t];
+      double p = 0, ua = 1;
+      for (int a = 0; a <= o.degree; ++a) p += q[a] * ua, ua *= u;
       fit.level.At(0, y, x) = float(std::exp(p));
     }
+  }
   return fit;
 }
 

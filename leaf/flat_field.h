@@ -16,7 +16,7 @@ namespace matfit::leaf {
 
 struct BackgroundOptions {
   int degree = 4;             // polynomial degree in (u, v), 0..6
-  int stride = 2;             // sample every stride-th pixel in x and y
+  int stride = 0;             // sample every stride-th pixel in x and y; 0 = about 40 000 samples
   double saturation = 0.995;  // samples at or above this are clipped: not used
   bool Check(std::string* why) const;
 };

@@ -41,11 +41,23 @@ void ConcentricDisk(double a, double b, double* x, double* y) {
 
 }  // namespace
 
-std::vector<Vec3> StratifiedHemisphere(int n) {
-  MATFIT_CHECK(n >= 1);
+namespace {
+int GridRows(int n) {
   int a = int(std::sqrt(double(n)));
-  while (n % a != 0) --a;
-  const int b = n / a;
+  while (a > 1 && n % a != 0) --a;
+  return a;
+}
+}  // namespace
+
+bool StratifiableDirectionCount(int n) {
+  if (n < 1) return false;
+  const int a = GridRows(n);
+  return n / a <= 2 * a;
+}
+
+std::vector<Vec3> StratifiedHemisphere(int n) {
+  MATFIT_CHECK(StratifiableDirectionCount(n));
+  const int a = GridRows(n), b = n / a;
   std::vector<Vec3> dirs;
   dirs.reserve(n);
   for (int i = 0; i < a; ++i)

@@ -22,5 +22,13 @@ struct Hl2ErrorStats {
 StatusOr<Hl2ErrorStats> Hl2ReconstructionError(const TransportInput& in,
                                                const TranslucencyOptions& options,
                                                const TranslucencyResult& result, double elevation);
+// Several elevations in one direct sum, on at most `max_texels` leaf texels (an even subsample;
+// 0 = every leaf texel): the direct sum costs texels × kernel area, so reports on large leaves
+// sample them.
+StatusOr<std::vector<Hl2ErrorStats>> Hl2ReconstructionErrors(const TransportInput& in,
+                                                             const TranslucencyOptions& options,
+                                                             const TranslucencyResult& result,
+                                                             const std::vector<double>& elevations,
+                                                             int64_t max_texels);
 
 }  // namespace matfit::leaf

@@ -25,13 +25,16 @@ bool LeafJobOptions::Check(std::string* why) const {
   };
   if (input.empty()) return fail("the leaf-scan folder is empty");
   if (out.empty()) return fail("--out DIR is required");
-  if (mm_per_pixel < 0 || mm_per_pixel > 100) return fail("--mm-per-pixel must be in (0, 100]");
+  auto num = [](double v) { return std::to_string(v); };
+  if (mm_per_pixel != 0 && !(mm_per_pixel >= 1e-3 && mm_per_pixel <= 100))
+    return fail("--mm-per-pixel must be in [0.001, 100], got " + num(mm_per_pixel));
   if (marker_size_mm < 0 || marker_size_mm > 1000)
-    return fail("--marker-size-mm must be in (0, 1000]");
+    return fail("--marker-size-mm must be in (0, 1000], got " + num(marker_size_mm));
   if (max_thickness_mm < 0 || max_thickness_mm > 10)
-    return fail("--max-thickness-mm must be in (0, 10]");
-  if (!(default_mm_per_pixel > 0)) return fail("default mm per pixel must be > 0");
-  if (only_leaf < 0) return fail("--leaf must be ≥ 1");
+    return fail("--max-thickness-mm must be in (0, 10], got " + num(max_thickness_mm));
+  if (!(default_mm_per_pixel >= 1e-3 && default_mm_per_pixel <= 100))
+    return fail("default mm per pixel must be in [0.001, 100], got " + num(default_mm_per_pixel));
+  if (only_leaf < 0) return fail("--leaf must be ≥ 1, got " + std::to_string(only_leaf));
   return sheet.Check(why) && material.Check(why);
 }
 
@@ -145,8 +148,11 @@ StatusOr<LeafJobResult> RunLeafJob(const LeafJobOptions& o, const LeafProgress& 
     if (c.kind == ComponentKind::kMarker) ++res.markers, sides.push_back(c.side_px);
   }
   if (res.leaves == 0)
-    return DataError("no leaves found on '" + o.input +
-                     "': nothing darker than half the back light; check the back-lit images");
+    return DataError("no leaves found on '" + o.input + "' (found " + std::to_string(res.twigs) +
+                     " twigs, " + std::to_string(res.markers) + " markers, " +
+                     std::to_string(res.specks) +
+                     " specks): a leaf is a coloured region transmitting under half the back "
+                     "light; check the back-lit images");
   // Scale.
   const double marker_mm = o.marker_size_mm > 0 ? o.marker_size_mm : scan->marker_size_mm;
   if (o.mm_per_pixel > 0) {

@@ -19,13 +19,18 @@ bool LeafMaterialOptions::Check(std::string* why) const {
     return false;
   };
   if (!translucency.Check(why)) return false;
+  auto num = [](double v) { return std::to_string(v); };
   if (!(default_max_thickness_mm > 0 && default_max_thickness_mm < 10))
-    return fail("default maximum thickness must be in (0, 10) mm");
-  if (!(sheet_albedo > 0 && sheet_albedo <= 1)) return fail("sheet_albedo must be in (0, 1]");
-  if (!(default_f0 >= 0 && default_f0 < 1)) return fail("default F0 must be in [0, 1)");
+    return fail("default maximum thickness must be in (0, 10) mm, got " +
+                num(default_max_thickness_mm));
+  if (!(sheet_albedo > 0 && sheet_albedo <= 1))
+    return fail("sheet_albedo must be in (0, 1], got " + num(sheet_albedo));
+  if (!(default_f0 >= 0 && default_f0 < 1))
+    return fail("default F0 must be in [0, 1), got " + num(default_f0));
   if (!(default_roughness > 0 && default_roughness <= 1))
-    return fail("default roughness must be in (0, 1]");
-  if (margin_px < 0 || margin_px > 256) return fail("margin must be in 0..256 pixels");
+    return fail("default roughness must be in (0, 1], got " + num(default_roughness));
+  if (margin_px < 0 || margin_px > 256)
+    return fail("margin must be in 0..256 pixels, got " + std::to_string(margin_px));
   return true;
 }
 
@@ -57,7 +62,8 @@ StatusOr<LeafMaterial> MakeLeafMaterial(const LeafScan& scan, const SheetAnalysi
                                         const LeafMaterialOptions& o) {
   std::string why;
   if (!o.Check(&why)) return InvalidArgument("leaf material options: " + why);
-  if (!(mm > 0)) return InvalidArgument("mm_per_pixel must be > 0");
+  if (!(mm >= 1e-3 && mm <= 100))
+    return InvalidArgument("mm_per_pixel must be in [0.001, 100], got " + std::to_string(mm));
   const auto t_maps = std::chrono::steady_clock::now();
   LeafMaterial L;
   L.component = leaf;
@@ -96,6 +102,7 @@ StatusOr<LeafMaterial> MakeLeafMaterial(const LeafScan& scan, const SheetAnalysi
     crop.lights() = s.lights();
     crop.mask = mask;
     crop.mm_per_texel = mm;
+    crop.saturated_pixels = s.saturated_pixels;  // clipped samples read 1 (leaf/sheet.h)
     crop.layout = s.layout, crop.source = s.source, crop.image_files = s.image_files;
     auto ps = fit::MakeMethod("lambert-robust")->Fit(crop, fit::FitOptions{});
     if (!ps.ok()) return ps.status();
@@ -225,20 +232,29 @@ StatusOr<LeafMaterial> MakeLeafMaterial(const LeafScan& scan, const SheetAnalysi
   // Translucency precompute for light from behind, in the lower side's frame
   // (x' = x, y' = −y, z' = −z; METHODS.md §5): n' = (−n_x, n_y, n_z), heights negated.
   const auto t_tr = std::chrono::steady_clock::now();
-  Image height_mm(w, h, 1);
-  if (!scan.upper_displacement.empty()) {
-    const Image up = CropImage(scan.upper_displacement, x0, y0, w, h);
+  // Height of the lower surface along z' (mm): −lower displacement when scanned, else −upper
+  // displacement, else − the integrated upper normals (a thin sheet). Off the leaf the height is
+  // the leaf's lowest, so the sheet around it never shadows the rim.
+  Image lower_height(w, h, 1);
+  if (!scan.lower_displacement.empty() || !scan.upper_displacement.empty()) {
+    const Image d = CropImage(
+        scan.lower_displacement.empty() ? scan.upper_displacement : scan.lower_displacement, x0, y0,
+        w, h);
     for (int64_t i = 0; i < n; ++i)
-      height_mm.Plane(0)[i] = float(up.Plane(0)[i] * scan.displacement_scale_mm);
+      lower_height.Plane(0)[i] = float(-d.Plane(0)[i] * scan.displacement_scale_mm);
   } else {
     const Image ht = HeightFromNormals(m.normal, mask);
-    for (int64_t i = 0; i < n; ++i) height_mm.Plane(0)[i] = float(ht.Plane(0)[i] * mm);
+    for (int64_t i = 0; i < n; ++i) lower_height.Plane(0)[i] = float(-ht.Plane(0)[i] * mm);
   }
-  Image lower_height(w, h, 1), lower_normal(w, h, 3);
+  float lowest = 1e30f;
+  for (int64_t i = 0; i < n; ++i)
+    if (mask[i]) lowest = std::min(lowest, lower_height.Plane(0)[i]);
+  for (int64_t i = 0; i < n; ++i)
+    if (!mask[i]) lower_height.Plane(0)[i] = lowest;
+  Image lower_normal(w, h, 3);
   const Image scanned_lower =
       scan.lower_normal.empty() ? Image() : CropImage(scan.lower_normal, x0, y0, w, h);
   for (int64_t i = 0; i < n; ++i) {
-    lower_height.Plane(0)[i] = -height_mm.Plane(0)[i];
     Vec3 v(-m.normal.Plane(0)[i], m.normal.Plane(1)[i], m.normal.Plane(2)[i]);
     if (!scanned_lower.empty() && mask[i])  // a scan of the lower side wins
       v = Normalize(
@@ -262,12 +278,11 @@ StatusOr<LeafMaterial> MakeLeafMaterial(const LeafScan& scan, const SheetAnalysi
   L.seconds_translucency = Seconds(t_tr);
   if (o.report_hl2_error) {
     const auto t_e = std::chrono::steady_clock::now();
-    const double el[3] = {std::numbers::pi / 2, std::numbers::pi / 4, std::numbers::pi / 8};
-    for (int k = 0; k < 3; ++k) {
-      auto e = Hl2ReconstructionError(in, o.translucency, L.translucency, el[k]);
-      if (!e.ok()) return e.status();
-      L.hl2_error[k] = *e;
-    }
+    auto e = Hl2ReconstructionErrors(
+        in, o.translucency, L.translucency,
+        {std::numbers::pi / 2, std::numbers::pi / 4, std::numbers::pi / 8}, o.hl2_error_texels);
+    if (!e.ok()) return e.status();
+    for (int k = 0; k < 3; ++k) L.hl2_error[k] = (*e)[k];
     L.seconds_hl2_error = Seconds(t_e);
   }
   return L;

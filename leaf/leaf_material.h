@@ -32,8 +32,9 @@ struct LeafMaterialOptions {
   // Leaf default specular when the top-lit lights cannot constrain a lobe (METHODS.md §5:
   // Cook–Torrance; leaf cuticle IOR ≈ 1.45 → F0 ≈ 0.034; roughness in the range 0.3–0.6).
   double default_f0 = 0.034, default_roughness = 0.45;
-  int margin_px = 2;             // crop margin around the leaf's bounding box
-  bool report_hl2_error = true;  // HL2 vs multipole error at π/2, π/4, π/8 (report.json)
+  int margin_px = 2;                // crop margin around the leaf's bounding box
+  bool report_hl2_error = true;     // HL2 vs multipole error at π/2, π/4, π/8 (report.json)
+  int64_t hl2_error_texels = 4096;  // ... on at most this many leaf texels (0 = all)
   bool Check(std::string* why) const;
 };
 

@@ -12,9 +12,10 @@
 namespace matfit::leaf {
 
 struct LeafScan {
-  std::string source;       // folder
-  LightStack top;           // top-lit images with light directions (empty: minimal case)
-  Image front;              // minimal case: one front-lit photo (used when `top` is empty)
+  std::string source;  // folder
+  LightStack top;      // top-lit images with light directions (empty: minimal case)
+  Image front;         // minimal case: one front-lit photo (used when `top` is empty)
+  std::string front_file;
   std::vector<Image> back;  // back-lit (transmission) images, ≥ 1
   std::vector<std::string> back_files;
   // Optional per-side scans on the same grid (empty when absent).

@@ -183,6 +183,7 @@ StatusOr<LeafScan> ReadLeafScan(const std::string& dir, const std::string& manif
     scan.top = std::move(*st);
   } else {
     MATFIT_RETURN_IF_ERROR(ReadOne(in_dir(front), cs, &scan.front));
+    scan.front_file = front;
   }
   for (const auto& f : back) {
     Image img;
@@ -218,9 +219,25 @@ StatusOr<LeafScan> ReadLeafScan(const std::string& dir, const std::string& manif
     std::string f;
     MATFIT_RETURN_IF_ERROR(get_string(field, &f));
     if (f.empty()) continue;
-    const bool data = std::string(field).find("albedo") == std::string::npos;
-    MATFIT_RETURN_IF_ERROR(ReadOne(in_dir(f), data ? ColorSpaceChoice::kLinear : cs, img));
-    MATFIT_RETURN_IF_ERROR(check_grid(*img, std::string("'") + field + "' (" + f + ")"));
+    const std::string sf(field);
+    const bool albedo = sf.find("albedo") != std::string::npos;
+    const bool normal = sf.find("normal") != std::string::npos;
+    MATFIT_RETURN_IF_ERROR(ReadOne(in_dir(f), albedo ? cs : ColorSpaceChoice::kLinear, img));
+    MATFIT_RETURN_IF_ERROR(check_grid(*img, "'" + sf + "' (" + f + ")"));
+    if (normal && img->channels() < 3)
+      return DataError("leaf scan '" + dir + "': '" + sf + "' (" + f +
+                       ") has 1 channel; a normal map needs rgb = n*0.5+0.5");
+    if (albedo && img->channels() == 1) {  // grey albedo photo → the same value in r, g, b
+      Image rgb(img->width(), img->height(), 3);
+      for (int c = 0; c < 3; ++c)
+        std::copy(img->Plane(0).begin(), img->Plane(0).end(), rgb.Plane(c).begin());
+      *img = std::move(rgb);
+    }
+    if (!albedo && !normal && img->channels() > 1) {  // displacement: first channel
+      Image one(img->width(), img->height(), 1);
+      std::copy(img->Plane(0).begin(), img->Plane(0).end(), one.Plane(0).begin());
+      *img = std::move(one);
+    }
   }
   return scan;
 }

@@ -74,9 +74,11 @@ Segmentation Segment(const Image& t, const SegmentOptions& o, const Image* color
     c.cx = cents.at<double>(l, 0), c.cy = cents.at<double>(l, 1);
     c.touches_border = c.x0 == 0 || c.y0 == 0 || c.x1 == w - 1 || c.y1 == h - 1;
     // Shape from the outer contour (holes filled: a marker's inner pattern does not count).
-    cv::Mat m = (lab == l);
+    // On the component's bounding box only (one pass over the image in all).
+    const cv::Rect box(c.x0, c.y0, c.x1 - c.x0 + 1, c.y1 - c.y0 + 1);
+    cv::Mat m = (lab(box) == l);
     std::vector<std::vector<cv::Point>> contours;
-    cv::findContours(m, contours, cv::RETR_EXTERNAL, cv::CHAIN_APPROX_NONE);
+    cv::findContours(m, contours, cv::RETR_EXTERNAL, cv::CHAIN_APPROX_NONE, cv::Point(c.x0, c.y0));
     double filled = 0;
     std::vector<cv::Point> all;
     for (const auto& ct : contours) {
@@ -107,7 +109,9 @@ Segmentation Segment(const Image& t, const SegmentOptions& o, const Image* color
         }
       c.chroma = level > 0 ? spread / level : 0;
     }
-    const bool achromatic = c.chroma < 0 || c.chroma <= o.marker_max_chroma;
+    // Without a colour photo the colour test is unavailable: demand a fuller square instead.
+    const bool achromatic = c.chroma >= 0 ? c.chroma <= o.marker_max_chroma
+                                          : c.rectangularity >= o.marker_rectangularity_grey;
     if (c.area_px < o.min_area_px) {
       c.kind = ComponentKind::kSpeck;
     } else if (c.elongation >= o.twig_elongation) {

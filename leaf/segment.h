@@ -36,6 +36,7 @@ struct SegmentOptions {
   double twig_elongation = 4.0;        // minimum-area rectangle at least this elongated → twig
   double marker_rectangularity = 0.8;  // square and this full → marker
   double marker_max_aspect = 1.3;
+  double marker_rectangularity_grey = 0.9;  // ... when there is no colour photo to test
   double marker_max_chroma = 0.3;  // markers are printed black and white; leaves are coloured
   int open_radius = 1;             // morphological opening radius, pixels
   bool Check(std::string* why) const;

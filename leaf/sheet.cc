@@ -56,19 +56,20 @@ Status FuseBack(const LeafScan& scan, const std::vector<uint8_t>& bg, const Shee
   a->back_rms_log = 0, a->saturated_back_samples = 0;
   for (size_t k = 0; k < scan.back.size(); ++k) {
     const Image& img = scan.back[k];
-    for (int c = 0; c < c3; ++c) {
-      const int sc = std::min(c, img.channels() - 1);
+    // Each channel of the file once; a grey image feeds all three.
+    for (int sc = 0; sc < std::min(img.channels(), c3); ++sc) {
       auto fit = FitBackground(img.Plane(sc), w, h, bg, o.background);
       if (!fit.ok())
         return DataError("back-lit image '" + scan.back_files[k] + "': " + fit.status().message());
       a->back_rms_log = std::max(a->back_rms_log, fit->rms_log);
       const std::span<const float> p = img.Plane(sc), b = fit->level.Plane(0);
+      const int c_end = img.channels() == 1 ? c3 : sc + 1;
       for (int64_t i = 0; i < n; ++i) {
         if (!(p[i] < o.saturation)) {
           ++a->saturated_back_samples;
           continue;
         }
-        num[c * n + i] += p[i], den[c * n + i] += b[i];
+        for (int c = sc; c < c_end; ++c) num[c * n + i] += p[i], den[c * n + i] += b[i];
       }
     }
   }
@@ -144,14 +145,20 @@ StatusOr<SheetAnalysis> AnalyzeSheet(const LeafScan& scan, const SheetOptions& o
         a.top_rms_log = std::max(a.top_rms_log, fit->rms_log);
         auto p = a.top.Plane(m, c);
         const auto b = fit->level.Plane(0);
-        for (int64_t i = 0; i < n; ++i) p[i] = float(p[i] / std::max(b[i], 1e-6f) * cos_t);
+        // Clipped samples stay marked as clipped (1 ≥ fit/'s clip level) so that photometric
+        // stereo drops them; a flat-fielded unclipped sample is ρ (n·l) < 1.
+        for (int64_t i = 0; i < n; ++i)
+          p[i] = p[i] >= o.saturation
+                     ? 1.0f
+                     : std::min(0.999f, float(p[i] / std::max(b[i], 1e-6f) * cos_t));
       }
     }
   } else if (!scan.front.empty()) {
     a.front = scan.front;
     for (int c = 0; c < a.front.channels(); ++c) {
       auto fit = FitBackground(a.front.Plane(c), w, h, top_bg, o.background);
-      if (!fit.ok()) return DataError("front-lit photo: " + fit.status().message());
+      if (!fit.ok())
+        return DataError("front-lit photo '" + scan.front_file + "': " + fit.status().message());
       a.top_rms_log = std::max(a.top_rms_log, fit->rms_log);
       auto p = a.front.Plane(c);
       const auto b = fit->level.Plane(0);

@@ -32,7 +32,8 @@ struct SheetAnalysis {
   Segmentation segmentation;
   std::vector<uint8_t> background;  // bare-sheet pixels the fits used
   // Top-lit images flat-fielded: J_m = I_m / B_m · cos θ_m, so a Lambertian texel of albedo ρ
-  // relative to the sheet reads ρ (n·l_m). Same lights as the scan.
+  // relative to the sheet reads ρ (n·l_m) (kept below 1); clipped samples read exactly 1.
+  // Same lights (and clipping counts) as the scan.
   LightStack top;
   Image front;              // minimal case: front-lit photo / its background (sheet = 1)
   double back_rms_log = 0;  // worst background-fit RMS of log I over the back-lit images

@@ -22,7 +22,11 @@ bool TranslucencyOptions::Check(std::string* why) const {
   if (!multipole.Check(why)) return false;
   if (directions < 3 || directions > 65536)
     return fail("directions (N_L) must be in 3..65536, got " + std::to_string(directions));
-  if (!(kernel_threshold > 0)) return fail("kernel_threshold must be > 0");
+  if (!StratifiableDirectionCount(directions))
+    return fail("directions (N_L) = " + std::to_string(directions) +
+                " does not split into a × b strata with b ≤ 2a (e.g. 32, 64, 128, 144, 256, 512)");
+  if (!(kernel_threshold > 0))
+    return fail("kernel_threshold must be > 0 /mm², got " + std::to_string(kernel_threshold));
   if (max_kernel_radius < 1 || max_kernel_radius > 1024)
     return fail("max_kernel_radius must be in 1..1024 texels");
   if (!(kernel_tolerance > 0 && kernel_tolerance < 1))
@@ -107,9 +111,9 @@ StatusOr<Prepared> Prepare(const TransportInput& in, const TranslucencyOptions& 
     if (!p.inside[i]) p.d[i] = float(p.d_lo);
   // The kernel widens with thickness: size it at the thickest texel.
   const double r_mm = mp.Radius(p.d_hi, o.kernel_threshold);
-  p.radius = int(std::ceil(r_mm / in.mm_per_texel));
-  if (p.radius > o.max_kernel_radius) p.radius = o.max_kernel_radius, p.cut = true;
-  p.radius = std::max(p.radius, 1);
+  const double r_tex = std::ceil(r_mm / in.mm_per_texel);  // clamp before the cast
+  p.cut = r_tex > o.max_kernel_radius;
+  p.radius = std::max(1, int(std::min(r_tex, double(o.max_kernel_radius))));
   return p;
 }
 
@@ -209,34 +213,43 @@ void Finish(const Prepared& p, TranslucencyResult* r) {
 
 // Direct gather: out_m(x_o) = A_p Σ T(|x_o − x_i|, d(x_i)) E_m(x_i) for m < nd, plus the
 // response R. E is texel-major (E[i·nd + m]); `sink` receives (texel, sums[nd], R).
+// Direct gather: out_m(x_o) = A_p Σ T(|x_o − x_i|, d(x_i)) E_m(x_i) for m < nd, plus the
+// response R, at the output texels `outputs` (leaf texels). E is texel-major (E[i·nd + m]);
+// `sink` receives (texel, sums[nd], R).
 template <typename Sink>
 void DirectSum(const Prepared& p, const Multipole& mp, double mm, const std::vector<float>& E,
-               int nd, Sink&& sink) {
+               int nd, const std::vector<int64_t>& outputs, Sink&& sink) {
   const Offsets off = DiskOffsets(p.radius, mm);
   ParallelFor(
-      0, p.h,
-      [&](int64_t y0, int64_t y1) {
+      0, int64_t(outputs.size()),
+      [&](int64_t b, int64_t e) {
         std::vector<double> acc(nd);
-        for (int64_t y = y0; y < y1; ++y)
-          for (int x = 0; x < p.w; ++x) {
-            const int64_t o = y * p.w + x;
-            if (!p.inside[o]) continue;
-            std::fill(acc.begin(), acc.end(), 0.0);
-            double resp = 0;
-            for (size_t k = 0; k < off.dx.size(); ++k) {
-              const int xi = x + off.dx[k], yi = int(y) + off.dy[k];
-              if (xi < 0 || yi < 0 || xi >= p.w || yi >= p.h) continue;
-              const int64_t i = int64_t(yi) * p.w + xi;
-              if (!p.inside[i]) continue;
-              const double t = p.ap * mp.Clamped(off.r_mm[k], p.d[i]);
-              const float* e = &E[i * nd];
-              for (int m = 0; m < nd; ++m) acc[m] += t * e[m];
-              resp += t * p.rho[i];
-            }
-            sink(o, acc.data(), resp);
+        for (int64_t j = b; j < e; ++j) {
+          const int64_t o = outputs[j];
+          const int x = int(o % p.w), y = int(o / p.w);
+          std::fill(acc.begin(), acc.end(), 0.0);
+          double resp = 0;
+          for (size_t k = 0; k < off.dx.size(); ++k) {
+            const int xi = x + off.dx[k], yi = y + off.dy[k];
+            if (xi < 0 || yi < 0 || xi >= p.w || yi >= p.h) continue;
+            const int64_t i = int64_t(yi) * p.w + xi;
+            if (!p.inside[i]) continue;
+            const double t = p.ap * mp.Clamped(off.r_mm[k], p.d[i]);
+            const float* ev = &E[i * nd];
+            for (int m = 0; m < nd; ++m) acc[m] += t * ev[m];
+            resp += t * p.rho[i];
           }
+          sink(o, acc.data(), resp);
+        }
       },
-      1);
+      64);
+}
+
+std::vector<int64_t> LeafTexels(const Prepared& p) {
+  std::vector<int64_t> v;
+  for (int64_t i = 0; i < p.n; ++i)
+    if (p.inside[i]) v.push_back(i);
+  return v;
 }
 
 }  // namespace
@@ -270,32 +283,55 @@ StatusOr<TranslucencyResult> PrecomputeTranslucencyReference(const TransportInpu
   const double wproj = Hl2ProjectionWeight(nd);
   // N_L non-stationary convolutions (the kernel value of each texel pair is evaluated once and
   // shared by all directions), then the projection.
-  DirectSum(p, mp, in.mm_per_texel, E, nd, [&](int64_t t, const double* L, double resp) {
-    for (int c = 0; c < 3; ++c) {
-      double h = 0;
-      for (int m = 0; m < nd; ++m) h += dirs[m].hl2[c] * L[m];
-      r.hl2_raw.Plane(c)[t] = float(wproj * h);
-    }
-    r.response.Plane(0)[t] = float(resp);
-  });
+  DirectSum(p, mp, in.mm_per_texel, E, nd, LeafTexels(p),
+            [&](int64_t t, const double* L, double resp) {
+              for (int c = 0; c < 3; ++c) {
+                double h = 0;
+                for (int m = 0; m < nd; ++m) h += dirs[m].hl2[c] * L[m];
+                r.hl2_raw.Plane(c)[t] = float(wproj * h);
+              }
+              r.response.Plane(0)[t] = float(resp);
+            });
   Finish(p, &r);
   return r;
 }
 
-StatusOr<Image> DirectionalTranslucency(const TransportInput& in, const TranslucencyOptions& o,
-                                        const Vec3& w) {
-  if (!(w.z > 0)) return InvalidArgument("DirectionalTranslucency needs a light with w.z > 0");
+StatusOr<std::vector<Image>> DirectionalTranslucency(const TransportInput& in,
+                                                     const TranslucencyOptions& o,
+                                                     const std::vector<Vec3>& lights,
+                                                     const std::vector<int64_t>* texels) {
+  for (const Vec3& w : lights)
+    if (!(w.z > 0)) return InvalidArgument("DirectionalTranslucency needs lights with w.z > 0");
   auto prep = Prepare(in, o);
   if (!prep.ok()) return prep.status();
   const Prepared& p = *prep;
   const Multipole& mp = *p.mp;
   const int slices = in.horizon && !in.horizon->empty() ? in.horizon->channels() : 0;
-  std::vector<float> E(p.n);
-  Irradiance(in, p, MakeDirection(Normalize(w), slices), 0, p.n, E.data());
-  Image out(p.w, p.h, 1);
-  DirectSum(p, mp, in.mm_per_texel, E, 1,
-            [&](int64_t t, const double* L, double) { out.Plane(0)[t] = float(L[0]); });
+  const int nd = int(lights.size());
+  std::vector<float> E(size_t(p.n) * nd), tmp(p.n);
+  for (int m = 0; m < nd; ++m) {
+    Irradiance(in, p, MakeDirection(Normalize(lights[m]), slices), 0, p.n, tmp.data());
+    for (int64_t i = 0; i < p.n; ++i) E[i * nd + m] = tmp[i];
+  }
+  std::vector<int64_t> outputs;
+  if (texels) {
+    for (int64_t i : *texels)
+      if (i >= 0 && i < p.n && p.inside[i]) outputs.push_back(i);
+  } else {
+    outputs = LeafTexels(p);
+  }
+  std::vector<Image> out(nd, Image(p.w, p.h, 1));
+  DirectSum(p, mp, in.mm_per_texel, E, nd, outputs, [&](int64_t t, const double* L, double) {
+    for (int m = 0; m < nd; ++m) out[m].Plane(0)[t] = float(L[m]);
+  });
   return out;
+}
+
+StatusOr<Image> DirectionalTranslucency(const TransportInput& in, const TranslucencyOptions& o,
+                                        const Vec3& w) {
+  auto v = DirectionalTranslucency(in, o, std::vector<Vec3>{w}, nullptr);
+  if (!v.ok()) return v.status();
+  return std::move((*v)[0]);
 }
 
 namespace {
@@ -453,6 +489,11 @@ StatusOr<TranslucencyResult> PrecomputeTranslucencyFast(const TransportInput& in
       MakeKernelBasis(mp, off, p.ap, p.d_lo, p.d_hi, o.kernel_tolerance, o.max_kernel_terms);
   const int nq = int(kb.B.size());
   r.kernel_terms = nq, r.kernel_error = kb.error;
+  if (kb.error > o.kernel_tolerance)
+    r.warnings.push_back("the kernel's thickness expansion reached " + std::to_string(nq) +
+                         " terms with a relative L1 error of " + std::to_string(kb.error) +
+                         ", above the tolerance " + std::to_string(o.kernel_tolerance) +
+                         " (raise max_kernel_terms)");
   std::vector<float> coef(size_t(nq) * p.n);
   ParallelFor(
       0, p.n,

@@ -69,5 +69,11 @@ StatusOr<TranslucencyResult> PrecomputeTranslucencyFast(const TransportInput& in
 // L_t^D(·, ω) for one light direction (lit-side frame, ω.z > 0) by the direct sum.
 StatusOr<Image> DirectionalTranslucency(const TransportInput& in, const TranslucencyOptions& o,
                                         const Vec3& w);
+// The same for several directions at once (the kernel value of each texel pair is evaluated
+// once), at the leaf texels listed in `texels` (null: every leaf texel); others stay 0.
+StatusOr<std::vector<Image>> DirectionalTranslucency(const TransportInput& in,
+                                                     const TranslucencyOptions& o,
+                                                     const std::vector<Vec3>& lights,
+                                                     const std::vector<int64_t>* texels);
 
 }  // namespace matfit::leaf

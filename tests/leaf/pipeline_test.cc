@@ -10,6 +10,7 @@
 #include "../core/test_util.h"
 #include "core/image_io.h"
 #include "core/pack/pack_reader.h"
+#include "leaf/flat_field.h"
 #include "leaf/hl2.h"
 #include "leaf/leaf_job.h"
 #include "leaf/leaf_material.h"
@@ -215,6 +216,45 @@ TEST(LeafScan, ALowerSideNormalScanShapesTheTranslucency) {
   EXPECT_NEAR(lt / la, want, 0.05 * want);
 }
 
+TEST(LeafScan, GreyImagesWork) {
+  auto s = MakeSyntheticScan(Small());
+  // Grey top-lit and back-lit images (Rec. 709 luminance): no colour test for the markers.
+  auto grey = [](const Image& im) {
+    Image g(im.width(), im.height(), 1);
+    for (int64_t i = 0; i < im.plane_size(); ++i)
+      g.Plane(0)[i] =
+          0.2126f * im.Plane(0)[i] + 0.7152f * im.Plane(1)[i] + 0.0722f * im.Plane(2)[i];
+    return g;
+  };
+  for (auto& b : s.scan.back) b = grey(b);
+  LightStack top(s.scan.top.width(), s.scan.top.height(), 1, s.scan.top.num_images());
+  for (int k = 0; k < top.num_images(); ++k)
+    for (int64_t i = 0; i < top.plane_size(); ++i)
+      top.Plane(k, 0)[i] = 0.2126f * s.scan.top.Plane(k, 0)[i] +
+                           0.7152f * s.scan.top.Plane(k, 1)[i] +
+                           0.0722f * s.scan.top.Plane(k, 2)[i];
+  top.lights() = s.scan.top.lights();
+  s.scan.top = std::move(top);
+  auto a = AnalyzeSheet(s.scan, SheetOptions{});
+  ASSERT_TRUE(a.ok()) << a.status().ToString();
+  EXPECT_EQ(a->segmentation.leaves(), 1);
+  auto L = MakeLeafMaterial(s.scan, *a, *FirstLeaf(a->segmentation), 0.2, LeafMaterialOptions{});
+  ASSERT_TRUE(L.ok()) << L.status().ToString();
+  double nerr = 0;
+  int64_t nn = 0;
+  for (int64_t i = 0; i < L->maps.mask.plane_size(); ++i) {
+    if (L->status[i] != 0) continue;
+    const int X = L->crop_x + int(i % L->maps.width), Y = L->crop_y + int(i / L->maps.width);
+    const Vec3 n(L->maps.normal.Plane(0)[i], L->maps.normal.Plane(1)[i],
+                 L->maps.normal.Plane(2)[i]);
+    const Vec3 tn(s.truth.normal.At(0, Y, X), s.truth.normal.At(1, Y, X),
+                  s.truth.normal.At(2, Y, X));
+    nerr += std::acos(std::clamp(Dot(n, tn), -1.0, 1.0)) * 180 / std::numbers::pi, ++nn;
+  }
+  EXPECT_LE(nerr / nn, 3.0);
+  EXPECT_EQ(L->maps.translucency.channels(), 3);
+}
+
 TEST(LeafScan, FastMatchesTheReferenceOnARealLeaf) {
   MATFIT_REQUIRE_SHARED_DATA("leaf-sheet");
   auto scan = ReadLeafScan(shared_dir + "/leaf-sheet");
@@ -286,8 +326,7 @@ TEST(LeafScan, FindsEveryLeafOfTheSharedSheet) {
   // sheet is mostly unclipped: in a mostly clipped cell the unclipped pixels are the shadowed
   // ones; medians, since cast shadows are a minority): the ratio of the
   // brightest to the darkest cell drops from 1.2–3.4× to < 1.1×, and the flat-fielded sheet reads
-  // cos θ = 0.707 (median) within 5 %. Where the sheet clips, the fitted level is at least the
-  // clipping level (it reads at most cos θ).
+  // cos θ = 0.707 (median) within 5 %.
   for (int m = 0; m < a->top.num_images(); ++m) {
     std::vector<float> flat, cell_raw[9], cell_flat[9], clipped;
     int64_t cell_all[9] = {};
@@ -320,9 +359,8 @@ TEST(LeafScan, FindsEveryLeafOfTheSharedSheet) {
     EXPECT_LT(fmax / fmin, 1.1) << "image " << m + 1;
     EXPECT_LT(fmax / fmin, rmax / rmin) << "image " << m + 1;
     EXPECT_NEAR(pct(flat, 0.5), 0.7071, 0.05 * 0.7071) << "image " << m + 1;
-    if (!clipped.empty()) {
-      EXPECT_LE(pct(clipped, 0.5), 1.05 * 0.7071) << "image " << m + 1;
-    }
+    // Clipped samples stay marked (exactly 1) so that photometric stereo drops them.
+    for (float c : clipped) ASSERT_EQ(c, 1.0f) << "image " << m + 1;
   }
 }
 
@@ -367,6 +405,28 @@ TEST(LeafScan, LeafCutByTheBorderIsMarked) {
   const Component* leaf = FirstLeaf(a->segmentation);
   ASSERT_NE(leaf, nullptr);
   EXPECT_TRUE(leaf->touches_border);
+}
+
+TEST(FlatField, CensoredFitSeesThroughClipping) {
+  // A Gaussian fall-off peaking at 1.3 × the clip level in the middle of the frame: log I is
+  // quadratic, so the fit is exact where unclipped, and the clipped centre must come out above 1.
+  const int w = 120, h = 90;
+  Image img(w, h, 1);
+  std::vector<uint8_t> bg(size_t(w) * h, 1);
+  for (int y = 0; y < h; ++y)
+    for (int x = 0; x < w; ++x) {
+      const double u = 2.0 * x / (w - 1) - 1, v = 2.0 * y / (h - 1) - 1;
+      img.At(0, y, x) = float(std::min(1.0, 1.3 * std::exp(-(u * u + v * v))));
+    }
+  auto fit = FitBackground(img.Plane(0), w, h, bg, BackgroundOptions{});
+  ASSERT_TRUE(fit.ok()) << fit.status().ToString();
+  EXPECT_NEAR(fit->level.At(0, h / 2, w / 2), 1.3, 0.05);           // the hidden peak
+  EXPECT_NEAR(fit->level.At(0, 0, 0), 1.3 * std::exp(-2.0), 0.01);  // a corner, unclipped
+  // Too little unclipped background: a clear error.
+  Image white(w, h, 1, 1.0f);
+  auto none = FitBackground(white.Plane(0), w, h, bg, BackgroundOptions{});
+  ASSERT_FALSE(none.ok());
+  EXPECT_NE(none.status().message().find("unclipped"), std::string::npos);
 }
 
 // ---- Files: the job, the manifest, bad input ----
@@ -463,6 +523,18 @@ TEST(LeafJob, BadInputNamesTheProblem) {
                          {PixelFormat::kUint8, TransferFunction::kSrgb})
                   .ok());
   expect_error(tmp / "mixed", "", "one pixel grid");
+  // Per-side scans: a grey albedo photo is taken as r = g = b; a grey normal map is refused.
+  const Image g(s.scan.width(), s.scan.height(), 1, 0.4f);
+  ASSERT_TRUE(
+      WriteImage(tmp / "scan/ua.png", g, {PixelFormat::kUint8, TransferFunction::kSrgb}).ok());
+  matfit::testing::WriteText(tmp / "alb.json",
+                             "{\"upper_albedo\": \"ua.png\", \"lower_albedo\": \"ua.png\"}");
+  auto grey = ReadLeafScan(tmp / "scan", tmp / "alb.json");
+  ASSERT_TRUE(grey.ok()) << grey.status().ToString();
+  EXPECT_EQ(grey->upper_albedo.channels(), 3);
+  EXPECT_EQ(grey->lower_albedo.channels(), 3);
+  matfit::testing::WriteText(tmp / "nrm.json", "{\"upper_normal\": \"ua.png\"}");
+  expect_error(tmp / "scan", tmp / "nrm.json", "'upper_normal' (ua.png) has 1 channel");
   // An empty sheet: no leaves → a clear job error, and no output folder.
   fs::create_directories(tmp / "empty");
   const Image white(96, 64, 3, 0.8f);

@@ -7,6 +7,7 @@
 #include "leaf/hl2.h"
 #include "leaf/hl2_error.h"
 #include "leaf/horizon.h"
+#include "leaf/integrate.h"
 #include "leaf/multipole.h"
 #include "leaf/synthetic_leaf.h"
 #include "leaf/translucency.h"
@@ -88,20 +89,36 @@ TEST(Hl2, OrthonormalOnTheHemisphere) {
 }
 
 TEST(Hl2, StratifiedDirectionsAreUniformOnTheHemisphere) {
-  for (int n : {32, 128, 1024}) {
+  for (int n : {32, 128, 1024, 98, 242}) {
     const auto d = StratifiedHemisphere(n);
     ASSERT_EQ(int(d.size()), n);
-    double mz = 0, mz2 = 0, mx = 0;
+    double mz = 0, mz2 = 0, mx = 0, mx2 = 0, my2 = 0;
     for (const Vec3& w : d) {
       EXPECT_NEAR(Length(w), 1.0, 1e-12);
       EXPECT_GT(w.z, 0);
-      mz += w.z / n, mz2 += w.z * w.z / n, mx += w.x / n;
+      mz += w.z / n, mz2 += w.z * w.z / n, mx += w.x / n, mx2 += w.x * w.x / n,
+          my2 += w.y * w.y / n;
     }
-    const double tol = n == 32 ? 0.03 : 0.01;  // 4×8 strata are coarse
+    // E[x²] = E[y²] = 1/3 too: no axis is under-sampled.
+    EXPECT_NEAR(mx2, 1.0 / 3, 0.03) << n;
+    EXPECT_NEAR(my2, 1.0 / 3, 0.03) << n;
+    const double tol = n < 100 ? 0.03 : 0.01;  // 4×8 and 7×14 strata are coarse
     EXPECT_NEAR(mz, 0.5, tol) << n;            // E[cos θ] = 1/2 for uniform solid angle
     EXPECT_NEAR(mz2, 1.0 / 3, tol) << n;       // E[cos² θ] = 1/3
     EXPECT_NEAR(mx, 0.0, 1e-9) << n;
   }
+}
+
+TEST(Hl2, DirectionCountsThatDoNotStratifyAreRejected) {
+  // A prime N would be a 1 × N grid (every direction at x = 0).
+  for (int n : {127, 131, 254, 3 * 97}) EXPECT_FALSE(StratifiableDirectionCount(n)) << n;
+  for (int n : {32, 64, 98, 128, 144, 242, 256, 512, 1024})
+    EXPECT_TRUE(StratifiableDirectionCount(n)) << n;
+  TranslucencyOptions o;
+  o.directions = 127;
+  std::string why;
+  EXPECT_FALSE(o.Check(&why));
+  EXPECT_NE(why.find("127"), std::string::npos) << why;
 }
 
 TEST(Hl2, PureDiffuseTranslucencyProjectsAndReconstructsExactly) {
@@ -116,6 +133,60 @@ TEST(Hl2, PureDiffuseTranslucencyProjectsAndReconstructsExactly) {
   const std::array<double, 3> hd = {kHl2DiffuseCoefficient, kHl2DiffuseCoefficient,
                                     kHl2DiffuseCoefficient};
   for (const Vec3& w : StratifiedHemisphere(64)) EXPECT_NEAR(Hl2Reconstruct(hd, w), w.z, 1e-12);
+}
+
+TEST(Horizon, SlicesFollowTheFrameInBothSides) {
+  // A wall in rows 0..10, above (image up) the texel at row 16: 0.6 mm away, 1 mm high.
+  Image h(32, 32, 1);
+  for (int y = 0; y < 11; ++y)
+    for (int x = 0; x < 32; ++x) h.At(0, y, x) = 1.0f;
+  const int64_t p = 16 * 32 + 16;
+  const double up = std::atan(1.0 / 0.6);
+  // Upper frame (y = image up): the wall is toward +y (slice 4 of 16 = 90°).
+  const Image hu = HorizonMap(h, 0.1, -1, HorizonOptions{});
+  EXPECT_NEAR(hu.Plane(4)[p], up, 0.05);
+  EXPECT_LT(hu.Plane(12)[p], 0.01);  // −y: open
+  // Lower frame (y' = −y = image down): the same wall is toward −y' (slice 12).
+  const Image hl = HorizonMap(h, 0.1, +1, HorizonOptions{});
+  EXPECT_NEAR(hl.Plane(12)[p], up, 0.05);
+  EXPECT_LT(hl.Plane(4)[p], 0.01);
+  EXPECT_EQ(Visibility(hl, p, Normalize(Vec3(0, -1, 0.5))), 0.0f);
+  EXPECT_EQ(Visibility(hl, p, Normalize(Vec3(0, 1, 0.5))), 1.0f);
+}
+
+TEST(Integrate, HeightFromNormalsRecoversASlopeAndABump) {
+  // z = 0.1·x (texel units) + a Gaussian bump; normals n ∝ (−∂z/∂x, −∂z/∂y, 1), y up.
+  const int w = 64, hgt = 48;
+  Image z(w, hgt, 1), n(w, hgt, 3);
+  auto zf = [&](double x, double yup) {
+    return 0.1 * x + 4.0 * std::exp(-((x - 32) * (x - 32) + (yup - 24) * (yup - 24)) / 50.0);
+  };
+  for (int r = 0; r < hgt; ++r)
+    for (int x = 0; x < w; ++x) {
+      const double yup = hgt - 1 - r;
+      const double gx = (zf(x + 0.5, yup) - zf(x - 0.5, yup)),
+                   gy = (zf(x, yup + 0.5) - zf(x, yup - 0.5));
+      const Vec3 nn = Normalize(Vec3(-gx, -gy, 1));
+      n.At(0, r, x) = float(nn.x), n.At(1, r, x) = float(nn.y), n.At(2, r, x) = float(nn.z);
+      z.At(0, r, x) = float(zf(x, yup));
+    }
+  const Image hz = HeightFromNormals(n, {});
+  // Compare away from the borders (the mirror padding bends the slope there), mean removed.
+  double ma = 0, mb = 0;
+  int cnt = 0;
+  for (int r = 8; r < hgt - 8; ++r)
+    for (int x = 8; x < w - 8; ++x) ma += hz.At(0, r, x), mb += z.At(0, r, x), ++cnt;
+  ma /= cnt, mb /= cnt;
+  double err = 0, range = 0;
+  for (int r = 8; r < hgt - 8; ++r)
+    for (int x = 8; x < w - 8; ++x)
+      err += std::abs((hz.At(0, r, x) - ma) - (z.At(0, r, x) - mb)) / cnt,
+          range = std::max(range, std::abs(z.At(0, r, x) - mb));
+  std::printf("Frankot-Chellappa: mean height error %.3f texels over a range of ±%.2f\n", err,
+              range);
+  EXPECT_LT(err, 0.1 * range);
+  // The bump's top is up (positive), not a dent.
+  EXPECT_GT(hz.At(0, hgt - 1 - 24, 32) - ma, 2.0);
 }
 
 TEST(Horizon, WallShadowsTheTexelsInFrontOfIt) {
