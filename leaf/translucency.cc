@@ -387,12 +387,18 @@ KernelBasis MakeKernelBasis(const Multipole& mp, const Offsets& off, double ap, 
   auto dj = [&](double j) { return lo * std::exp(kb.log_ratio * j / (J - 1)); };
   std::vector<std::vector<double>> K(J), M(J - 1);  // samples and midpoints
   Eigen::MatrixXd N(J, n);
-  for (int j = 0; j < J; ++j) {
-    K[j] = KernelValues(mp, off, ap, dj(j));
-    const double g = Sum(K[j]);
-    for (size_t i = 0; i < n; ++i) N(j, i) = K[j][i] / g;
-  }
-  for (int j = 0; j + 1 < J; ++j) M[j] = KernelValues(mp, off, ap, dj(j + 0.5));
+  ParallelFor(0, 2 * J - 1, [&](int64_t b, int64_t e) {
+    for (int64_t s = b; s < e; ++s) {
+      if (s % 2) {
+        M[s / 2] = KernelValues(mp, off, ap, dj(s / 2 + 0.5));
+        continue;
+      }
+      const int j = int(s / 2);
+      K[j] = KernelValues(mp, off, ap, dj(j));
+      const double g = Sum(K[j]);
+      for (size_t i = 0; i < n; ++i) N(j, i) = K[j][i] / g;
+    }
+  });
   // Right singular vectors from the J × J Gram matrix: N Nᵀ u = λ u, B = Nᵀ u / √λ.
   Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> es(N * N.transpose());
   const Eigen::VectorXd lambda = es.eigenvalues().reverse();
