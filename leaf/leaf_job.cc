@@ -46,7 +46,7 @@ double Since(std::chrono::steady_clock::time_point t0) {
 
 json Bbox(const Component& c) { return {c.x0, c.y0, c.x1 - c.x0 + 1, c.y1 - c.y0 + 1}; }
 
-// Colour overlay of the segmentation: leaves in distinct hues, twigs red, markers blue, specks
+// Colour overlay of the segmentation: leaves in distinct hues, twigs white, markers blue, specks
 // yellow, on the darkened transmission.
 Image Overlay(const SheetAnalysis& a) {
   const auto& s = a.segmentation;
@@ -70,7 +70,7 @@ Image Overlay(const SheetAnalysis& a) {
             col[k] = 0.35f + 0.6f * std::max(0.0f, 1 - std::abs(std::fmod(hue * 3 + k, 3.0f) - 1));
           break;
         }
-        case ComponentKind::kTwig: col[0] = 1, col[1] = col[2] = 0.1f; break;
+        case ComponentKind::kTwig: col[0] = col[1] = col[2] = 1; break;
         case ComponentKind::kMarker: col[0] = col[1] = 0.1f, col[2] = 1; break;
         case ComponentKind::kSpeck: col[0] = col[1] = 1, col[2] = 0; break;
       }

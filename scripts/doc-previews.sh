@@ -19,4 +19,14 @@ wool-bonn81-8bit heinrich
 plastic-ring12 blinn-phong
 leaf-dome24 cook-torrance
 LIST
+# The leaf pipeline on the shared real sheet (when present): segmentation and one leaf lit from
+# the front and from behind.
+sheet="$root/../shared/data/leaf-sheet"
+if [ -d "$sheet" ]; then
+  "$matfit" leaf "$sheet" --out "$tmp/leaves" --quiet >/dev/null
+  cp "$tmp/leaves/segmentation.png" "$root/docs/images/leaf-sheet-segmentation.png"
+  for side in front back; do
+    cp "$tmp/leaves/leaf_20/preview_$side.png" "$root/docs/images/leaf-sheet-leaf20-$side.png"
+  done
+fi
 echo "docs/images: $(ls "$root/docs/images" | wc -l) previews"
