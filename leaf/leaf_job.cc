@@ -133,7 +133,7 @@ StatusOr<LeafJobResult> RunLeafJob(const LeafJobOptions& o, const LeafProgress& 
   if (!scan.ok()) return scan.status();
   if (o.max_thickness_mm > 0) scan->max_thickness_mm = o.max_thickness_mm;
   if (!step("sheet", 0, 1)) return Status(StatusCode::kCancelled, "cancelled");
-  auto sheet = AnalyzeSheet(*scan, o.sheet);
+  auto sheet = AnalyzeSheet(&*scan, o.sheet);  // the top-lit stack moves, not copied
   if (!sheet.ok()) return sheet.status();
   LeafJobResult res;
   res.seconds_sheet = Since(t0);

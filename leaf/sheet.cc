@@ -84,7 +84,10 @@ Status FuseBack(const LeafScan& scan, const std::vector<uint8_t>& bg, const Shee
 
 }  // namespace
 
-StatusOr<SheetAnalysis> AnalyzeSheet(const LeafScan& scan, const SheetOptions& o) {
+namespace {
+
+// `top` is the scan's top-lit stack, by value: copied or moved in by the callers below.
+StatusOr<SheetAnalysis> Analyze(const LeafScan& scan, LightStack top, const SheetOptions& o) {
   std::string why;
   if (!o.Check(&why)) return InvalidArgument("sheet options: " + why);
   if (scan.back.empty()) return DataError("the leaf scan has no back-lit images");
@@ -107,11 +110,11 @@ StatusOr<SheetAnalysis> AnalyzeSheet(const LeafScan& scan, const SheetOptions& o
   }
   // Colour photo for the marker test: the mean top-lit image, or the front-lit photo.
   Image color;
-  if (scan.top.num_images() > 0 && scan.top.channels() >= 3) {
+  if (top.num_images() > 0 && top.channels() >= 3) {
     color = Image(w, h, 3);
-    for (int m = 0; m < scan.top.num_images(); ++m)
+    for (int m = 0; m < top.num_images(); ++m)
       for (int c = 0; c < 3; ++c) {
-        const auto p = scan.top.Plane(m, c);
+        const auto p = top.Plane(m, c);
         for (int64_t i = 0; i < n; ++i) color.Plane(c)[i] += p[i];
       }
   } else if (scan.front.channels() >= 3) {
@@ -131,8 +134,8 @@ StatusOr<SheetAnalysis> AnalyzeSheet(const LeafScan& scan, const SheetOptions& o
                          " clipped back-lit samples were left out of the fused transmission");
   // 3. Top-lit images (or the front-lit photo) over the bare sheet's brightness.
   const auto top_bg = BareSheet(a.segmentation.labels, w, h, o.top_margin_px);
-  if (scan.top.num_images() > 0) {
-    a.top = scan.top;  // copies planes, lights and provenance
+  if (top.num_images() > 0) {
+    a.top = std::move(top);  // flat-fielded in place below
     const int ch = a.top.channels();
     for (int m = 0; m < a.top.num_images(); ++m) {
       const double cos_t = std::max(0.05, a.top.lights()[m].direction.z);
@@ -166,6 +169,18 @@ StatusOr<SheetAnalysis> AnalyzeSheet(const LeafScan& scan, const SheetOptions& o
     }
   }
   return a;
+}
+
+}  // namespace
+
+StatusOr<SheetAnalysis> AnalyzeSheet(const LeafScan& scan, const SheetOptions& o) {
+  return Analyze(scan, scan.top, o);
+}
+
+StatusOr<SheetAnalysis> AnalyzeSheet(LeafScan* scan, const SheetOptions& o) {
+  LightStack top = std::move(scan->top);
+  scan->top = LightStack();
+  return Analyze(*scan, std::move(top), o);
 }
 
 }  // namespace matfit::leaf

@@ -43,6 +43,9 @@ struct SheetAnalysis {
 };
 
 StatusOr<SheetAnalysis> AnalyzeSheet(const LeafScan& scan, const SheetOptions& options);
+// The same, moving the scan's top-lit stack into the analysis instead of copying it (large
+// scans: the stack is the biggest buffer); scan->top is left empty.
+StatusOr<SheetAnalysis> AnalyzeSheet(LeafScan* scan, const SheetOptions& options);
 
 // Rec. 709 luminance of a 3-plane image (a 1-plane image is returned as is).
 Image Luminance(const Image& rgb);
