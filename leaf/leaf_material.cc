@@ -112,7 +112,10 @@ StatusOr<LeafMaterial> MakeLeafMaterial(const LeafScan& scan, const SheetAnalysi
         m.albedo.Plane(c)[i] = float(o.sheet_albedo) * ps->maps.albedo.Plane(std::min(
                                                            c, ps->maps.albedo.channels() - 1))[i];
     for (int64_t i = 0; i < n; ++i)
-      if (mask[i] && ps->status[i] != fit::kTexelOk) L.status[i] = ps->status[i];
+      if (mask[i] && ps->status[i] != fit::kTexelOk) {
+        L.status[i] = ps->status[i];  // flagged: keep the flat normal
+        m.normal.Plane(0)[i] = m.normal.Plane(1)[i] = 0, m.normal.Plane(2)[i] = 1;
+      }
   } else if (!sheet.front.empty()) {
     const Image f = CropImage(sheet.front, x0, y0, w, h);
     for (int c = 0; c < 3; ++c)
