@@ -22,31 +22,6 @@ struct LeafArgs {
   int threads = 0;
 };
 
-// The leaf centred on a square of background (mask 0), so that the square preview keeps its
-// aspect ratio.
-MaterialMaps PadToSquare(const MaterialMaps& m) {
-  const int s = std::max(m.width, m.height), ox = (s - m.width) / 2, oy = (s - m.height) / 2;
-  MaterialMaps p = m;
-  p.width = p.height = s;
-  auto pad = [&](Image& img, float fill_last) {
-    if (img.empty()) return;
-    Image out(s, s, img.channels());
-    for (int c = 0; c < img.channels(); ++c) {
-      if (c == img.channels() - 1)
-        for (float& v : out.Plane(c)) v = fill_last;
-      for (int y = 0; y < m.height; ++y)
-        for (int x = 0; x < m.width; ++x) out.At(c, y + oy, x + ox) = img.At(c, y, x);
-    }
-    img = std::move(out);
-  };
-  pad(p.normal, 1.0f);  // (0, 0, 1) outside
-  for (Image* img : {&p.albedo, &p.height_map, &p.specular, &p.exponent, &p.roughness, &p.thickness,
-                     &p.translucency, &p.albedo_back, &p.hl2, &p.mask, &p.ambient, &p.normal_scale,
-                     &p.specular_color, &p.coefficients, &p.lobe_shape})
-    pad(*img, 0.0f);
-  return p;
-}
-
 int RunLeaf(LeafArgs& a) {
   if (a.precompute != "fast" && a.precompute != "reference")
     return Fail("leaf", ("--precompute '" + a.precompute + "': choose fast or reference").c_str());
@@ -63,7 +38,7 @@ int RunLeaf(LeafArgs& a) {
     a.job.preview = [size](const MaterialMaps& m, bool behind) {
       render::RenderOptions ro;
       ro.size = size, ro.theta_deg = behind ? 150 : 30, ro.phi_deg = 45, ro.ambient = 0.02;
-      return render::RenderCpu(PadToSquare(m), ro);
+      return render::RenderCpu(m, ro);  // the plane keeps the crop's aspect ratio
     };
   }
   std::unique_ptr<ProgressReporter> bar;

@@ -69,8 +69,12 @@ SceneHit HitScene(Scene scene, const CameraFrame& cam, int size, int px, int py,
       t = b;
     }
     const Vec3f p = o + d * t;
-    if (p.x < -1.0f || p.x > 1.0f || p.y < -1.0f || p.y > 1.0f) return h;
-    tu = 0.5f * (p.x + 1.0f), tv = 0.5f * (1.0f - p.y);
+    // The material keeps its aspect ratio: its longer side spans [−1, 1] (a leaf crop is not
+    // square), the rest of the frame is background.
+    const float big = float(std::max(width, height));
+    const float ax = float(width) / big, ay = float(height) / big;
+    if (p.x < -ax || p.x > ax || p.y < -ay || p.y > ay) return h;
+    tu = 0.5f * (p.x / ax + 1.0f), tv = 0.5f * (1.0f - p.y / ay);
     if (scene == Scene::kCloth) {
       float fx, fy;
       ClothHeight(p.x, p.y, &fx, &fy);

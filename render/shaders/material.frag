@@ -129,12 +129,15 @@ void main() {
       t = bt;
     }
     vec3 p = o + d * t;
-    if (p.x < -1.0 || p.x > 1.0 || p.y < -1.0 || p.y > 1.0) {
+    // The material keeps its aspect ratio (render/scene.cc).
+    float big = float(max(u_texels.x, u_texels.y));
+    float ax = float(u_texels.x) / big, ay = float(u_texels.y) / big;
+    if (p.x < -ax || p.x > ax || p.y < -ay || p.y > ay) {
       o_color = vec4(0.0);
       return;
     }
-    tu = 0.5 * (p.x + 1.0);
-    tv = 0.5 * (1.0 - p.y);
+    tu = 0.5 * (p.x / ax + 1.0);
+    tv = 0.5 * (1.0 - p.y / ay);
     if (u_scene == 2) {
       vec3 f = ClothHeight(p.x, p.y);
       N = normalize(vec3(-f.y, -f.z, 1.0));
