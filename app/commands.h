@@ -17,6 +17,7 @@ void RegisterInfo(CLI::App& app, int* exit_code);
 void RegisterFit(CLI::App& app, int* exit_code);
 void RegisterRender(CLI::App& app, int* exit_code);
 void RegisterLeaf(CLI::App& app, int* exit_code);
+void RegisterServe(CLI::App& app, int* exit_code);
 
 // Shared helpers.
 bool ParseViewArg(const char* text, double* theta, double* phi);  // "THETA,PHI" in degrees

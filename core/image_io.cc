@@ -9,6 +9,7 @@
 #include <vector>
 
 #include "core/atomic_file.h"
+#include "core/path_util.h"
 
 namespace matfit {
 namespace {
@@ -85,6 +86,10 @@ void DecodeInteger(const std::vector<T>& raw, int file_ch, int keep_ch, const Co
 StatusOr<Image> ReadImage(const std::string& path, const ImageReadOptions& options,
                           ImageFileInfo* info) {
   std::error_code ec;
+  if (!options.confine_to.empty() && !PathWithin(path, options.confine_to))
+    return InvalidArgument("image '" + path + "' lies outside the dataset folder '" +
+                           options.confine_to +
+                           "'; list only files inside the dataset (no absolute paths, no ..)");
   if (!fs::is_regular_file(path, ec)) return NotFound("image file '" + path + "' does not exist");
   auto in = OIIO::ImageInput::open(path);
   if (!in) return DataError("cannot open image '" + path + "': " + LastOiioError(nullptr));

@@ -77,7 +77,9 @@ StatusOr<FitJobResult> RunFitJob(const FitJobOptions& o, const StageProgress& pr
   if (o.holdout >= 2) {
     if (progress && !progress("heldout", 0, o.holdout))
       return Status(StatusCode::kCancelled, "cancelled");
-    auto h = HeldOut(*method, *stack, o.holdout, o.fit);
+    FitOptions ho = o.fit;
+    ho.progress = stage("heldout");
+    auto h = HeldOut(*method, *stack, o.holdout, ho);
     if (!h.ok()) return h.status();
     r.heldout = *h;
     if (progress) progress("heldout", o.holdout, o.holdout);

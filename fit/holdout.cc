@@ -17,11 +17,20 @@ StatusOr<HeldOutMetrics> HeldOut(const FitMethod& method, const LightStack& s, i
   double total = 0;
   std::map<int, std::pair<double, int64_t>> groups;
   FitOptions o = options;
-  o.progress = nullptr;
+  bool cancelled = false;
   for (int f = 0; f < folds; ++f) {
+    // The caller's progress sees the folds as one job: fold f's tiles map to [f, f+1) / folds.
+    if (options.progress)
+      o.progress = [&, f](int64_t d, int64_t t) {
+        const bool go = options.progress(int64_t(f) * t + d, int64_t(folds) * t);
+        cancelled = cancelled || !go;
+        return go;
+      };
     std::vector<int> train, test;
     for (int i = 0; i < n; ++i) (i % folds == f ? test : train).push_back(i);
     auto fit = method.Fit(SelectImages(s, train), o);
+    if (cancelled || (!fit.ok() && fit.status().code() == StatusCode::kCancelled))
+      return Status(StatusCode::kCancelled, "cancelled");
     if (!fit.ok()) {
       ++h.failed_folds;
       continue;

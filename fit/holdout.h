@@ -18,7 +18,8 @@ struct HeldOutMetrics {
 };
 
 // folds ≥ 2 and ≤ number of images; a fold that leaves the method without enough lights is
-// counted in failed_folds.
+// counted in failed_folds. options.progress, when set, sees all folds as one job (tiles over
+// folds × tiles); returning false cancels (kCancelled).
 StatusOr<HeldOutMetrics> HeldOut(const FitMethod& method, const LightStack& stack, int folds,
                                  const FitOptions& options);
 

@@ -129,7 +129,7 @@ StatusOr<LeafJobResult> RunLeafJob(const LeafJobOptions& o, const LeafProgress& 
     return InvalidArgument("output '" + o.out +
                            "' already exists; choose another --out or pass --force");
   if (!step("read", 0, 1)) return Status(StatusCode::kCancelled, "cancelled");
-  auto scan = ReadLeafScan(o.input, o.manifest);
+  auto scan = ReadLeafScan(o.input, o.manifest, o.confine);
   if (!scan.ok()) return scan.status();
   if (o.max_thickness_mm > 0) scan->max_thickness_mm = o.max_thickness_mm;
   if (!step("sheet", 0, 1)) return Status(StatusCode::kCancelled, "cancelled");

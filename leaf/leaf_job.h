@@ -26,6 +26,7 @@ struct LeafJobOptions {
   double mm_per_pixel = 0, marker_size_mm = 0, max_thickness_mm = 0;
   double default_mm_per_pixel = 0.5;  // used, with a warning, when no scale is known
   int only_leaf = 0;                  // process just this leaf id (0 = every leaf)
+  bool confine = false;               // every file the scan names must lie inside `input`
   // Preview renders of a leaf pack lit from the front / from behind (render/); empty = none.
   std::function<StatusOr<Image>(const MaterialMaps&, bool from_behind)> preview;
   bool Check(std::string* why) const;

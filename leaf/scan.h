@@ -36,6 +36,8 @@ struct LeafScan {
 // Reads a leaf-scan folder. `manifest` empty: DIR/leaf.json when present, else detection
 // (one `.lp` file = top-lit images; `*_BL.*` / `*back*` images = back-lit; `*_FL.*` /
 // `*front*` = a single front-lit photo). Errors name the file or manifest field at fault.
-StatusOr<LeafScan> ReadLeafScan(const std::string& dir, const std::string& manifest = "");
+// confine: refuse any file that resolves outside `dir` (the server).
+StatusOr<LeafScan> ReadLeafScan(const std::string& dir, const std::string& manifest = "",
+                                bool confine = false);
 
 }  // namespace matfit::leaf

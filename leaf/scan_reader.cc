@@ -67,9 +67,11 @@ std::string Num(double v) {
   return b;
 }
 
-Status ReadOne(const std::string& path, ColorSpaceChoice cs, Image* out) {
+Status ReadOne(const std::string& path, ColorSpaceChoice cs, const std::string& confine,
+               Image* out) {
   ImageReadOptions o;
   o.color_space = cs;
+  o.confine_to = confine;
   auto img = ReadImage(path, o);
   if (!img.ok()) return img.status();
   *out = std::move(*img);
@@ -78,7 +80,9 @@ Status ReadOne(const std::string& path, ColorSpaceChoice cs, Image* out) {
 
 }  // namespace
 
-StatusOr<LeafScan> ReadLeafScan(const std::string& dir, const std::string& manifest_arg) {
+StatusOr<LeafScan> ReadLeafScan(const std::string& dir, const std::string& manifest_arg,
+                                bool confine) {
+  const std::string confine_to = confine ? dir : std::string();
   std::error_code ec;
   if (!fs::is_directory(dir, ec))
     return NotFound("leaf scan folder '" + dir + "' does not exist or is not a folder");
@@ -178,16 +182,17 @@ StatusOr<LeafScan> ReadLeafScan(const std::string& dir, const std::string& manif
     ReadOptions ro;
     ro.layout = Layout::kLp;
     ro.color_space = cs;
+    ro.confine_to = confine_to;
     auto st = ReadLp(in_dir(top), ro);
     if (!st.ok()) return st.status();
     scan.top = std::move(*st);
   } else {
-    MATFIT_RETURN_IF_ERROR(ReadOne(in_dir(front), cs, &scan.front));
+    MATFIT_RETURN_IF_ERROR(ReadOne(in_dir(front), cs, confine_to, &scan.front));
     scan.front_file = front;
   }
   for (const auto& f : back) {
     Image img;
-    MATFIT_RETURN_IF_ERROR(ReadOne(in_dir(f), cs, &img));
+    MATFIT_RETURN_IF_ERROR(ReadOne(in_dir(f), cs, confine_to, &img));
     scan.back.push_back(std::move(img));
     scan.back_files.push_back(f);
   }
@@ -222,7 +227,8 @@ StatusOr<LeafScan> ReadLeafScan(const std::string& dir, const std::string& manif
     const std::string sf(field);
     const bool albedo = sf.find("albedo") != std::string::npos;
     const bool normal = sf.find("normal") != std::string::npos;
-    MATFIT_RETURN_IF_ERROR(ReadOne(in_dir(f), albedo ? cs : ColorSpaceChoice::kLinear, img));
+    MATFIT_RETURN_IF_ERROR(
+        ReadOne(in_dir(f), albedo ? cs : ColorSpaceChoice::kLinear, confine_to, img));
     MATFIT_RETURN_IF_ERROR(check_grid(*img, "'" + sf + "' (" + f + ")"));
     if (normal && img->channels() < 3)
       return DataError("leaf scan '" + dir + "': '" + sf + "' (" + f +

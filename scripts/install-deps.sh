@@ -14,8 +14,8 @@ PACKAGES=(
   libgtest-dev libgmock-dev libbenchmark-dev
   # fit: nonlinear least squares, image processing
   libceres-dev libopencv-core-dev libopencv-imgproc-dev
-  # server: HTTP, job store
-  libcpp-httplib-dev libsqlite3-dev
+  # server: HTTP, job store, upload archives (curl: the shell tests and the README session)
+  libcpp-httplib-dev libsqlite3-dev libarchive-dev curl
   # material packs: zip archives
   libzip-dev
   # render: headless EGL + GLES (Mesa llvmpipe)

@@ -111,6 +111,7 @@ StatusOr<LightStack> ReadBtfFolder(const std::string& dir, Layout layout, const 
   }
   ImageReadOptions io;
   io.color_space = o.color_space;
+  io.confine_to = o.confine_to;
   auto stack = LoadStack(files, std::move(lights), io, o.progress);
   if (!stack.ok()) return stack.status();
   const BtfName& v = entries.front().angles;

@@ -31,6 +31,8 @@ struct ReadOptions {
   std::optional<ViewAngles> view;
   ColorSpaceChoice color_space = ColorSpaceChoice::kAuto;  // override of the image rules
   ProgressFn progress;  // called as images are decoded; may be empty
+  // When set, every file the dataset names must resolve inside this folder (the server).
+  std::string confine_to;
 
   bool Check(std::string* why) const;
 };

@@ -5,6 +5,7 @@
 
 #include "core/dataset/dataset.h"
 #include "core/dataset/stack_loader.h"
+#include "core/path_util.h"
 #include "core/text_file.h"
 
 namespace matfit {
@@ -13,6 +14,9 @@ namespace fs = std::filesystem;
 }
 
 StatusOr<LightStack> ReadLp(const std::string& path, const ReadOptions& o) {
+  if (!o.confine_to.empty() && !PathWithin(path, o.confine_to))
+    return InvalidArgument("light file '" + path + "' lies outside the dataset folder '" +
+                           o.confine_to + "'");
   auto lines = ReadTextLines(path);
   if (!lines.ok()) return lines.status();
   if (lines->empty()) return DataError("'" + path + "' is empty; expected a light count on line 1");
@@ -63,6 +67,7 @@ StatusOr<LightStack> ReadLp(const std::string& path, const ReadOptions& o) {
   }
   ImageReadOptions io;
   io.color_space = o.color_space;
+  io.confine_to = o.confine_to;
   auto stack = LoadStack(files, std::move(lights), io, o.progress);
   if (!stack.ok()) return stack.status();
   // Optional mask beside the light file (written by `matfit synth`; white = sample).

@@ -40,6 +40,10 @@ struct PackWriteOptions {
 Status WritePack(const MaterialMaps& maps, const std::vector<uint8_t>& status, const PackInfo& info,
                  const PackWriteOptions& options, const std::string& out);
 
+// Zips every file under `folder` (paths relative to it) into `zip_path` (not atomic: pass a
+// temporary name).
+Status ZipFolder(const std::string& folder, const std::string& zip_path);
+
 // Physically based stand-ins for the glTF core material: GGX roughness from a Blinn–Phong
 // exponent, r = (2/(e+2))^{1/4} (α = sqrt(2/(e+2)), r = sqrt(α)).
 double RoughnessFromBlinnPhongExponent(double e);

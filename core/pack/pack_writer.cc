@@ -45,6 +45,8 @@ Image NormalColour(const Image& n) {
   return out;
 }
 
+}  // namespace
+
 Status ZipFolder(const std::string& folder, const std::string& zip_path) {
   int err = 0;
   zip_t* z = zip_open(zip_path.c_str(), ZIP_CREATE | ZIP_TRUNCATE, &err);
@@ -70,8 +72,6 @@ Status ZipFolder(const std::string& folder, const std::string& zip_path) {
   }
   return Status::Ok();
 }
-
-}  // namespace
 
 double RoughnessFromBlinnPhongExponent(double e) { return std::pow(2.0 / (e + 2.0), 0.25); }
 

@@ -6,7 +6,8 @@
 // sample, comma-separated, get a model switcher), shaders=URL/
 // (default ../shaders/), theta, phi (degrees), scene (plane|sphere|cloth), size (pixels), exposure,
 // ambient, camera_theta, camera_phi (degrees), select=i (which of several packs to show first), measured=URL (an image shown side by side), probe=1 (after the first frame, write the
-// RGBA8 pixels as JSON into #probe for tests).
+// RGBA8 pixels as JSON into #probe for tests), token (a bearer token sent with every request:
+// `matfit serve --token-file` without --public-read).
 'use strict';
 
 const MODEL_NAMES = ['mean', 'lambert', 'blinn-phong', 'cook-torrance', 'heinrich', 'ptm', 'hsh',
@@ -19,8 +20,10 @@ function fail(message) {
   throw new Error(message);
 }
 
+const TOKEN = new URLSearchParams(location.search).get('token');
+
 async function fetchOk(url, kind) {
-  const r = await fetch(url);
+  const r = await fetch(url, TOKEN ? {headers: {Authorization: 'Bearer ' + TOKEN}} : {});
   if (!r.ok) fail(`cannot load ${url}: HTTP ${r.status}`);
   return kind === 'json' ? r.json() : kind === 'buffer' ? r.arrayBuffer() : r.text();
 }

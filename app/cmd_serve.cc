@@ -1,0 +1,89 @@
+// `matfit serve`: the material service (server/). SIGTERM / SIGINT shut it down gracefully:
+// no new requests, running jobs get --drain-seconds to finish, then are re-queued.
+#include <CLI/CLI.hpp>
+#include <csignal>
+#include <cstdio>
+#include <memory>
+#include <thread>
+
+#include <pthread.h>
+
+#include "app/commands.h"
+#include "core/parallel.h"
+#include "server/server.h"
+
+namespace matfit::app {
+namespace {
+
+struct ServeArgs {
+  server::ServerOptions o;
+  int64_t max_upload_mib = 4096, max_unpacked_mib = 8192;
+  int threads = 0;
+};
+
+int RunServe(ServeArgs& a) {
+  a.o.max_upload_bytes = a.max_upload_mib << 20;
+  a.o.archive.max_unpacked_bytes = a.max_unpacked_mib << 20;
+  SetNumThreads(a.threads);
+  // Block the shutdown signals in every thread; one thread waits for them.
+  sigset_t set;
+  sigemptyset(&set);
+  sigaddset(&set, SIGTERM);
+  sigaddset(&set, SIGINT);
+  pthread_sigmask(SIG_BLOCK, &set, nullptr);
+  std::signal(SIGPIPE, SIG_IGN);  // a client that hangs up must not kill the server
+
+  auto s = server::Server::Create(a.o);
+  if (!s.ok()) return Fail("serve", s.status().message().c_str());
+  if (Status st = (*s)->Start(); !st.ok()) return Fail("serve", st.message().c_str());
+  std::fprintf(stderr, "matfit serve: listening on http://%s:%d/api/v1 (data %s)\n",
+               a.o.bind.c_str(), (*s)->port(), a.o.data_dir.c_str());
+  server::Server* srv = s->get();
+  std::thread waiter([set, srv] {
+    int sig = 0;
+    sigwait(&set, &sig);
+    srv->Shutdown();
+  });
+  srv->Wait();
+  waiter.join();
+  return 0;
+}
+
+}  // namespace
+
+void RegisterServe(CLI::App& app, int* exit_code) {
+  auto args = std::make_shared<ServeArgs>();
+  auto& o = args->o;
+  CLI::App* sub = app.add_subcommand("serve", "Run the material service (HTTP API, job queue)");
+  sub->add_option("--port", o.port, "TCP port (0 = any free port)")->capture_default_str();
+  sub->add_option("--bind", o.bind, "address to listen on")->capture_default_str();
+  sub->add_option("--data", o.data_dir, "data folder: job database, datasets, packs, caches")
+      ->required();
+  sub->add_option("--workers", o.workers, "jobs that run at once")->capture_default_str();
+  sub->add_option("--threads", args->threads, "compute threads per process (0 = all cores)")
+      ->capture_default_str();
+  sub->add_option("--token-file", o.token_file,
+                  "bearer tokens, one per line: TOKEN [write|read] (no file: no auth, loopback "
+                  "only)");
+  sub->add_flag("--public-read", o.public_read, "GET endpoints need no token");
+  sub->add_option("--allow-root", o.allow_roots,
+                  "folder whose datasets may be submitted by path (repeatable)");
+  sub->add_option("--max-upload-mib", args->max_upload_mib, "upload size limit in MiB")
+      ->capture_default_str();
+  sub->add_option("--max-unpacked-mib", args->max_unpacked_mib,
+                  "unpacked archive size limit in MiB")
+      ->capture_default_str();
+  sub->add_option("--max-entries", o.archive.max_entries, "archive entry count limit")
+      ->capture_default_str();
+  sub->add_option("--request-timeout", o.request_timeout_s, "socket inactivity timeout, s")
+      ->capture_default_str();
+  sub->add_option("--drain-seconds", o.drain_seconds,
+                  "on SIGTERM: how long running jobs may finish before they are re-queued")
+      ->capture_default_str();
+  sub->add_option("--render-backend", o.render_backend, "previews: auto, egl or cpu")
+      ->capture_default_str();
+  sub->add_flag("--quiet", o.quiet, "no request log lines");
+  sub->callback([args, exit_code] { *exit_code = RunServe(*args); });
+}
+
+}  // namespace matfit::app

@@ -1,0 +1,168 @@
+#include "server/archive.h"
+
+#include <archive.h>
+#include <archive_entry.h>
+#include <fcntl.h>
+#include <unistd.h>
+
+#include <filesystem>
+#include <memory>
+#include <vector>
+
+namespace matfit::server {
+namespace {
+
+namespace fs = std::filesystem;
+
+using ArchivePtr = std::unique_ptr<struct archive, int (*)(struct archive*)>;
+
+// Splits an entry name into safe components, or explains why it is unsafe.
+bool SafeComponents(const std::string& name, std::vector<std::string>* parts, std::string* why) {
+  if (name.empty()) return *why = "has an empty name", false;
+  if (name.find('\0') != std::string::npos) return *why = "has a NUL byte in its name", false;
+  if (name.find('\\') != std::string::npos)
+    return *why = "uses '\\' in its name; archive names must use '/'", false;
+  if (name[0] == '/') return *why = "has an absolute path", false;
+  if (name.size() > 1 && name[1] == ':') return *why = "has a drive-letter path", false;
+  size_t start = 0;
+  while (start <= name.size()) {
+    size_t end = name.find('/', start);
+    if (end == std::string::npos) end = name.size();
+    const std::string c = name.substr(start, end - start);
+    if (c == "..") return *why = "has a '..' component that would leave the dataset folder", false;
+    if (!c.empty() && c != ".") parts->push_back(c);
+    start = end + 1;
+  }
+  if (parts->empty()) return *why = "names no file", false;
+  return true;
+}
+
+bool IsMacMetadata(const std::vector<std::string>& parts) {
+  return parts.front() == "__MACOSX" || parts.back().rfind("._", 0) == 0 ||
+         parts.back() == ".DS_Store";
+}
+
+}  // namespace
+
+bool ArchiveLimits::Check(std::string* why) const {
+  if (max_entries < 1) return *why = "archive entry limit must be ≥ 1", false;
+  if (max_unpacked_bytes < 1) return *why = "archive unpacked-size limit must be ≥ 1 byte", false;
+  return true;
+}
+
+StatusOr<ArchiveResult> ExtractArchive(const std::string& archive_path, const std::string& dest,
+                                       const ArchiveLimits& limits, ArchiveProblem* problem) {
+  *problem = ArchiveProblem::kNone;
+  std::error_code ec;
+  if (fs::exists(dest, ec)) return InvalidArgument("extraction folder '" + dest + "' exists");
+  if (!fs::create_directories(dest, ec))
+    return IoError("cannot create '" + dest + "': " + ec.message());
+  bool keep = false;
+  struct Cleanup {
+    const std::string& dir;
+    bool& keep;
+    ~Cleanup() {
+      std::error_code e;
+      if (!keep) fs::remove_all(dir, e);
+    }
+  } cleanup{dest, keep};
+  auto fail = [&](ArchiveProblem p, std::string message) -> Status {
+    *problem = p;
+    return p == ArchiveProblem::kNone ? IoError(std::move(message))
+                                      : InvalidArgument(std::move(message));
+  };
+
+  ArchivePtr a(archive_read_new(), archive_read_free);
+  archive_read_support_filter_gzip(a.get());
+  archive_read_support_filter_bzip2(a.get());
+  archive_read_support_filter_xz(a.get());
+  archive_read_support_format_zip(a.get());
+  archive_read_support_format_tar(a.get());
+  archive_read_support_format_gnutar(a.get());
+  if (archive_read_open_filename(a.get(), archive_path.c_str(), 1 << 16) != ARCHIVE_OK)
+    return fail(ArchiveProblem::kMalformed,
+                std::string("the upload is not a .zip, .tar or .tar.gz archive (") +
+                    archive_error_string(a.get()) + ")");
+  ArchiveResult result;
+  result.dataset_root = dest;
+  std::vector<char> buf(1 << 16);
+  for (;;) {
+    struct archive_entry* e = nullptr;
+    const int r = archive_read_next_header(a.get(), &e);
+    if (r == ARCHIVE_EOF) break;
+    if (r != ARCHIVE_OK && r != ARCHIVE_WARN)
+      return fail(ArchiveProblem::kMalformed,
+                  std::string("the archive is corrupt: ") + archive_error_string(a.get()));
+    const char* raw = archive_entry_pathname(e);
+    const std::string name = raw ? raw : "";
+    if (++result.entries > limits.max_entries)
+      return fail(ArchiveProblem::kLimit, "the archive has more than " +
+                                              std::to_string(limits.max_entries) +
+                                              " entries (the server's limit)");
+    std::vector<std::string> parts;
+    std::string why;
+    if (!SafeComponents(name, &parts, &why))
+      return fail(ArchiveProblem::kUnsafeEntry, "archive entry '" + name + "' " + why);
+    const auto type = archive_entry_filetype(e);
+    if (archive_entry_hardlink(e) || type == AE_IFLNK)
+      return fail(ArchiveProblem::kUnsafeEntry,
+                  "archive entry '" + name +
+                      "' is a link; links are refused (archive the files themselves)");
+    if (type != AE_IFREG && type != AE_IFDIR)
+      return fail(ArchiveProblem::kUnsafeEntry,
+                  "archive entry '" + name + "' is neither a file nor a folder");
+    if (IsMacMetadata(parts)) continue;
+    fs::path out(dest);
+    for (const auto& p : parts) out /= p;
+    if (type == AE_IFDIR) {
+      fs::create_directories(out, ec);
+      if (ec)
+        return fail(ArchiveProblem::kNone, "cannot create '" + out.string() + "': " + ec.message());
+      continue;
+    }
+    fs::create_directories(out.parent_path(), ec);
+    if (ec)
+      return fail(ArchiveProblem::kUnsafeEntry,
+                  "archive entry '" + name + "' cannot be placed (" + ec.message() + ")");
+    // O_EXCL | O_NOFOLLOW: never write through an existing file or link (duplicate entries).
+    const int fd = ::open(out.c_str(), O_WRONLY | O_CREAT | O_EXCL | O_NOFOLLOW | O_CLOEXEC, 0644);
+    if (fd < 0)
+      return fail(ArchiveProblem::kUnsafeEntry,
+                  "archive entry '" + name + "' cannot be written (duplicate name?)");
+    for (;;) {
+      const la_ssize_t n = archive_read_data(a.get(), buf.data(), buf.size());
+      if (n == 0) break;
+      if (n < 0) {
+        ::close(fd);
+        return fail(ArchiveProblem::kMalformed,
+                    "archive entry '" + name + "' is corrupt: " + archive_error_string(a.get()));
+      }
+      result.bytes += n;
+      if (result.bytes > limits.max_unpacked_bytes) {
+        ::close(fd);
+        return fail(ArchiveProblem::kLimit, "the archive unpacks to more than " +
+                                                std::to_string(limits.max_unpacked_bytes >> 20) +
+                                                " MiB (the server's limit)");
+      }
+      for (la_ssize_t off = 0; off < n;) {
+        const ssize_t w = ::write(fd, buf.data() + off, size_t(n - off));
+        if (w <= 0) {
+          ::close(fd);
+          return fail(ArchiveProblem::kNone, "writing '" + out.string() + "' failed");
+        }
+        off += w;
+      }
+    }
+    if (::close(fd) != 0)
+      return fail(ArchiveProblem::kNone, "writing '" + out.string() + "' failed");
+  }
+  // One top-level folder and nothing else: that folder is the dataset.
+  std::vector<fs::path> top;
+  for (const auto& d : fs::directory_iterator(dest, ec)) top.push_back(d.path());
+  if (top.empty()) return fail(ArchiveProblem::kMalformed, "the archive contains no files");
+  if (top.size() == 1 && fs::is_directory(top[0], ec)) result.dataset_root = top[0].string();
+  keep = true;
+  return result;
+}
+
+}  // namespace matfit::server

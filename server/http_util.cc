@@ -1,0 +1,78 @@
+#include <cstdio>
+#include <filesystem>
+#include <memory>
+
+#include "server/server_impl.h"
+
+namespace matfit::server {
+
+void SendJson(httplib::Response& res, int status, const nlohmann::json& body) {
+  res.status = status;
+  res.set_content(body.dump(2, ' ', false, nlohmann::json::error_handler_t::replace) + "\n",
+                  "application/json");
+}
+
+void SendError(httplib::Response& res, int status, const std::string& message,
+               const std::string& field) {
+  nlohmann::json e = {{"status", status}, {"message", message}};
+  if (!field.empty()) e["field"] = field;
+  SendJson(res, status, {{"error", e}});
+}
+
+std::string ContentTypeFor(const std::string& path) {
+  const std::string ext = std::filesystem::path(path).extension().string();
+  if (ext == ".json") return "application/json";
+  if (ext == ".gltf") return "model/gltf+json";
+  if (ext == ".bin") return "application/octet-stream";
+  if (ext == ".png") return "image/png";
+  if (ext == ".exr") return "image/x-exr";
+  if (ext == ".zip") return "application/zip";
+  if (ext == ".html") return "text/html; charset=utf-8";
+  if (ext == ".js") return "text/javascript; charset=utf-8";
+  if (ext == ".glsl" || ext == ".frag" || ext == ".vert") return "text/plain; charset=utf-8";
+  return "application/octet-stream";
+}
+
+void SendFile(httplib::Response& res, const std::string& path, const std::string& content_type) {
+  std::error_code ec;
+  const auto size = std::filesystem::file_size(path, ec);
+  std::shared_ptr<FILE> f(ec ? nullptr : std::fopen(path.c_str(), "rb"), [](FILE* p) {
+    if (p) std::fclose(p);
+  });
+  if (!f)
+    return SendError(res, 404, "no file '" + std::filesystem::path(path).filename().string() + "'");
+  res.status = 200;
+  res.set_content_provider(size_t(size), content_type,
+                           [f](size_t offset, size_t length, httplib::DataSink& sink) {
+                             char buf[1 << 16];
+                             const size_t n = std::min(length, sizeof buf);
+                             if (std::fseek(f.get(), long(offset), SEEK_SET) != 0) return false;
+                             const size_t got = std::fread(buf, 1, n, f.get());
+                             return got > 0 && sink.write(buf, got);
+                           });
+}
+
+std::string RouteOf(const std::string& path) {
+  static const std::pair<const char*, const char*> kPrefixes[] = {
+      {"/api/v1/viewer/static/", "/api/v1/viewer/static/{file}"},
+      {"/api/v1/viewer/", "/api/v1/viewer/{id}"},
+      {"/viewer/", "/viewer/{id}"},
+  };
+  for (const auto& [prefix, route] : kPrefixes)
+    if (path.rfind(prefix, 0) == 0) return route;
+  if (path == "/healthz" || path == "/metrics" || path == "/api/v1/healthz" ||
+      path == "/api/v1/metrics" || path == "/api/v1/jobs")
+    return path;
+  const std::string jobs = "/api/v1/jobs/", packs = "/api/v1/packs/";
+  if (path.rfind(jobs, 0) == 0) return "/api/v1/jobs/{id}";
+  if (path.rfind(packs, 0) == 0) {
+    const auto slash = path.find('/', packs.size());
+    if (slash == std::string::npos) return "/api/v1/packs/{id}";
+    const std::string rest = path.substr(slash);
+    if (rest == "/preview.png" || rest == "/report") return "/api/v1/packs/{id}" + rest;
+    return "/api/v1/packs/{id}/{file}";
+  }
+  return "other";
+}
+
+}  // namespace matfit::server

@@ -1,0 +1,130 @@
+#include "server/job_runner.h"
+
+#include <filesystem>
+#include <map>
+#include <nlohmann/json.hpp>
+
+#include "core/dataset/dataset.h"
+#include "fit/fit_job.h"
+#include "leaf/leaf_job.h"
+#include "render/cpu_renderer.h"
+
+namespace matfit::server {
+namespace {
+
+namespace fs = std::filesystem;
+using json = nlohmann::json;
+
+// Share of the whole job each stage takes (measured roughly on the fixtures), in order.
+const std::map<std::string, std::pair<double, double>>& StageSpans(bool leaf) {
+  static const std::map<std::string, std::pair<double, double>> fit = {
+      {"read", {0.0, 0.1}}, {"fit", {0.1, 0.6}}, {"heldout", {0.6, 0.95}}, {"write", {0.95, 1}}};
+  static const std::map<std::string, std::pair<double, double>> lf = {
+      {"read", {0.0, 0.1}}, {"sheet", {0.1, 0.4}}, {"leaves", {0.4, 0.95}}, {"write", {0.95, 1}}};
+  return leaf ? lf : fit;
+}
+
+bool Forward(const JobProgress& p, bool leaf, const std::string& stage, int64_t done,
+             int64_t total) {
+  if (!p) return true;
+  const auto& spans = StageSpans(leaf);
+  const auto it = spans.find(stage);
+  const auto [a, b] = it == spans.end() ? std::pair<double, double>{0, 1} : it->second;
+  const double f = total > 0 ? std::clamp(double(done) / double(total), 0.0, 1.0) : 0.0;
+  return p(a + (b - a) * f, stage);
+}
+
+bool HasFileMatching(const std::string& dir, const std::vector<std::string>& needles) {
+  std::error_code ec;
+  for (const auto& e : fs::directory_iterator(dir, ec)) {
+    const std::string n = e.path().filename().string();
+    for (const auto& k : needles)
+      if (n.find(k) != std::string::npos) return true;
+  }
+  return false;
+}
+
+}  // namespace
+
+Status ValidateDataset(const JobSpec& spec, const std::string& dir) {
+  std::error_code ec;
+  if (!fs::is_directory(dir, ec)) return NotFound("dataset folder '" + dir + "' does not exist");
+  if (spec.mode == "leaf") {
+    if (fs::exists(fs::path(dir) / "leaf.json", ec) || HasFileMatching(dir, {"_BL.", "back"}))
+      return Status::Ok();
+    return DataError(
+        "the upload is not a leaf scan: it has no leaf.json and no back-lit images (*_BL.png or "
+        "*back*.png)");
+  }
+  std::string reason;
+  auto layout = DetectLayout(dir, &reason);
+  if (!layout.ok()) return layout.status();
+  return Status::Ok();
+}
+
+StatusOr<std::string> RunJob(const JobSpec& spec, const std::string& dataset,
+                             const std::string& out_dir, const JobProgress& progress) {
+  const bool leaf = spec.mode == "leaf";
+  auto stage = [&](const std::string& s, int64_t d, int64_t t) {
+    return Forward(progress, leaf, s, d, t);
+  };
+  if (leaf) {
+    leaf::LeafJobOptions o;
+    o.input = dataset;
+    o.out = out_dir;
+    o.overwrite = true;
+    o.confine = true;
+    o.preview = [](const MaterialMaps& m, bool behind) {  // as `matfit leaf` does
+      render::RenderOptions ro;
+      ro.size = 256, ro.theta_deg = behind ? 150 : 30, ro.phi_deg = 45, ro.ambient = 0.02;
+      return render::RenderCpu(m, ro);
+    };
+    auto r = leaf::RunLeafJob(o, stage);
+    if (!r.ok()) return r.status();
+    json leaves = json::array();
+    for (const auto& s : r->summary)
+      leaves.push_back({{"id", s.id},
+                        {"name", s.name},
+                        {"area_px", s.area_px},
+                        {"mean_hl2_error", s.mean_hl2_error}});
+    return json{{"mode", "leaf"},
+                {"leaves", r->leaves},
+                {"twigs", r->twigs},
+                {"markers", r->markers},
+                {"mm_per_pixel", r->mm_per_pixel},
+                {"scale_source", r->scale_source},
+                {"seconds", r->seconds_total},
+                {"packs", leaves},
+                {"warnings", r->warnings}}
+        .dump();
+  }
+  fit::FitJobOptions o;
+  o.input = dataset;
+  o.model = spec.model;
+  o.holdout = spec.holdout;
+  o.out = out_dir;
+  o.overwrite = true;
+  o.read.confine_to = dataset;
+  if (!spec.view.empty()) {
+    ViewAngles v;
+    std::sscanf(spec.view.c_str(), "%lf,%lf", &v.theta_deg, &v.phi_deg);
+    o.read.view = v;
+  }
+  auto r = fit::RunFitJob(o, stage);
+  if (!r.ok()) return r.status();
+  json s = {{"mode", "fit"},
+            {"method", r->fit.method},
+            {"texels", int64_t(r->fit.maps.width) * r->fit.maps.height},
+            {"images", r->images},
+            {"fit_seconds", r->fit.fit_seconds},
+            {"flagged_texels", r->fit.flagged_texels},
+            {"rmse", r->reconstruction.rmse},
+            {"psnr_db", r->reconstruction.psnr_db},
+            {"deviation_percent", r->reconstruction.deviation_percent},
+            {"warnings", r->fit.warnings}};
+  if (r->heldout) s["heldout_rmse"] = r->heldout->rmse;
+  if (r->truth && r->truth->has_normal) s["normal_mae_deg"] = r->truth->normal_mae_deg;
+  return s.dump();
+}
+
+}  // namespace matfit::server

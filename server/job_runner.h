@@ -1,0 +1,25 @@
+// Runs one job with the same controllers as the CLI (fit::RunFitJob, leaf::RunLeafJob), its
+// files confined to the dataset folder, its pack written atomically to `out_dir`.
+#pragma once
+
+#include <functional>
+#include <string>
+
+#include "core/status.h"
+#include "server/job_spec.h"
+
+namespace matfit::server {
+
+// Cheap check at submission time: the folder holds a dataset of the job's kind. Errors carry
+// the reader's message (unknown layout, no back-lit images, ...).
+Status ValidateDataset(const JobSpec& spec, const std::string& dir);
+
+// fraction of the whole job in [0, 1], the current stage name; return false to cancel.
+using JobProgress = std::function<bool(double fraction, const std::string& stage)>;
+
+// Returns the report summary (JSON object text) of a succeeded job; kCancelled when progress
+// returned false. out_dir is replaced atomically (overwrite: a re-run after a crash).
+StatusOr<std::string> RunJob(const JobSpec& spec, const std::string& dataset,
+                             const std::string& out_dir, const JobProgress& progress);
+
+}  // namespace matfit::server

@@ -1,0 +1,126 @@
+#include "server/job_spec.h"
+
+#include <cstdlib>
+#include <nlohmann/json.hpp>
+
+#include "fit/method.h"
+
+namespace matfit::server {
+namespace {
+
+using json = nlohmann::json;
+
+// Messages start with "field 'NAME': " so the HTTP layer can name it in the error body.
+Status FieldError(const std::string& field, const std::string& why) {
+  return InvalidArgument("field '" + field + "': " + why);
+}
+
+bool ParseView(const std::string& s, double* theta, double* phi) {
+  const auto comma = s.find(',');
+  if (comma == std::string::npos) return false;
+  char* end = nullptr;
+  const std::string a = s.substr(0, comma), b = s.substr(comma + 1);
+  *theta = std::strtod(a.c_str(), &end);
+  if (a.empty() || *end) return false;
+  *phi = std::strtod(b.c_str(), &end);
+  if (b.empty() || *end) return false;
+  return *theta >= 0 && *theta <= 90 && *phi >= -360 && *phi <= 360;
+}
+
+}  // namespace
+
+json JobSpec::ToJson() const {
+  return {{"mode", mode}, {"model", model}, {"view", view}, {"holdout", holdout}};
+}
+
+StatusOr<JobSpec> ParseJobSpecFields(const std::map<std::string, std::string>& fields) {
+  JobSpec s;
+  for (const auto& [k, v] : fields) {
+    if (k == "mode") {
+      if (v != "fit" && v != "leaf")
+        return FieldError("mode", "must be fit or leaf, got '" + v + "'");
+      s.mode = v;
+    } else if (k == "model") {
+      s.model = v;
+    } else if (k == "view") {
+      double t, p;
+      if (!v.empty() && !ParseView(v, &t, &p))
+        return FieldError("view", "must be THETA,PHI in degrees (θ in [0, 90]), got '" + v + "'");
+      s.view = v;
+    } else if (k == "holdout") {
+      char* end = nullptr;
+      const long h = std::strtol(v.c_str(), &end, 10);
+      if (v.empty() || *end || h < 0 || h == 1 || h > 1000)
+        return FieldError("holdout", "must be 0 (off) or a fold count ≥ 2, got '" + v + "'");
+      s.holdout = int(h);
+    } else if (k != "file" && k != "dataset") {
+      return FieldError(k,
+                        "is not an option; use model, view, mode, holdout (and file or dataset)");
+    }
+  }
+  if (s.mode == "fit") {
+    if (s.model == "auto")
+      return FieldError("model", "'auto' (model selection) is not available yet; name a model");
+    bool known = false;
+    std::string list;
+    for (const auto& n : fit::MethodNames()) {
+      known = known || n == s.model;
+      list += (list.empty() ? "" : ", ") + n;
+    }
+    if (!known)
+      return FieldError("model", "'" + s.model + "' is not a model; choose one of: " + list);
+  } else if (fields.count("model") || fields.count("view") || fields.count("holdout")) {
+    return FieldError(fields.count("model")  ? "model"
+                      : fields.count("view") ? "view"
+                                             : "holdout",
+                      "does not apply to mode=leaf");
+  }
+  return s;
+}
+
+StatusOr<JobSpec> ParseJobSpecJson(const std::string& body, std::string* dataset) {
+  json j;
+  try {
+    j = json::parse(body);
+  } catch (const json::parse_error& e) {  // e.what() names the byte offset and the token
+    return InvalidArgument(std::string("the body is not valid JSON: ") + e.what());
+  }
+  if (!j.is_object()) return InvalidArgument("the body must be a JSON object");
+  if (!j.contains("dataset")) return FieldError("dataset", "is required (a folder on the server)");
+  if (!j["dataset"].is_string() || j["dataset"].get<std::string>().empty())
+    return FieldError("dataset", "must be a non-empty string (a folder on the server)");
+  *dataset = j["dataset"].get<std::string>();
+  std::map<std::string, std::string> fields;
+  for (const auto& [k, v] : j.items()) {
+    if (k == "dataset") continue;
+    if (k == "holdout") {
+      if (!v.is_number_integer()) return FieldError("holdout", "must be an integer");
+      fields[k] = std::to_string(v.get<int64_t>());
+    } else if (v.is_string()) {
+      fields[k] = v.get<std::string>();
+    } else {
+      return FieldError(k, "must be a string");
+    }
+  }
+  return ParseJobSpecFields(fields);
+}
+
+StatusOr<JobSpec> JobSpecFromJson(const std::string& stored) {
+  const json j = json::parse(stored, nullptr, false);
+  if (!j.is_object()) return DataError("stored job spec is not a JSON object");
+  JobSpec s;
+  s.mode = j.value("mode", "fit");
+  s.model = j.value("model", s.model);
+  s.view = j.value("view", "");
+  s.holdout = j.value("holdout", 0);
+  return s;
+}
+
+std::string FieldOfError(const std::string& message) {
+  const std::string p = "field '";
+  if (message.rfind(p, 0) != 0) return "";
+  const auto end = message.find('\'', p.size());
+  return end == std::string::npos ? "" : message.substr(p.size(), end - p.size());
+}
+
+}  // namespace matfit::server

@@ -1,0 +1,81 @@
+// Internals of Server shared by its source files (server.cc: lifecycle and workers;
+// routes_jobs.cc, routes_packs.cc: the HTTP handlers). Not part of the module's interface.
+#pragma once
+
+#include <httplib.h>
+
+#include <atomic>
+#include <condition_variable>
+#include <map>
+#include <memory>
+#include <mutex>
+#include <nlohmann/json.hpp>
+#include <string>
+#include <thread>
+#include <vector>
+
+#include "server/auth.h"
+#include "server/job_store.h"
+#include "server/metrics.h"
+#include "server/preview.h"
+#include "server/server.h"
+
+namespace matfit::server {
+
+double NowSeconds();  // Unix time
+
+// A job a worker is running: its cancel flags and live progress (persisted ~1/s).
+struct LiveJob {
+  std::atomic<bool> cancel{false};
+  std::mutex mutex;
+  double fraction = 0, started = 0;
+  std::string stage;
+};
+
+struct Server::Impl {
+  ServerOptions options;
+  std::string data;  // absolute data folder
+  TokenSet tokens;
+  std::unique_ptr<JobStore> store;
+  Metrics metrics;
+  std::unique_ptr<PreviewRenderer> previews;
+  httplib::Server http;
+  std::thread http_thread;
+  std::vector<std::thread> workers;
+  int port = 0;
+
+  std::mutex mutex;  // guards live, and is the workers' wake-up lock
+  std::condition_variable wake, idle;
+  std::map<std::string, std::shared_ptr<LiveJob>> live;
+  std::atomic<bool> draining{false}, hard_stop{false}, stopped{false};
+  std::mutex shutdown_mutex;
+  std::condition_variable shutdown_cv;
+  bool shutdown_done = false;
+
+  // Folders under `data`.
+  std::string UploadsDir() const { return data + "/uploads"; }
+  std::string DatasetsDir() const { return data + "/datasets"; }
+  std::string PackDir(const std::string& id) const { return data + "/packs/" + id; }
+  std::string ZipPath(const std::string& id) const { return data + "/cache/zips/" + id + ".zip"; }
+  std::string PreviewDir(const std::string& id) const { return data + "/cache/previews/" + id; }
+
+  void RegisterRoutes();
+  void RegisterJobRoutes();
+  void RegisterPackRoutes();
+  void WorkerLoop();
+  void RunOne(const JobRecord& job);
+  nlohmann::json JobJson(const JobRecord& j);
+  void RemoveJobFiles(const JobRecord& j);
+};
+
+// {"error": {"status": S, "message": M[, "field": F]}} with status S.
+void SendError(httplib::Response& res, int status, const std::string& message,
+               const std::string& field = "");
+void SendJson(httplib::Response& res, int status, const nlohmann::json& body);
+// Streams a file (never loaded whole into memory); 404 JSON when it is missing.
+void SendFile(httplib::Response& res, const std::string& path, const std::string& content_type);
+std::string ContentTypeFor(const std::string& path);
+// Route label for metrics: the pattern, not the raw path ("/api/v1/jobs/{id}").
+std::string RouteOf(const std::string& path);
+
+}  // namespace matfit::server
