@@ -43,6 +43,32 @@ if [ -d "$sheet" ]; then
   "$matfit" leaf "$sheet" --out "$out/leaf-sheet-leaves" --force --quiet
 fi
 echo
+echo "== matfit serve: the service on loopback — upload the fixture, poll, fetch the pack =="
+rm -rf "$out/serve-data"
+"$matfit" serve --port 0 --data "$out/serve-data" --quiet 2>"$out/serve.log" &
+serve_pid=$!
+port=""
+for _ in $(seq 1 100); do
+  port=$(sed -n 's|.*listening on http://127.0.0.1:\([0-9]*\)/api/v1.*|\1|p' "$out/serve.log")
+  [ -n "$port" ] && break
+  sleep 0.1
+done
+api="http://127.0.0.1:$port/api/v1"
+tar czf "$out/plastic-ring12.tar.gz" -C "$root/fixtures" plastic-ring12
+id=$(curl -s -F file=@"$out/plastic-ring12.tar.gz" -F model=lambert-robust -F holdout=4 "$api/jobs" |
+  sed -n 's/.*"id": "\([0-9a-f]*\)".*/\1/p')
+echo "submitted job $id"
+for _ in $(seq 1 600); do
+  curl -s "$api/jobs/$id" | grep -qE '"state": "(succeeded|failed)"' && break
+  sleep 0.1
+done
+curl -s "$api/jobs/$id" | grep -E '"(state|method|rmse|heldout_rmse|run_seconds)"'
+curl -s -o "$out/served-pack.zip" "$api/packs/$id"
+curl -s -o "$out/served-preview.png" "$api/packs/$id/preview.png?theta=40&phi=30&scene=sphere"
+echo "pack $out/served-pack.zip, preview $out/served-preview.png, viewer http://127.0.0.1:$port/viewer/$id"
+kill -TERM "$serve_pid"
+wait "$serve_pid"
+echo
 echo "packs written to $out/*-pack (material.json, material.gltf, maps/, report.json, preview.png)"
 echo "previews: $out/plastic-blinn-phong-sphere.png, $out/corduroy-heinrich-sweep.png"
 echo "leaf materials: $out/leaf-scan-leaves/leaves.json (and leaf-sheet-leaves/ with the shared data)"

@@ -603,5 +603,33 @@ TEST_F(ServerTest, ViewerPageRendersThePackInHeadlessChromium) {
   EXPECT_GT(probe["rgba8_base64"].get<std::string>().size(), 1000u);
 }
 
+TEST_F(ServerTest, EveryRouteOfTheOpenApiFileIsServed) {
+  const json api = json::parse(Slurp(std::string(MATFIT_SOURCE_DIR) + "/docs/openapi.json"));
+  Start();
+  auto r = Upload(ZipFixture("plastic-ring12"), {{"model", "lambert"}});
+  ASSERT_TRUE(r);
+  const std::string id = json::parse(r->body)["id"];
+  ASSERT_EQ(WaitFor(id, Finished)["state"], "succeeded");
+  int checked = 0;
+  for (const auto& [path, ops] : api["paths"].items()) {
+    std::string p = path;
+    auto put = [&](const std::string& key, const std::string& v) {
+      if (const auto at = p.find(key); at != std::string::npos) p.replace(at, key.size(), v);
+    };
+    put("{id}", id);
+    put("{file}", p.find("static") != std::string::npos ? "viewer.js" : "material.json");
+    for (const auto& [method, op] : ops.items()) {
+      if (method == "delete" || method == "post") continue;  // exercised by the other tests
+      auto g = client_->Get(p.c_str());
+      ASSERT_TRUE(g) << p;
+      EXPECT_TRUE(g->status == 200 || g->status == 302)
+          << method << " " << p << ": " << g->status << " " << g->body.substr(0, 200);
+      EXPECT_TRUE(op["responses"].contains(std::to_string(g->status))) << p;
+      ++checked;
+    }
+  }
+  EXPECT_GE(checked, 12);
+}
+
 }  // namespace
 }  // namespace matfit::server
