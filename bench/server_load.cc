@@ -66,9 +66,9 @@ bool StartServer(const std::string& bin, const std::string& dir, int64_t upload_
     dup2(fds[1], 2);
     close(fds[0]);
     const std::string data = dir + "/data", mib = std::to_string(upload_mib + 64);
-    execl(bin.c_str(), bin.c_str(), "serve", "--port", "0", "--data", data.c_str(),
-          "--allow-root", dir.c_str(), "--quiet", "--drain-seconds", "0", "--max-upload-mib",
-          mib.c_str(), "--max-unpacked-mib", mib.c_str(), (char*)nullptr);
+    execl(bin.c_str(), bin.c_str(), "serve", "--port", "0", "--data", data.c_str(), "--allow-root",
+          dir.c_str(), "--quiet", "--drain-seconds", "0", "--max-upload-mib", mib.c_str(),
+          "--max-unpacked-mib", mib.c_str(), (char*)nullptr);
     _exit(127);
   }
   close(fds[1]);
@@ -81,7 +81,8 @@ bool StartServer(const std::string& bin, const std::string& dir, int64_t upload_
         while (std::fgets(b, sizeof b, err)) {
         }
         std::fclose(err);
-      }).detach();
+      })
+          .detach();
       return true;
     }
   }
@@ -113,12 +114,18 @@ int main(int argc, char** argv) {
   for (int i = 3; i < argc; ++i) {
     const std::string a = argv[i];
     auto next = [&] { return i + 1 < argc ? std::string(argv[++i]) : std::string(); };
-    if (a == "--seconds") seconds = std::stod(next());
-    else if (a == "--rate") rate = std::stod(next());
-    else if (a == "--upload-mib") upload_mib = std::stoll(next());
-    else if (a == "--json") json_out = next();
-    else if (a == "--quick") seconds = 5, upload_mib = 50;
-    else return std::fprintf(stderr, "unknown option %s\n", a.c_str()), 2;
+    if (a == "--seconds")
+      seconds = std::stod(next());
+    else if (a == "--rate")
+      rate = std::stod(next());
+    else if (a == "--upload-mib")
+      upload_mib = std::stoll(next());
+    else if (a == "--json")
+      json_out = next();
+    else if (a == "--quick")
+      seconds = 5, upload_mib = 50;
+    else
+      return std::fprintf(stderr, "unknown option %s\n", a.c_str()), 2;
   }
   char tmpl[] = "/tmp/matfit_load_XXXXXX";
   const std::string dir = mkdtemp(tmpl);
@@ -204,11 +211,11 @@ int main(int argc, char** argv) {
   }
   const int64_t size = int64_t(fs::file_size(archive));
   const std::string boundary = "matfitloadboundary7d1f";
-  const std::string head = "--" + boundary +
-                           "\r\nContent-Disposition: form-data; name=\"model\"\r\n\r\nlambert\r\n--" +
-                           boundary +
-                           "\r\nContent-Disposition: form-data; name=\"file\"; "
-                           "filename=\"big.tar\"\r\nContent-Type: application/x-tar\r\n\r\n";
+  const std::string head =
+      "--" + boundary + "\r\nContent-Disposition: form-data; name=\"model\"\r\n\r\nlambert\r\n--" +
+      boundary +
+      "\r\nContent-Disposition: form-data; name=\"file\"; "
+      "filename=\"big.tar\"\r\nContent-Type: application/x-tar\r\n\r\n";
   const std::string tail = "\r\n--" + boundary + "--\r\n";
   const int64_t rss_before = RssKiB(server.pid, "VmRSS:");
   std::atomic<bool> uploading{true};
@@ -259,33 +266,37 @@ int main(int argc, char** argv) {
   for (double v : latency)
     if (v >= 0) lat.push_back(v);
   json out = {
-      {"gets", {{"requests", total},
-                {"target_rate", rate},
-                {"achieved_rate", double(total) / wall},
-                {"errors", errors.load()},
-                {"p50_ms", Quantile(lat, 0.5)},
-                {"p90_ms", Quantile(lat, 0.9)},
-                {"p99_ms", Quantile(lat, 0.99)},
-                {"max_ms", Quantile(lat, 1.0)},
-                {"fit_states_after", during}}},
-      {"preview_512_sphere", {{"cold_median_ms", Quantile(cold, 0.5)},
-                              {"cached_median_ms", Quantile(cached, 0.5)}}},
-      {"upload", {{"mib", mib},
-                  {"seconds", upload_s},
-                  {"mib_per_s", mib / upload_s},
-                  {"server_rss_before_mib", double(rss_before) / 1024},
-                  {"server_rss_growth_mib", rss_growth_mib}}}};
-  std::printf("GET /api/v1/jobs/{id} with a fit running (%s after): %lld requests at %.1f/s "
-              "(target %.0f), %lld errors\n  latency from scheduled send: p50 %.2f ms, p90 %.2f "
-              "ms, p99 %.2f ms, max %.2f ms\n",
-              during.c_str(), (long long)total, double(total) / wall, rate,
-              (long long)errors.load(), Quantile(lat, 0.5), Quantile(lat, 0.9),
-              Quantile(lat, 0.99), Quantile(lat, 1.0));
+      {"gets",
+       {{"requests", total},
+        {"target_rate", rate},
+        {"achieved_rate", double(total) / wall},
+        {"errors", errors.load()},
+        {"p50_ms", Quantile(lat, 0.5)},
+        {"p90_ms", Quantile(lat, 0.9)},
+        {"p99_ms", Quantile(lat, 0.99)},
+        {"max_ms", Quantile(lat, 1.0)},
+        {"fit_states_after", during}}},
+      {"preview_512_sphere",
+       {{"cold_median_ms", Quantile(cold, 0.5)}, {"cached_median_ms", Quantile(cached, 0.5)}}},
+      {"upload",
+       {{"mib", mib},
+        {"seconds", upload_s},
+        {"mib_per_s", mib / upload_s},
+        {"server_rss_before_mib", double(rss_before) / 1024},
+        {"server_rss_growth_mib", rss_growth_mib}}}};
+  std::printf(
+      "GET /api/v1/jobs/{id} with a fit running (%s after): %lld requests at %.1f/s "
+      "(target %.0f), %lld errors\n  latency from scheduled send: p50 %.2f ms, p90 %.2f "
+      "ms, p99 %.2f ms, max %.2f ms\n",
+      during.c_str(), (long long)total, double(total) / wall, rate, (long long)errors.load(),
+      Quantile(lat, 0.5), Quantile(lat, 0.9), Quantile(lat, 0.99), Quantile(lat, 1.0));
   std::printf("preview 512² sphere: cold median %.1f ms, cached median %.2f ms (×%.0f)\n",
-              Quantile(cold, 0.5), Quantile(cached, 0.5), Quantile(cold, 0.5) / Quantile(cached, 0.5));
-  std::printf("upload %.0f MiB (no fit running): %.2f s, %.0f MiB/s; server RSS %.1f MiB before, "
-              "+%.1f MiB peak while uploading\n",
-              mib, upload_s, mib / upload_s, double(rss_before) / 1024, rss_growth_mib);
+              Quantile(cold, 0.5), Quantile(cached, 0.5),
+              Quantile(cold, 0.5) / Quantile(cached, 0.5));
+  std::printf(
+      "upload %.0f MiB (no fit running): %.2f s, %.0f MiB/s; server RSS %.1f MiB before, "
+      "+%.1f MiB peak while uploading\n",
+      mib, upload_s, mib / upload_s, double(rss_before) / 1024, rss_growth_mib);
   if (!json_out.empty()) std::ofstream(json_out) << out.dump(2) << "\n";
   const bool bounded = rss_growth_mib < 0.25 * mib;
   if (!bounded) std::fprintf(stderr, "server memory grew by more than a quarter of the upload\n");

@@ -1,5 +1,9 @@
 #include "server/server.h"
 
+#include <fcntl.h>
+#include <sys/file.h>
+#include <unistd.h>
+
 #include <chrono>
 #include <cmath>
 #include <filesystem>
@@ -59,6 +63,10 @@ bool ServerOptions::Check(std::string* why) const {
   return archive.Check(why);
 }
 
+Server::Impl::~Impl() {
+  if (lock_fd >= 0) ::close(lock_fd);  // releases the flock
+}
+
 Server::Server(std::unique_ptr<Impl> impl) : impl_(std::move(impl)) {}
 Server::~Server() { Shutdown(); }
 
@@ -72,6 +80,14 @@ StatusOr<std::unique_ptr<Server>> Server::Create(const ServerOptions& options) {
   impl->data = fs::weakly_canonical(fs::absolute(options.data_dir, ec), ec).string();
   if (ec || !fs::is_directory(impl->data))
     return IoError("cannot use data folder '" + options.data_dir + "'");
+  // One server per data folder: a second one would sweep the first one's uploads.
+  const std::string lock = impl->data + "/lock";
+  impl->lock_fd = ::open(lock.c_str(), O_RDWR | O_CREAT | O_CLOEXEC, 0644);
+  if (impl->lock_fd < 0) return IoError("cannot create '" + lock + "'");
+  if (::flock(impl->lock_fd, LOCK_EX | LOCK_NB) != 0)
+    return Status(StatusCode::kUnavailable,
+                  "data folder '" + impl->data +
+                      "' is in use by another matfit serve; stop it or choose another --data");
   for (const char* sub : {"uploads", "datasets", "packs", "cache/zips", "cache/previews"}) {
     fs::create_directories(impl->data + "/" + sub, ec);
     if (ec) return IoError("cannot create '" + impl->data + "/" + sub + "': " + ec.message());

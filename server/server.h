@@ -26,7 +26,8 @@ struct ServerOptions {
   int request_timeout_s = 60;  // socket read/write inactivity
   double drain_seconds = 10;   // on shutdown: wait this long for running jobs, then re-queue
   std::string render_backend = "auto";  // previews: auto, egl, cpu
-  int http_threads = 32;  // one per open connection (cpp-httplib keeps a thread per keep-alive client)
+  int http_threads =
+      32;              // one per open connection (cpp-httplib keeps a thread per keep-alive client)
   bool quiet = false;  // no request log lines (errors are still logged)
 
   bool Check(std::string* why) const;

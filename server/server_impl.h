@@ -43,6 +43,8 @@ struct Server::Impl {
   std::thread http_thread;
   std::vector<std::thread> workers;
   int port = 0;
+  int lock_fd = -1;  // flock on DATA/lock: one server per data folder
+  ~Impl();
 
   std::mutex mutex;  // guards live, and is the workers' wake-up lock
   std::condition_variable wake, idle;

@@ -3,8 +3,11 @@
 // and a clean data folder), auth, metrics, previews, and the viewer in headless Chromium.
 #include "server/server.h"
 
+#include <arpa/inet.h>
 #include <gtest/gtest.h>
 #include <httplib.h>
+#include <netinet/in.h>
+#include <sys/socket.h>
 #include <unistd.h>
 
 #include <chrono>
@@ -629,6 +632,70 @@ TEST_F(ServerTest, EveryRouteOfTheOpenApiFileIsServed) {
     }
   }
   EXPECT_GE(checked, 12);
+}
+
+TEST_F(ServerTest, OneServerPerDataFolder) {
+  Start();
+  auto second = Server::Create(opts_);
+  ASSERT_FALSE(second.ok());
+  EXPECT_NE(second.status().message().find("in use by another matfit serve"), std::string::npos)
+      << second.status().message();
+}
+
+// Connects a raw TCP socket to the server.
+int Connect(int port) {
+  const int fd = ::socket(AF_INET, SOCK_STREAM, 0);
+  sockaddr_in a{};
+  a.sin_family = AF_INET;
+  a.sin_port = htons(uint16_t(port));
+  a.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
+  if (::connect(fd, reinterpret_cast<sockaddr*>(&a), sizeof a) != 0) return -1;
+  return fd;
+}
+
+TEST_F(ServerTest, StalledClientsTimeOutAndAnInterruptedUploadLeavesNothing) {
+  opts_.request_timeout_s = 1;
+  Start();
+  // A client that sends half a request line and stalls is disconnected by the read timeout.
+  const int stall = Connect(server_->port());
+  ASSERT_GE(stall, 0);
+  const std::string half = "GET /healthz HTTP/1.1\r\nHost: x\r\n";
+  ASSERT_EQ(::send(stall, half.data(), half.size(), 0), ssize_t(half.size()));
+  timeval tv{15, 0};
+  ::setsockopt(stall, SOL_SOCKET, SO_RCVTIMEO, &tv, sizeof tv);
+  std::string reply;
+  char buf[4096];
+  const auto t0 = std::chrono::steady_clock::now();
+  for (ssize_t n; (n = ::recv(stall, buf, sizeof buf, 0)) > 0;) reply.append(buf, size_t(n));
+  const double waited =
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  // Either a bare close or an error status, then a close — never a 200 for half a request.
+  EXPECT_EQ(reply.find("200 OK"), std::string::npos) << reply;
+  EXPECT_LT(waited, 10) << "no request timeout";
+  std::printf("stalled client: closed after %.2f s, reply: %s\n", waited,
+              reply.substr(0, reply.find('\r')).c_str());
+  ::close(stall);
+
+  // An upload that announces 8 MiB, sends 1 MiB of the file part and hangs up.
+  const int up = Connect(server_->port());
+  ASSERT_GE(up, 0);
+  const std::string part =
+      "--b0undary\r\nContent-Disposition: form-data; name=\"file\"; filename=\"x.zip\"\r\n"
+      "Content-Type: application/zip\r\n\r\n";
+  const std::string head =
+      "POST /api/v1/jobs HTTP/1.1\r\nHost: x\r\nContent-Type: "
+      "multipart/form-data; boundary=b0undary\r\nContent-Length: " +
+      std::to_string(8 << 20) + "\r\n\r\n" + part;
+  ASSERT_EQ(::send(up, head.data(), head.size(), 0), ssize_t(head.size()));
+  const std::string chunk(1 << 20, 'z');
+  ASSERT_EQ(::send(up, chunk.data(), chunk.size(), 0), ssize_t(chunk.size()));
+  std::this_thread::sleep_for(std::chrono::milliseconds(200));
+  ::close(up);
+  const fs::path uploads = fs::path(opts_.data_dir) / "uploads";
+  for (int i = 0; i < 100 && !fs::is_empty(uploads); ++i)
+    std::this_thread::sleep_for(std::chrono::milliseconds(50));
+  EXPECT_TRUE(fs::is_empty(uploads)) << "the partial upload was left behind";
+  EXPECT_TRUE(Get("/api/v1/jobs")["jobs"].empty());
 }
 
 }  // namespace
