@@ -61,7 +61,7 @@ std::string MakeReportJson(const FitReportInputs& in) {
     j["truth_texels"] = in.truth->texels;
     j["parameter_errors"] = in.truth->parameter_errors;
   }
-  return j.dump(2) + "\n";
+  return j.dump(2, ' ', false, nlohmann::json::error_handler_t::replace) + "\n";
 }
 
 }  // namespace matfit::fit

@@ -112,7 +112,7 @@ std::string LeafReport(const LeafMaterial& L, const LeafMaterialOptions& o, int6
         {"hl2_error", L.seconds_hl2_error}}},
       {"warnings", L.warnings},
   };
-  return r.dump(2) + "\n";
+  return r.dump(2, ' ', false, nlohmann::json::error_handler_t::replace) + "\n";
 }
 
 }  // namespace
@@ -273,7 +273,9 @@ StatusOr<LeafJobResult> RunLeafJob(const LeafJobOptions& o, const LeafProgress& 
       {"warnings", res.warnings},
       {"version", std::string("matfit ") + kMatfitVersion},
   };
-  MATFIT_RETURN_IF_ERROR(WriteFileAtomic((root / "leaves.json").string(), index.dump(2) + "\n"));
+  MATFIT_RETURN_IF_ERROR(
+      WriteFileAtomic((root / "leaves.json").string(),
+                      index.dump(2, ' ', false, nlohmann::json::error_handler_t::replace) + "\n"));
   MATFIT_RETURN_IF_ERROR(dir.Commit());
   return res;
 }

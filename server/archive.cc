@@ -16,9 +16,33 @@ namespace fs = std::filesystem;
 
 using ArchivePtr = std::unique_ptr<struct archive, int (*)(struct archive*)>;
 
+// Well-formed UTF-8 (names end up in JSON and in messages); overlong forms are not checked.
+bool IsUtf8(const std::string& s) {
+  for (size_t i = 0; i < s.size();) {
+    const unsigned char c = static_cast<unsigned char>(s[i]);
+    size_t n;  // continuation bytes
+    if (c < 0x80)
+      n = 0;
+    else if ((c & 0xE0) == 0xC0)
+      n = 1;
+    else if ((c & 0xF0) == 0xE0)
+      n = 2;
+    else if ((c & 0xF8) == 0xF0)
+      n = 3;
+    else
+      return false;
+    if (i + n >= s.size() + (n == 0)) return false;
+    for (size_t k = 1; k <= n; ++k)
+      if ((static_cast<unsigned char>(s[i + k]) & 0xC0) != 0x80) return false;
+    i += n + 1;
+  }
+  return true;
+}
+
 // Splits an entry name into safe components, or explains why it is unsafe.
 bool SafeComponents(const std::string& name, std::vector<std::string>* parts, std::string* why) {
   if (name.empty()) return *why = "has an empty name", false;
+  if (!IsUtf8(name)) return *why = "has a name that is not UTF-8", false;
   if (name.find('\0') != std::string::npos) return *why = "has a NUL byte in its name", false;
   if (name.find('\\') != std::string::npos)
     return *why = "uses '\\' in its name; archive names must use '/'", false;
@@ -117,7 +141,8 @@ StatusOr<ArchiveResult> ExtractArchive(const std::string& archive_path, const st
     if (type == AE_IFDIR) {
       fs::create_directories(out, ec);
       if (ec)
-        return fail(ArchiveProblem::kNone, "cannot create '" + out.string() + "': " + ec.message());
+        return fail(ArchiveProblem::kUnsafeEntry,
+                    "archive entry '" + name + "' conflicts with an earlier entry");
       continue;
     }
     fs::create_directories(out.parent_path(), ec);
@@ -148,13 +173,13 @@ StatusOr<ArchiveResult> ExtractArchive(const std::string& archive_path, const st
         const ssize_t w = ::write(fd, buf.data() + off, size_t(n - off));
         if (w <= 0) {
           ::close(fd);
-          return fail(ArchiveProblem::kNone, "writing '" + out.string() + "' failed");
+          return fail(ArchiveProblem::kNone, "writing archive entry '" + name + "' failed");
         }
         off += w;
       }
     }
     if (::close(fd) != 0)
-      return fail(ArchiveProblem::kNone, "writing '" + out.string() + "' failed");
+      return fail(ArchiveProblem::kNone, "writing archive entry '" + name + "' failed");
   }
   // One top-level folder and nothing else: that folder is the dataset.
   std::vector<fs::path> top;

@@ -19,6 +19,20 @@ void SendError(httplib::Response& res, int status, const std::string& message,
   SendJson(res, status, {{"error", e}});
 }
 
+void SendErrorAndClose(httplib::Response& res, int status, const std::string& message,
+                       const std::string& field) {
+  nlohmann::json e = {{"status", status}, {"message", message}};
+  if (!field.empty()) e["field"] = field;
+  auto body = std::make_shared<std::string>(nlohmann::json{{"error", e}}.dump(2) + "\n");
+  res.status = status;
+  res.set_header("Connection", "close");
+  res.set_content_provider(body->size(), "application/json",
+                           [body](size_t offset, size_t length, httplib::DataSink& sink) {
+                             sink.write(body->data() + offset, length);
+                             return false;  // all written; "failing" closes the connection
+                           });
+}
+
 std::string ContentTypeFor(const std::string& path) {
   const std::string ext = std::filesystem::path(path).extension().string();
   if (ext == ".json") return "application/json";

@@ -234,6 +234,13 @@ Status JobStore::Delete(const std::string& id) {
   return Status::Ok();
 }
 
+bool JobStore::DeleteFinished(const std::string& id) {
+  std::lock_guard<std::mutex> lock(mutex_);
+  Stmt s(db_, "DELETE FROM jobs WHERE id = ? AND state IN ('succeeded', 'failed', 'cancelled')");
+  s.Bind(1, id);
+  return s.Step() == SQLITE_DONE && sqlite3_changes(db_) > 0;
+}
+
 std::map<JobState, int64_t> JobStore::CountByState() {
   std::lock_guard<std::mutex> lock(mutex_);
   std::map<JobState, int64_t> out;

@@ -63,6 +63,7 @@ class JobStore {
   // queued → cancelled (true); running → cancel_requested = 1 (true); else false.
   bool RequestCancel(const std::string& id, double now);
   Status Delete(const std::string& id);
+  bool DeleteFinished(const std::string& id);  // true when a finished job's row was removed
   std::map<JobState, int64_t> CountByState();
   std::vector<std::string> AllIds();
 

@@ -3,6 +3,7 @@
 #include <cstdio>
 #include <filesystem>
 #include <random>
+#include <set>
 
 #include "core/path_util.h"
 #include "server/archive.h"
@@ -117,7 +118,7 @@ void Server::Impl::RemoveJobFiles(const JobRecord& j) {
 void Server::Impl::RegisterJobRoutes() {
   http.Post("/api/v1/jobs", [this](const httplib::Request& req, httplib::Response& res,
                                    const httplib::ContentReader& reader) {
-    if (draining) return SendError(res, 503, "the server is shutting down; retry shortly");
+    if (draining) return SendErrorAndClose(res, 503, "the server is shutting down; retry shortly");
     const std::string id = NewId();
     JobRecord job;
     job.id = id;
@@ -132,11 +133,14 @@ void Server::Impl::RegisterJobRoutes() {
       std::map<std::string, std::string> fields;
       std::string current, problem_field;
       std::unique_ptr<FILE, int (*)(FILE*)> out(nullptr, std::fclose);
-      bool has_file = false, too_big = false, write_failed = false;
+      bool has_file = false, too_big = false, write_failed = false, unknown = false;
       int64_t bytes = 0;
       const bool ok = reader(
           [&](const httplib::MultipartFormData& part) {
             current = part.name;
+            static const std::set<std::string> kFields = {"file", "model", "view", "mode",
+                                                          "holdout"};
+            if (!kFields.count(current)) return problem_field = current, unknown = true, false;
             if (current == "file") {
               if (has_file) return problem_field = "file", false;
               has_file = true;
@@ -158,55 +162,66 @@ void Server::Impl::RegisterJobRoutes() {
             }
             std::string& v = fields[current];
             if (int64_t(v.size() + n) > kMaxFieldBytes) return problem_field = current, false;
+            bytes += int64_t(n);  // every byte counts toward the limit (chunked bodies too)
+            if (bytes > options.max_upload_bytes) return too_big = true, false;
             v.append(data, n);
             return true;
           });
       if (out && std::fclose(out.release()) != 0) write_failed = true;
       metrics.ObserveUpload(bytes);
       if (too_big || res.status == 413)
-        return SendError(res, 413,
-                         "the upload is larger than the server's limit of " +
-                             std::to_string(options.max_upload_bytes >> 20) + " MiB",
-                         "file");
-      if (write_failed) return SendError(res, 507, "the server could not store the upload");
+        return SendErrorAndClose(res, 413,
+                                 "the upload is larger than the server's limit of " +
+                                     std::to_string(options.max_upload_bytes >> 20) + " MiB",
+                                 "file");
+      if (write_failed) return SendErrorAndClose(res, 507, "the server could not store the upload");
+      if (unknown)
+        return SendErrorAndClose(res, 400,
+                                 "form field '" + problem_field +
+                                     "' is not an option; use file, model, view, mode, holdout",
+                                 problem_field);
       if (!problem_field.empty())
-        return SendError(res, 400,
-                         "form field '" + problem_field + "' is repeated or longer than 4 KiB",
-                         problem_field);
-      if (!ok) return SendError(res, 400, "the multipart upload is malformed or was interrupted");
+        return SendErrorAndClose(
+            res, 400, "form field '" + problem_field + "' is repeated or longer than 4 KiB",
+            problem_field);
+      if (!ok)
+        return SendErrorAndClose(res, 400, "the multipart upload is malformed or was interrupted");
       if (!has_file)
-        return SendError(res, 400,
-                         "form field 'file' (the dataset archive: .zip, .tar or .tar.gz) is "
-                         "required",
-                         "file");
+        return SendErrorAndClose(
+            res, 400,
+            "form field 'file' (the dataset archive: .zip, .tar or .tar.gz) is "
+            "required",
+            "file");
       spec = ParseJobSpecFields(fields);
       if (!spec.ok())
-        return SendError(res, 400, spec.status().message(), FieldOfError(spec.status().message()));
+        return SendErrorAndClose(res, 400, spec.status().message(),
+                                 FieldOfError(spec.status().message()));
       ArchiveProblem problem;
       auto ex = ExtractArchive(upload, staging.dir + "/dataset", options.archive, &problem);
       fs::remove(upload, ec);
       if (!ex.ok())
-        return SendError(res,
-                         problem == ArchiveProblem::kLimit  ? 413
-                         : problem == ArchiveProblem::kNone ? 500
-                                                            : 400,
-                         ex.status().message(), "file");
+        return SendErrorAndClose(res,
+                                 problem == ArchiveProblem::kLimit  ? 413
+                                 : problem == ArchiveProblem::kNone ? 500
+                                                                    : 400,
+                                 ex.status().message(), "file");
       if (Status st = ValidateDataset(*spec, ex->dataset_root); !st.ok())
-        return SendError(res, 422, st.message(), "file");
+        return SendErrorAndClose(res, 422, st.message(), "file");
       // Move into place; the dataset path keeps the archive's top folder, if any.
       const std::string rel = fs::relative(ex->dataset_root, staging.dir + "/dataset", ec).string();
       const std::string final_dir = DatasetsDir() + "/" + id;
       fs::rename(staging.dir + "/dataset", final_dir, ec);
-      if (ec) return SendError(res, 500, "cannot move the upload into place: " + ec.message());
+      if (ec)
+        return SendErrorAndClose(res, 500, "cannot move the upload into place: " + ec.message());
       job.dataset = rel == "." ? final_dir : final_dir + "/" + rel;
       job.uploaded = true;
     } else {
       const std::string type = req.get_header_value("Content-Type");
       if (type.rfind("application/json", 0) != 0)
-        return SendError(res, 415,
-                         "POST /api/v1/jobs takes multipart/form-data (an archive in field "
-                         "'file') or application/json ({\"dataset\": ...}), got '" +
-                             type + "'");
+        return SendErrorAndClose(res, 415,
+                                 "POST /api/v1/jobs takes multipart/form-data (an archive in field "
+                                 "'file') or application/json ({\"dataset\": ...}), got '" +
+                                     type + "'");
       std::string body;
       bool too_big = false;
       const bool ok = reader([&](const char* data, size_t n) {
@@ -214,28 +229,29 @@ void Server::Impl::RegisterJobRoutes() {
         body.append(data, n);
         return true;
       });
-      if (too_big) return SendError(res, 413, "the JSON body is larger than 1 MiB");
-      if (!ok) return SendError(res, 400, "the request body could not be read");
+      if (too_big) return SendErrorAndClose(res, 413, "the JSON body is larger than 1 MiB");
+      if (!ok) return SendErrorAndClose(res, 400, "the request body could not be read");
       std::string dataset;
       spec = ParseJobSpecJson(body, &dataset);
       if (!spec.ok())
-        return SendError(res, 400, spec.status().message(), FieldOfError(spec.status().message()));
+        return SendErrorAndClose(res, 400, spec.status().message(),
+                                 FieldOfError(spec.status().message()));
       if (options.allow_roots.empty())
-        return SendError(res, 403,
-                         "this server accepts no dataset paths (start it with --allow-root "
-                         "DIR); upload an archive instead",
-                         "dataset");
+        return SendErrorAndClose(res, 403,
+                                 "this server accepts no dataset paths (start it with --allow-root "
+                                 "DIR); upload an archive instead",
+                                 "dataset");
       std::error_code ec;
       const std::string canonical = fs::weakly_canonical(fs::absolute(dataset, ec), ec).string();
       bool allowed = false;
       for (const auto& root : options.allow_roots) allowed = allowed || PathWithin(canonical, root);
       if (!allowed)
-        return SendError(res, 403,
-                         "dataset '" + dataset + "' is not inside an allowed root (--allow-root)",
-                         "dataset");
+        return SendErrorAndClose(
+            res, 403, "dataset '" + dataset + "' is not inside an allowed root (--allow-root)",
+            "dataset");
       if (Status st = ValidateDataset(*spec, canonical); !st.ok())
-        return SendError(res, st.code() == StatusCode::kNotFound ? 404 : 422, st.message(),
-                         "dataset");
+        return SendErrorAndClose(res, st.code() == StatusCode::kNotFound ? 404 : 422, st.message(),
+                                 "dataset");
       job.dataset = canonical;
     }
     job.spec_json = spec->ToJson().dump();
@@ -244,7 +260,7 @@ void Server::Impl::RegisterJobRoutes() {
         std::error_code ec;
         fs::remove_all(DatasetsDir() + "/" + id, ec);
       }
-      return SendError(res, 500, st.message());
+      return SendErrorAndClose(res, 500, st.message());
     }
     wake.notify_one();
     LogEvent("info", "job_queued",
@@ -283,26 +299,28 @@ void Server::Impl::RegisterJobRoutes() {
     SendJson(res, 200, JobJson(*j));
   });
 
-  http.Delete(
-      R"(/api/v1/jobs/([^/]+))", [this](const httplib::Request& req, httplib::Response& res) {
-        const std::string id = req.matches[1];
-        auto j = store->Get(id);
-        if (!j) return SendError(res, 404, "no job '" + id + "'");
-        if (!IsFinished(j->state)) {
-          store->RequestCancel(id, NowSeconds());
-          {
-            std::lock_guard<std::mutex> lock(mutex);
-            if (auto it = live.find(id); it != live.end()) it->second->cancel = true;
-          }
-          LogEvent("info", "job_cancel", {{"id", id}, {"was", JobStateName(j->state)}});
-          j = store->Get(id);
-          return SendJson(res, j && j->state == JobState::kCancelled ? 200 : 202, JobJson(*j));
-        }
-        if (Status st = store->Delete(id); !st.ok()) return SendError(res, 500, st.message());
-        RemoveJobFiles(*j);
-        LogEvent("info", "job_deleted", {{"id", id}});
-        res.status = 204;
-      });
+  http.Delete(R"(/api/v1/jobs/([^/]+))",
+              [this](const httplib::Request& req, httplib::Response& res) {
+                const std::string id = req.matches[1];
+                auto j = store->Get(id);
+                if (!j) return SendError(res, 404, "no job '" + id + "'");
+                if (!IsFinished(j->state)) {
+                  store->RequestCancel(id, NowSeconds());
+                  {
+                    std::lock_guard<std::mutex> lock(mutex);
+                    if (auto it = live.find(id); it != live.end()) it->second->cancel = true;
+                  }
+                  LogEvent("info", "job_cancel", {{"id", id}, {"was", JobStateName(j->state)}});
+                  j = store->Get(id);
+                  if (!j) return SendError(res, 404, "no job '" + id + "'");  // deleted meanwhile
+                  return SendJson(res, j->state == JobState::kCancelled ? 200 : 202, JobJson(*j));
+                }
+                // Only a finished job is deleted, and once: a concurrent DELETE gets 404.
+                if (!store->DeleteFinished(id)) return SendError(res, 404, "no job '" + id + "'");
+                RemoveJobFiles(*j);
+                LogEvent("info", "job_deleted", {{"id", id}});
+                res.status = 204;
+              });
 }
 
 }  // namespace matfit::server

@@ -19,7 +19,7 @@ using json = nlohmann::json;
 
 std::string Num(double v) {
   char b[32];
-  std::snprintf(b, sizeof b, "%g", v);
+  std::snprintf(b, sizeof b, "%.17g", v);  // exact: 30 and 30.000001 are different keys
   return b;
 }
 

@@ -154,24 +154,41 @@ void Server::Impl::RegisterRoutes() {
       auth = "Bearer " + req.get_param_value("token");
     switch (tokens.Check(auth, write ? Access::kWrite : Access::kRead)) {
       case AuthResult::kOk: return httplib::Server::HandlerResponse::Unhandled;
+      // The body (if any) is not read: the reply closes the connection (SendErrorAndClose), so
+      // that the unread bytes can never be parsed as a next request.
       case AuthResult::kMissing:
         res.set_header("WWW-Authenticate", "Bearer");
-        SendError(res, 401,
-                  "this endpoint needs `Authorization: Bearer TOKEN` (tokens are in the server's "
-                  "--token-file)");
+        SendErrorAndClose(
+            res, 401,
+            "this endpoint needs `Authorization: Bearer TOKEN` (tokens are in the server's "
+            "--token-file)");
         return httplib::Server::HandlerResponse::Handled;
       case AuthResult::kInvalid:
         res.set_header("WWW-Authenticate", "Bearer error=\"invalid_token\"");
-        SendError(res, 401, "the bearer token is not valid");
+        SendErrorAndClose(res, 401, "the bearer token is not valid");
         return httplib::Server::HandlerResponse::Handled;
       case AuthResult::kForbidden:
-        SendError(res, 403, "this token may only read; writes need a token with the write role");
+        SendErrorAndClose(res, 403,
+                          "this token may only read; writes need a token with the write role");
         return httplib::Server::HandlerResponse::Handled;
     }
     return httplib::Server::HandlerResponse::Unhandled;
   });
+  http.set_exception_handler(
+      [](const httplib::Request&, httplib::Response& res, std::exception_ptr ep) {
+        std::string what = "unknown";
+        try {
+          std::rethrow_exception(ep);
+        } catch (const std::exception& e) {
+          what = e.what();
+        } catch (...) {
+        }
+        res.headers.erase("EXCEPTION_WHAT");
+        LogEvent("error", "exception", {{"what", what}});
+        SendError(res, 500, "internal error");
+      });
   http.set_error_handler([](const httplib::Request& req, httplib::Response& res) {
-    if (!res.body.empty()) return;
+    if (!res.body.empty() || res.content_provider_) return;  // our own error bodies
     if (res.status == 404)
       SendError(res, 404,
                 "no such endpoint: " + req.method + " " + req.path + " (see docs/openapi.json)");
@@ -233,6 +250,8 @@ Status Server::Start() {
     m.port = m.options.port;
   }
   m.http_thread = std::thread([&m] { m.http.listen_after_bind(); });
+  // stop() is a no-op until the listener runs: wait, so that an early Shutdown cannot hang.
+  while (!m.http.is_running()) std::this_thread::sleep_for(std::chrono::milliseconds(1));
   for (int i = 0; i < m.options.workers; ++i) m.workers.emplace_back([&m] { m.WorkerLoop(); });
   LogEvent("info", "listening",
            {{"bind", m.options.bind}, {"port", m.port}, {"workers", m.options.workers}});
@@ -270,8 +289,8 @@ void Server::Shutdown() {
   {
     std::lock_guard<std::mutex> lock(m.shutdown_mutex);
     m.shutdown_done = true;
+    m.shutdown_cv.notify_all();  // under the lock: a waiter may destroy the server right after
   }
-  m.shutdown_cv.notify_all();
   LogEvent("info", "stopped", json::object());
 }
 
@@ -293,6 +312,7 @@ void Server::Impl::RunOne(const JobRecord& job) {
   {
     std::lock_guard<std::mutex> lock(mutex);
     live[job.id] = lj;
+    if (hard_stop) lj->cancel = true;  // claimed just as a shutdown gave up waiting
   }
   LogEvent("info", "job_started",
            {{"id", job.id},
@@ -316,8 +336,12 @@ void Server::Impl::RunOne(const JobRecord& job) {
   StatusOr<std::string> r = DataError("the stored job options are unreadable");
   if (auto spec = JobSpecFromJson(job.spec_json); spec.ok()) {
     if (job.cancel_requested) lj->cancel = true;
-    r = lj->cancel ? StatusOr<std::string>(Status(StatusCode::kCancelled, "cancelled"))
-                   : RunJob(*spec, job.dataset, PackDir(job.id), progress);
+    try {  // a job must never take the server down (or, re-queued, take it down again)
+      r = lj->cancel ? StatusOr<std::string>(Status(StatusCode::kCancelled, "cancelled"))
+                     : RunJob(*spec, job.dataset, PackDir(job.id), progress);
+    } catch (const std::exception& e) {
+      r = Status(StatusCode::kInternal, std::string("internal error: ") + e.what());
+    }
   }
   const double seconds =
       std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();

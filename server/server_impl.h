@@ -74,6 +74,12 @@ struct Server::Impl {
 void SendError(httplib::Response& res, int status, const std::string& message,
                const std::string& field = "");
 void SendJson(httplib::Response& res, int status, const nlohmann::json& body);
+// The same error body, then the connection is closed: for replies sent before the request body
+// was read to its end (cpp-httplib 0.11 would otherwise parse the rest as a next request). The
+// body goes out through a content provider that reports failure once it has written everything,
+// which makes the library drop the keep-alive connection.
+void SendErrorAndClose(httplib::Response& res, int status, const std::string& message,
+                       const std::string& field = "");
 // Streams a file (never loaded whole into memory); 404 JSON when it is missing.
 void SendFile(httplib::Response& res, const std::string& path, const std::string& content_type);
 std::string ContentTypeFor(const std::string& path);

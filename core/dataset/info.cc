@@ -213,7 +213,7 @@ std::string DatasetInfoJson(const DatasetInfo& d) {
       {"saturated_fraction", d.saturated_fraction},
       {"nonfinite_samples", d.nonfinite_samples},
       {"warnings", d.warnings}};
-  return j.dump(2) + "\n";
+  return j.dump(2, ' ', false, nlohmann::json::error_handler_t::replace) + "\n";
 }
 
 }  // namespace matfit

@@ -106,7 +106,7 @@ std::string MakeQuadGltf(const GltfMaterialDesc& m, const std::string& bin_uri,
         {{"bufferView", 3}, {"componentType", 5126}, {"count", 4}, {"type", "VEC2"}},
         {{"bufferView", 4}, {"componentType", 5123}, {"count", 6}, {"type", "SCALAR"}}}},
   };
-  return g.dump(2) + "\n";
+  return g.dump(2, ' ', false, nlohmann::json::error_handler_t::replace) + "\n";
 }
 
 }  // namespace matfit

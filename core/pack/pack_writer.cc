@@ -308,8 +308,9 @@ Status WritePack(const MaterialMaps& m, const std::vector<uint8_t>& status, cons
         {"version", std::string("matfit ") + kMatfitVersion},
         {"time", NowIso8601()}}},
   };
-  MATFIT_RETURN_IF_ERROR(
-      WriteFileAtomic((root / "material.json").string(), material.dump(2) + "\n"));
+  MATFIT_RETURN_IF_ERROR(WriteFileAtomic(
+      (root / "material.json").string(),
+      material.dump(2, ' ', false, nlohmann::json::error_handler_t::replace) + "\n"));
   if (!info.report_json.empty())
     MATFIT_RETURN_IF_ERROR(WriteFileAtomic((root / "report.json").string(), info.report_json));
 

@@ -84,6 +84,13 @@ TEST_F(ArchiveTest, RefusesTraversalAbsoluteNamesAndLinksLeavingNothing) {
       {"backslash", [](ArchiveWriter& w) { w.File("..\\evil.txt", "x"); }, ""},
       {"symlink", [](ArchiveWriter& w) { w.Symlink("set/link", "/etc"); }, "link"},
       {"hardlink", [](ArchiveWriter& w) { w.Hardlink("set/hard", "/etc/passwd"); }, "link"},
+      {"not utf-8", [](ArchiveWriter& w) { w.File("set/p\xff.txt", "x"); }, "not UTF-8"},
+      {"file then folder",
+       [](ArchiveWriter& w) {
+         w.File("set/d", "x");
+         w.File("set/d/e.txt", "y");
+       },
+       "set/d/e.txt"},
   };
   for (const auto& c : cases)
     for (auto f : {ArchiveWriter::Format::kZip, ArchiveWriter::Format::kTarGz}) {

@@ -10,6 +10,7 @@
 #include <sys/socket.h>
 #include <unistd.h>
 
+#include <atomic>
 #include <chrono>
 #include <filesystem>
 #include <fstream>
@@ -696,6 +697,90 @@ TEST_F(ServerTest, StalledClientsTimeOutAndAnInterruptedUploadLeavesNothing) {
     std::this_thread::sleep_for(std::chrono::milliseconds(50));
   EXPECT_TRUE(fs::is_empty(uploads)) << "the partial upload was left behind";
   EXPECT_TRUE(Get("/api/v1/jobs")["jobs"].empty());
+}
+
+// Sends `bytes` on a fresh connection and reads until the server closes it (or 10 s pass).
+std::string RawExchange(int port, const std::string& bytes) {
+  const int fd = Connect(port);
+  if (fd < 0) return "";
+  timeval tv{10, 0};
+  ::setsockopt(fd, SOL_SOCKET, SO_RCVTIMEO, &tv, sizeof tv);
+  ::send(fd, bytes.data(), bytes.size(), MSG_NOSIGNAL);
+  std::string reply;
+  char buf[4096];
+  for (ssize_t n; (n = ::recv(fd, buf, sizeof buf, 0)) > 0;) reply.append(buf, size_t(n));
+  ::close(fd);
+  return reply;
+}
+
+int CountResponses(const std::string& reply) {
+  int n = 0;
+  for (size_t at = 0; (at = reply.find("HTTP/1.1 ", at)) != std::string::npos; ++at) ++n;
+  return n;
+}
+
+TEST_F(ServerTest, ARejectedBodyIsNeverParsedAsTheNextRequest) {
+  const std::string tokens = (tmp_ / "tokens").string();
+  std::ofstream(tokens) << "write-token-0123456789\n";
+  opts_.token_file = tokens;
+  Start();
+  const std::string smuggled = "GET /healthz HTTP/1.1\r\nHost: x\r\n\r\n";
+  auto post = [&](const std::string& auth, const std::string& body, bool chunked) {
+    std::string h = "POST /api/v1/jobs HTTP/1.1\r\nHost: x\r\n" + auth +
+                    "Content-Type: multipart/form-data; boundary=bb\r\n";
+    if (!chunked) return h + "Content-Length: " + std::to_string(body.size()) + "\r\n\r\n" + body;
+    char size[32];
+    std::snprintf(size, sizeof size, "%zx", body.size());
+    return h + "Transfer-Encoding: chunked\r\n\r\n" + size + "\r\n" + body + "\r\n0\r\n\r\n";
+  };
+  auto field = [](const std::string& name, const std::string& v) {
+    return "--bb\r\nContent-Disposition: form-data; name=\"" + name + "\"\r\n\r\n" + v + "\r\n";
+  };
+  // 401 before the body is read: the reply closes the connection.
+  std::string r =
+      RawExchange(server_->port(), post("", field("model", "lambert") + smuggled, false));
+  EXPECT_NE(r.find("401"), std::string::npos) << r;
+  EXPECT_EQ(CountResponses(r), 1) << "the unread body was parsed as a request:\n" << r;
+  // A repeated field stops the upload early; the rest of the body is never a request.
+  const std::string auth = "Authorization: Bearer write-token-0123456789\r\n";
+  std::string body = field("model", "lambert") + field("model", "mean") + smuggled + "--bb--\r\n";
+  r = RawExchange(server_->port(), post(auth, body, false));
+  EXPECT_NE(r.find("400"), std::string::npos) << r;
+  EXPECT_EQ(CountResponses(r), 1) << r;
+  // Chunked, with many unknown fields: refused at the first one, not after reading them all.
+  body.clear();
+  for (int i = 0; i < 2000; ++i) body += field("f" + std::to_string(i), std::string(1000, 'x'));
+  r = RawExchange(server_->port(), post(auth, body + "--bb--\r\n", true));
+  EXPECT_NE(r.find("not an option"), std::string::npos) << r.substr(0, 300);
+  EXPECT_EQ(CountResponses(r), 1);
+  EXPECT_TRUE(fs::is_empty(fs::path(opts_.data_dir) / "uploads"));
+}
+
+TEST_F(ServerTest, ConcurrentDeletesDeleteOnceAndNeverFail) {
+  Start();
+  for (int round = 0; round < 5; ++round) {
+    auto r = Upload(ZipFixture("plastic-ring12"), {{"model", "mean"}});
+    ASSERT_TRUE(r);
+    const std::string id = json::parse(r->body)["id"];
+    ASSERT_EQ(WaitFor(id, Finished)["state"], "succeeded");
+    std::atomic<int> deleted{0}, missing{0}, other{0};
+    std::vector<std::thread> threads;
+    for (int t = 0; t < 4; ++t)
+      threads.emplace_back([&] {
+        httplib::Client c("127.0.0.1", server_->port());
+        auto d = c.Delete(("/api/v1/jobs/" + id).c_str());
+        if (d && d->status == 204)
+          deleted++;
+        else if (d && d->status == 404)
+          missing++;
+        else
+          other++;
+      });
+    for (auto& t : threads) t.join();
+    EXPECT_EQ(deleted, 1);
+    EXPECT_EQ(missing, 3);
+    EXPECT_EQ(other, 0);
+  }
 }
 
 }  // namespace
