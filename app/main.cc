@@ -58,6 +58,7 @@ int main(int argc, char** argv) {
   matfit::app::RegisterRender(app, &exit_code);
   matfit::app::RegisterLeaf(app, &exit_code);
   matfit::app::RegisterServe(app, &exit_code);
+  matfit::app::RegisterCapture(app, &exit_code);
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {

@@ -1,0 +1,45 @@
+// Light directions from images of a mirror (chrome) sphere (compute only).
+//   Sphere: centre and radius from the mask — an algebraic (Kåsa) circle fit to its boundary
+//   pixels, started from the centroid and √(area/π).
+//   Highlight: the intensity-weighted centroid of the pixels within `highlight_fraction` of the
+//   brightest value inside the sphere (on the max over channels).
+//   Normal at the highlight (orthographic): n = ((x − cx)/r, −(y − cy)/r, √(1 − …)), y up.
+//   Light: the mirror direction of the view, l = 2(n·v)n − v, with v = (0, 0, 1), or, with a
+//   perspective camera of focal length f (pixels, principal point at the image centre), v the
+//   unit vector from the highlight point toward the camera centre.
+#pragma once
+
+#include <vector>
+
+#include "core/image.h"
+#include "core/status.h"
+#include "core/vec3.h"
+
+namespace matfit::capture {
+
+struct SphereCalibrationOptions {
+  double highlight_fraction = 0.1;  // pixels ≥ (1 − fraction) × max form the highlight
+  bool perspective = false;
+  double focal_px = 0;  // perspective only
+};
+
+struct SphereFit {
+  double cx = 0, cy = 0, radius = 0;  // pixels (x right, y down)
+  double rms_px = 0;                  // of the boundary fit
+};
+
+struct LightEstimate {
+  Vec3 direction;         // unit, x right, y up, z toward the camera
+  double hx = 0, hy = 0;  // highlight centroid, pixels
+  double peak = 0;        // brightest value
+  int pixels = 0;         // in the highlight
+};
+
+StatusOr<SphereFit> FitSphere(const Image& mask);
+StatusOr<LightEstimate> EstimateLight(const Image& img, const SphereFit& s,
+                                      const SphereCalibrationOptions& o);
+
+// Angle between unit vectors, degrees.
+double AngleDeg(const Vec3& a, const Vec3& b);
+
+}  // namespace matfit::capture
