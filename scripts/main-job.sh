@@ -1,7 +1,8 @@
 #!/usr/bin/env bash
 # The README's main job: install dependencies, build, then on the bundled data: summarise
 # every dataset, synthesise one with ground truth, fit it → material pack → summary table;
-# preview renders; leaf materials from the bundled leaf scan (and the shared sheet if present).
+# preview renders; leaf materials from the bundled leaf scan (and the shared sheet if present);
+# a simulated capture fitted back; chrome-sphere calibration; a service session on loopback.
 set -euo pipefail
 root=$(cd "$(dirname "$0")/.." && pwd)
 "$root/scripts/install-deps.sh"
@@ -41,6 +42,20 @@ if [ -d "$sheet" ]; then
   echo
   echo "== matfit leaf: the shared real leaf sheet (23 leaves) =="
   "$matfit" leaf "$sheet" --out "$out/leaf-sheet-leaves" --force --quiet
+fi
+echo
+echo "== matfit capture: simulated camera + LED dome → dataset → matfit fit =="
+cat > "$out/capture-plan.json" <<'PLAN'
+{"schema": "matfit.captureplan/1", "exposures_s": [0.004, 0.016], "repeats": 2, "dark_frames": 2}
+PLAN
+"$matfit" capture --camera 'sim:camera?material=plaster&size=64&seed=2' --rig 'sim:rig?lights=bonn81' \
+  --plan "$out/capture-plan.json" --out "$out/captured" --force --quiet
+"$matfit" fit "$out/captured" --model lambert --holdout 3 --out "$out/captured-pack" --force --quiet
+chrome="$root/../shared/data/psm/chrome"
+if [ -d "$chrome" ]; then
+  echo
+  echo "== matfit calibrate-lights: the shared chrome sphere =="
+  "$matfit" calibrate-lights "$chrome" --out "$out/chrome-lights.txt" --quiet
 fi
 echo
 echo "== matfit serve: the service on loopback — upload the fixture, poll, fetch the pack =="
