@@ -190,6 +190,9 @@ StatusOr<CapturePlan> ReadPlan(const std::string& path) {
     if (!f.is_object() || !f.contains("pixel_format") || !f["pixel_format"].is_string() ||
         !ParsePixelFormat(f["pixel_format"].get<std::string>(), &p.format.pixel_format))
       return bad("format", "needs pixel_format YUYV, MJPEG, GREY, Y16 or RGB24");
+    if (!f.value("width", json(0)).is_number_integer() ||
+        !f.value("height", json(0)).is_number_integer())
+      return bad("format", "needs integer width and height");
     p.format.width = f.value("width", 0), p.format.height = f.value("height", 0);
     if (p.format.width <= 0 || p.format.height <= 0)
       return bad("format", "needs positive width and height");
@@ -231,7 +234,14 @@ StatusOr<CaptureResult> RunCapture(Camera& cam, LightRig& rig, const CapturePlan
       return InvalidArgument("'" + out +
                              "' exists and is not a capture; choose another --out "
                              "or pass --force");
-    if (overwrite) fs::remove_all(dir, ec);
+    if (overwrite && fs::exists(dir, ec) && !fs::is_empty(dir, ec)) {
+      // --force replaces a capture, never an arbitrary folder.
+      if (!fs::exists(record_path, ec))
+        return InvalidArgument("'" + out +
+                               "' is not a capture (no capture.json); --force only replaces "
+                               "captures — choose another --out");
+      fs::remove_all(dir, ec);
+    }
     fs::create_directories(dir, ec);
     if (ec) return IoError("cannot create '" + out + "': " + ec.message());
     record = {{"schema", "matfit.capture/1"},

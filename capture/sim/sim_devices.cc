@@ -58,7 +58,7 @@ class SimCamera final : public Camera {
     char sep = '?';
     for (const auto& [k, v] : q)
       if (k != "fail_after") uri_ += sep + k + "=" + v, sep = '&';
-    seed_ = uint64_t(Num(q, "seed", 1));
+    seed_ = uint64_t(int64_t(Num(q, "seed", 1)));
     full_well_ = Num(q, "full_well", 20000);
     read_noise_ = Num(q, "read_noise", 0.0005);
     black_ = Num(q, "black", 0.004);
@@ -255,7 +255,7 @@ StatusOr<std::unique_ptr<Camera>> OpenSimCamera(const std::string& uri) {
     for (auto& v : f.mask.data()) v = 1;
     m = std::move(f);
   } else {
-    m = synth::MakeMaterial(material, size, uint64_t(Num(q, "seed", 1)));
+    m = synth::MakeMaterial(material, size, uint64_t(int64_t(Num(q, "seed", 1))));
   }
   if (!m.ok()) return InvalidArgument("camera " + uri + ": " + m.status().message());
   return std::unique_ptr<Camera>(new SimCamera(uri, std::move(*m), q));

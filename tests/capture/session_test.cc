@@ -181,6 +181,19 @@ TEST_F(SessionTest, PlanAndDeviceErrorsAreClear) {
                 .message()
                 .find("LED 99 does not exist"),
             std::string::npos);
+  bad =
+      ReadPlan(Plan(R"({"exposures_s": [0.01], "format": {"pixel_format": "Y16", "width": "x"}})"));
+  EXPECT_NE(bad.status().message().find("integer width"), std::string::npos);
+  // --force replaces captures only, never a folder of the user's.
+  fs::create_directories(tmp_ / "mine");
+  std::ofstream(tmp_ / "mine" / "precious.txt") << "keep";
+  auto one = ReadPlan(Plan(R"({"exposures_s": [0.01]})"));
+  EXPECT_NE(RunCapture(**cam, **rig, *one, (tmp_ / "mine").string(), true)
+                .status()
+                .message()
+                .find("not a capture"),
+            std::string::npos);
+  EXPECT_TRUE(fs::exists(tmp_ / "mine" / "precious.txt"));
   auto slow = ReadPlan(Plan(R"({"exposures_s": [20]})"));
   EXPECT_NE(RunCapture(**cam, **rig, *slow, (tmp_ / "y").string(), false)
                 .status()
