@@ -66,20 +66,28 @@ std::vector<std::string> SphereImages(const std::string& dir, std::string* mask)
   std::vector<std::pair<long, std::string>> files;
   std::error_code ec;
   static const std::regex num(".*?(\\d+)\\D*$");
+  const std::string given_mask =
+      mask->empty() ? "" : fs::weakly_canonical(fs::absolute(*mask, ec), ec).string();
   for (const auto& e : fs::directory_iterator(dir, ec)) {
-    const std::string n = e.path().filename().string();
+    std::string n = e.path().filename().string();
+    std::transform(n.begin(), n.end(), n.begin(), ::tolower);
     std::string ext = e.path().extension().string();
     std::transform(ext.begin(), ext.end(), ext.begin(), ::tolower);
     if (ext != ".png" && ext != ".tga" && ext != ".exr" && ext != ".tif" && ext != ".tiff" &&
         ext != ".jpg")
       continue;
+    if (!given_mask.empty() &&
+        fs::weakly_canonical(fs::absolute(e.path(), ec), ec).string() == given_mask)
+      continue;  // the mask named by --mask is not a light image
     if (n.find("mask") != std::string::npos) {
       if (mask->empty()) *mask = e.path().string();
       continue;
     }
     std::smatch m;
     const std::string stem = e.path().stem().string();
-    files.push_back({std::regex_match(stem, m, num) ? std::stol(m[1]) : 0, e.path().string()});
+    long index = 0;
+    if (std::regex_match(stem, m, num) && m[1].length() <= 9) index = std::stol(m[1]);
+    files.push_back({index, e.path().string()});
   }
   std::sort(files.begin(), files.end());
   std::vector<std::string> out;
@@ -88,6 +96,8 @@ std::vector<std::string> SphereImages(const std::string& dir, std::string* mask)
 }
 
 int RunCalibrate(CalibrateArgs a) {
+  if (!(a.highlight_fraction > 0 && a.highlight_fraction < 1))
+    return Fail("calibrate-lights", "--highlight-fraction must be in (0, 1)");
   auto images = SphereImages(a.dir, &a.mask);
   if (images.empty()) return Fail("calibrate-lights", ("no images in '" + a.dir + "'").c_str());
   if (a.mask.empty())

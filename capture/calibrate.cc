@@ -75,6 +75,9 @@ StatusOr<LightEstimate> EstimateLight(const Image& img, const SphereFit& s,
       const double wt = v - thr + 1e-6;
       sx += wt * x, sy += wt * y, sw += wt, ++count;
     }
+  if (!(o.highlight_fraction > 0 && o.highlight_fraction < 1))
+    return InvalidArgument("highlight fraction must be in (0, 1)");
+  if (!(sw > 0)) return DataError("no highlight pixels on the sphere");
   LightEstimate e;
   e.hx = sx / sw, e.hy = sy / sw, e.peak = peak, e.pixels = count;
   const double nx = (e.hx - s.cx) / s.radius, ny = -(e.hy - s.cy) / s.radius;

@@ -21,8 +21,9 @@ Image MergeBrackets(const std::vector<Bracket>& b, const HdrOptions& o, int64_t*
   Image out(w, h, ch);
   int64_t sat = 0;
   for (int64_t p = 0; p < n; ++p) {
-    bool clipped_everywhere = true;
+    bool any_channel_clipped = false;
     for (int c = 0; c < ch; ++c) {
+      bool clipped_everywhere = true;
       double num = 0, den = 0;
       for (const Bracket& k : b) {
         const float f = k.frame->Plane(c)[p];
@@ -34,6 +35,7 @@ Image MergeBrackets(const std::vector<Bracket>& b, const HdrOptions& o, int64_t*
         num += wgt * (f - d) / k.exposure_s;
         den += wgt;
       }
+      any_channel_clipped = any_channel_clipped || clipped_everywhere;
       if (den > 0) {
         out.Plane(c)[p] = float(num / den);
       } else {
@@ -42,7 +44,7 @@ Image MergeBrackets(const std::vector<Bracket>& b, const HdrOptions& o, int64_t*
         out.Plane(c)[p] = float((k.frame->Plane(c)[p] - d) / k.exposure_s);
       }
     }
-    sat += clipped_everywhere;
+    sat += any_channel_clipped;
   }
   if (saturated) *saturated = sat;
   return out;

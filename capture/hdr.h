@@ -24,7 +24,8 @@ struct HdrOptions {
   double low = 0.01, high = 0.95;  // usable raw range
 };
 
-// All frames share size and channels. saturated_pixels counts pixels clipped at every exposure.
+// All frames share size and channels. saturated_pixels counts pixels with a channel clipped at
+// every exposure.
 Image MergeBrackets(const std::vector<Bracket>& brackets, const HdrOptions& o,
                     int64_t* saturated_pixels);
 

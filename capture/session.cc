@@ -32,7 +32,8 @@ json PlanJson(const CapturePlan& p) {
             {"dark_frames", p.dark_frames},
             {"level", p.level},
             {"flat_field", p.flat_field},
-            {"timeout_ms", p.timeout_ms}};
+            {"timeout_ms", p.timeout_ms},
+            {"hdr_range", {p.hdr.low, p.hdr.high}}};
   if (p.has_format)
     j["format"] = {{"pixel_format", PixelFormatName(p.format.pixel_format)},
                    {"width", p.format.width},
@@ -89,7 +90,7 @@ StatusOr<Image> Bracketed(Camera& cam, const CapturePlan& p, const std::vector<I
 Status Setup(Camera& cam, LightRig& rig, const CapturePlan& p) {
   cam.AttachLightRig(&rig);
   if (p.has_format) MATFIT_RETURN_IF_ERROR(cam.SetFormat(p.format));
-  MATFIT_RETURN_IF_ERROR(cam.SetGain(p.gain));
+  if (p.gain != 1 || cam.Info().gain) MATFIT_RETURN_IF_ERROR(cam.SetGain(p.gain));
   for (int led : p.leds)
     if (led < 0 || led >= rig.Count())
       return InvalidArgument("plan '" + p.source + "': LED " + std::to_string(led) +
@@ -109,8 +110,12 @@ ImageWriteOptions Exr() {
 bool CapturePlan::Check(std::string* why) const {
   auto fail = [&](const std::string& m) { return *why = "plan '" + source + "': " + m, false; };
   if (exposures_s.empty()) return fail("'exposures_s' needs at least one exposure");
-  for (double t : exposures_s)
+  for (double t : exposures_s) {
     if (!(t > 0 && t <= 3600)) return fail("every exposure must be in (0, 3600] s");
+    if (t * 1000 >= timeout_ms)
+      return fail("exposure " + std::to_string(t) + " s is longer than 'timeout_ms' (" +
+                  std::to_string(timeout_ms) + " ms); raise the timeout");
+  }
   if (!(gain >= 1 && gain <= 16)) return fail("'gain' must be in [1, 16]");
   if (repeats < 1 || repeats > 1000) return fail("'repeats' must be in [1, 1000]");
   if (dark_frames < 0 || dark_frames > 1000) return fail("'dark_frames' must be in [0, 1000]");
@@ -143,13 +148,17 @@ StatusOr<CapturePlan> ReadPlan(const std::string& path) {
       "level",  "flat_field", "format",      "timeout_ms", "hdr_range"};
   for (const auto& [k, v] : j.items())
     if (!kFields.count(k)) return bad(k, "is not a plan field (see docs/capture.md)");
+  if (j.contains("schema") && j["schema"] != "matfit.captureplan/1")
+    return bad("schema", "must be \"matfit.captureplan/1\"");
   if (j.contains("leds")) {
     if (j["leds"].is_string() && j["leds"] == "all") {
     } else if (j["leds"].is_array()) {
       for (const auto& v : j["leds"]) {
-        if (!v.is_number_integer()) return bad("leds", "must list LED indices (integers)");
-        p.leds.push_back(v.get<int>());
+        if (!v.is_number_integer() || v.get<int64_t>() < 0 || v.get<int64_t>() > 65535)
+          return bad("leds", "must list LED indices (integers in [0, 65535])");
+        p.leds.push_back(int(v.get<int64_t>()));
       }
+      if (p.leds.empty()) return bad("leds", "lists no LED; give indices or \"all\"");
     } else {
       return bad("leds", "must be \"all\" or a list of LED indices");
     }
@@ -166,13 +175,19 @@ StatusOr<CapturePlan> ReadPlan(const std::string& path) {
     *out = j[f].get<double>();
     return Status::Ok();
   };
-  double repeats = p.repeats, darks = p.dark_frames, timeout = p.timeout_ms;
+  auto integer = [&](const char* f, int64_t lo, int64_t hi, int* out) -> Status {
+    if (!j.contains(f)) return Status::Ok();
+    if (!j[f].is_number_integer() || j[f].get<int64_t>() < lo || j[f].get<int64_t>() > hi)
+      return bad(f,
+                 "must be an integer in [" + std::to_string(lo) + ", " + std::to_string(hi) + "]");
+    *out = int(j[f].get<int64_t>());
+    return Status::Ok();
+  };
   MATFIT_RETURN_IF_ERROR(number("gain", &p.gain));
-  MATFIT_RETURN_IF_ERROR(number("repeats", &repeats));
-  MATFIT_RETURN_IF_ERROR(number("dark_frames", &darks));
+  MATFIT_RETURN_IF_ERROR(integer("repeats", 1, 1000, &p.repeats));
+  MATFIT_RETURN_IF_ERROR(integer("dark_frames", 0, 1000, &p.dark_frames));
   MATFIT_RETURN_IF_ERROR(number("level", &p.level));
-  MATFIT_RETURN_IF_ERROR(number("timeout_ms", &timeout));
-  p.repeats = int(repeats), p.dark_frames = int(darks), p.timeout_ms = int(timeout);
+  MATFIT_RETURN_IF_ERROR(integer("timeout_ms", 1, 3600000, &p.timeout_ms));
   if (j.contains("hdr_range")) {
     const json& r = j["hdr_range"];
     if (!r.is_array() || r.size() != 2 || !r[0].is_number() || !r[1].is_number())
@@ -190,12 +205,11 @@ StatusOr<CapturePlan> ReadPlan(const std::string& path) {
     if (!f.is_object() || !f.contains("pixel_format") || !f["pixel_format"].is_string() ||
         !ParsePixelFormat(f["pixel_format"].get<std::string>(), &p.format.pixel_format))
       return bad("format", "needs pixel_format YUYV, MJPEG, GREY, Y16 or RGB24");
-    if (!f.value("width", json(0)).is_number_integer() ||
-        !f.value("height", json(0)).is_number_integer())
-      return bad("format", "needs integer width and height");
-    p.format.width = f.value("width", 0), p.format.height = f.value("height", 0);
-    if (p.format.width <= 0 || p.format.height <= 0)
-      return bad("format", "needs positive width and height");
+    const json w = f.value("width", json(0)), h = f.value("height", json(0));
+    if (!w.is_number_integer() || !h.is_number_integer() || w.get<int64_t>() < 1 ||
+        h.get<int64_t>() < 1 || w.get<int64_t>() > 65536 || h.get<int64_t>() > 65536)
+      return bad("format", "needs integer width and height in [1, 65536]");
+    p.format.width = int(w.get<int64_t>()), p.format.height = int(h.get<int64_t>());
     p.has_format = true;
   }
   std::string why;
@@ -217,30 +231,53 @@ StatusOr<CaptureResult> RunCapture(Camera& cam, LightRig& rig, const CapturePlan
   std::error_code ec;
   const fs::path dir(out), record_path = dir / "capture.json";
 
+  // The flat field is read before anything in `out` changes (it may live there).
+  Image flat;
+  if (!plan.flat_field.empty()) {
+    ImageReadOptions ro;
+    ro.color_space = ColorSpaceChoice::kLinear;
+    auto f = ReadImage(plan.flat_field, ro);
+    if (!f.ok()) return f.status();
+    if (f->width() != cam.Format().width || f->height() != cam.Format().height)
+      return InvalidArgument("flat field '" + plan.flat_field + "' is " +
+                             std::to_string(f->width()) + "x" + std::to_string(f->height()) +
+                             " but the camera delivers " + std::to_string(cam.Format().width) +
+                             "x" + std::to_string(cam.Format().height));
+    flat = NormaliseFlat(*f);
+  }
+
   // Resume: same plan and devices, images already written are kept.
   json record;
-  if (fs::exists(record_path, ec) && !overwrite) {
+  const bool have_record = fs::exists(record_path, ec);
+  if (have_record) {
     std::ifstream in(record_path);
     record = json::parse(in, nullptr, false);
-    if (!record.is_object() || record.value("plan", json()) != plan_json ||
-        record.value("camera", "") != camera_uri || record.value("rig", "") != rig_name)
+    if (!record.is_object() || !record.contains("images") || !record["images"].is_array())
+      return DataError("'" + record_path.string() +
+                       "' is not a capture record; move it away or choose another --out");
+  }
+  if (have_record && !overwrite) {
+    if (record.value("plan", json()) != plan_json ||
+        record.value("camera", json()) != json(camera_uri) ||
+        record.value("rig", json()) != json(rig_name))
       return InvalidArgument("'" + out +
                              "' holds a capture with another plan or other devices; choose "
                              "another --out or pass --force to start again");
-    if (record.value("complete", false))
+    if (record.value("complete", json(false)) == json(true))
       return InvalidArgument("'" + out + "' holds a finished capture; pass --force to redo it");
   } else {
-    if (fs::exists(dir, ec) && !overwrite && !fs::is_empty(dir, ec))
+    if (fs::exists(dir, ec) && !fs::is_empty(dir, ec) && !have_record)
       return InvalidArgument("'" + out +
-                             "' exists and is not a capture; choose another --out "
-                             "or pass --force");
-    if (overwrite && fs::exists(dir, ec) && !fs::is_empty(dir, ec)) {
-      // --force replaces a capture, never an arbitrary folder.
-      if (!fs::exists(record_path, ec))
-        return InvalidArgument("'" + out +
-                               "' is not a capture (no capture.json); --force only replaces "
-                               "captures — choose another --out");
-      fs::remove_all(dir, ec);
+                             "' exists and is not a capture (no capture.json); choose another "
+                             "--out" +
+                             (overwrite ? " (--force only replaces captures)" : ""));
+    if (have_record) {  // --force on a capture: remove what a capture writes, nothing else
+      for (const auto& e : fs::directory_iterator(dir, ec)) {
+        const std::string n = e.path().filename().string();
+        if ((n.rfind("img_", 0) == 0 && e.path().extension() == ".exr") || n == "lights.lp" ||
+            n == "capture.json" || n == "truth")
+          fs::remove_all(e.path(), ec);
+      }
     }
     fs::create_directories(dir, ec);
     if (ec) return IoError("cannot create '" + out + "': " + ec.message());
@@ -262,23 +299,20 @@ StatusOr<CaptureResult> RunCapture(Camera& cam, LightRig& rig, const CapturePlan
     return WriteFileAtomic(record_path.string(),
                            record.dump(2, ' ', false, json::error_handler_t::replace) + "\n");
   };
+  // Images recorded and present are done; records of missing files are dropped (recaptured).
   std::map<int, bool> done;
-  for (const auto& im : record["images"])
-    if (fs::exists(dir / im.value("file", ""), ec)) done[im.value("index", -1)] = true;
-
-  Image flat;
-  if (!plan.flat_field.empty()) {
-    ImageReadOptions ro;
-    ro.color_space = ColorSpaceChoice::kLinear;
-    auto f = ReadImage(plan.flat_field, ro);
-    if (!f.ok()) return f.status();
-    if (f->width() != cam.Format().width || f->height() != cam.Format().height)
-      return InvalidArgument("flat field '" + plan.flat_field + "' is " +
-                             std::to_string(f->width()) + "x" + std::to_string(f->height()) +
-                             " but the camera delivers " + std::to_string(cam.Format().width) +
-                             "x" + std::to_string(cam.Format().height));
-    flat = NormaliseFlat(*f);
+  json kept = json::array();
+  for (const auto& im : record["images"]) {
+    if (!im.is_object() || !im.contains("index") || !im["index"].is_number_integer() ||
+        !im.contains("file") || !im["file"].is_string())
+      continue;
+    if (fs::exists(dir / im["file"].get<std::string>(), ec)) {
+      done[im["index"].get<int>()] = true;
+      kept.push_back(im);
+    }
   }
+  record["images"] = kept;
+
   auto darks = Darks(cam, rig, plan);
   if (!darks.ok()) return darks.status();
   CaptureResult result;

@@ -239,7 +239,8 @@ StatusOr<std::unique_ptr<Camera>> OpenSimCamera(const std::string& uri) {
     return InvalidArgument("camera " + uri + ": size must be in [8, 4096]");
   if (q.count("format")) {
     PixelFormat f;
-    if (!ParsePixelFormat(q["format"], &f))
+    if (!ParsePixelFormat(q["format"], &f) ||
+        (f != PixelFormat::kY16 && f != PixelFormat::kGrey && f != PixelFormat::kRgb24))
       return InvalidArgument("camera " + uri + ": format must be Y16, GREY or RGB24");
   }
   StatusOr<MaterialMaps> m = InvalidArgument("");

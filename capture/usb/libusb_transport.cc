@@ -124,10 +124,9 @@ StatusOr<std::unique_ptr<UsbTransport>> OpenLibusbTransport(uint16_t vid, uint16
     libusb_exit(ctx);
     return Status(StatusCode::kNotFound, "light rig " + uri + ": " + why);
   }
-  libusb_device* dev = libusb_get_device(found);
-  const std::string desc = uri + " (bus " + std::to_string(libusb_get_bus_number(dev)) +
-                           " address " + std::to_string(libusb_get_device_address(dev)) + ")";
-  return std::unique_ptr<UsbTransport>(new LibusbTransport(ctx, found, desc));
+  // The identity is vid:pid[:serial] only: a re-plugged rig gets a new bus address but is the
+  // same rig (a capture resumes with it).
+  return std::unique_ptr<UsbTransport>(new LibusbTransport(ctx, found, uri));
 }
 
 std::vector<std::string> ListLibusbRigs() {

@@ -19,7 +19,7 @@ class UsbTransport {
                       uint8_t* data, uint16_t length, unsigned timeout_ms) = 0;
   // True while the device is attached (a hotplug "left" event clears it).
   virtual bool Connected() = 0;
-  virtual std::string Describe() const = 0;  // "usb:1209:4d46:SERIAL (bus 1 addr 7)"
+  virtual std::string Describe() const = 0;  // "usb:1209:4d46[:SERIAL]" (stable across re-plugs)
 };
 
 // Opens the first device with vid:pid (and serial, when not empty) and claims interface 0.

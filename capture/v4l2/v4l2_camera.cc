@@ -6,8 +6,10 @@
 
 #include <algorithm>
 #include <cerrno>
+#include <chrono>
 #include <cmath>
 #include <cstring>
+#include <ctime>
 #include <filesystem>
 #include <vector>
 
@@ -156,6 +158,9 @@ class V4l2Camera final : public Camera {
 
   StatusOr<Image> Grab(int timeout_ms) override {
     if (fd_ < 0) return Err("is closed");
+    const auto deadline = std::chrono::steady_clock::now() + std::chrono::milliseconds(timeout_ms);
+    timespec called{};
+    clock_gettime(CLOCK_MONOTONIC, &called);
     if (!streaming_) MATFIT_RETURN_IF_ERROR(StartStreaming());
     // Frames already waiting were exposed before this call (e.g. under the previous light):
     // hand them back (at most one per buffer) and wait for a fresh one.
@@ -167,7 +172,10 @@ class V4l2Camera final : public Camera {
       io_->Ioctl(fd_, VIDIOC_QBUF, &b);
     }
     for (;;) {
-      const int r = io_->PollReadable(fd_, timeout_ms);
+      const int left = int(std::chrono::duration_cast<std::chrono::milliseconds>(
+                               deadline - std::chrono::steady_clock::now())
+                               .count());
+      const int r = left <= 0 ? 0 : io_->PollReadable(fd_, left);
       if (r == 0)
         return Status(StatusCode::kUnavailable, "camera " + path_ + ": no frame within " +
                                                     std::to_string(timeout_ms) +
@@ -181,13 +189,20 @@ class V4l2Camera final : public Camera {
         return Lost();
       }
       if (b.index >= maps_.size()) return Err("returned an unknown buffer index");
-      const bool corrupt = (b.flags & V4L2_BUF_FLAG_ERROR) != 0;
+      // A frame whose exposure started before this call (monotonic driver timestamp) saw the
+      // previous light or exposure: skip it.
+      const bool stale =
+          (b.flags & V4L2_BUF_FLAG_TIMESTAMP_MASK) == V4L2_BUF_FLAG_TIMESTAMP_MONOTONIC &&
+          (b.timestamp.tv_sec != 0 || b.timestamp.tv_usec != 0) &&
+          (b.timestamp.tv_sec < called.tv_sec ||
+           (b.timestamp.tv_sec == called.tv_sec && b.timestamp.tv_usec * 1000L < called.tv_nsec));
+      const bool corrupt = stale || (b.flags & V4L2_BUF_FLAG_ERROR) != 0;
       StatusOr<Image> img = corrupt
                                 ? StatusOr<Image>(DataError("corrupt frame"))
                                 : ConvertFrame(static_cast<const uint8_t*>(maps_[b.index].first),
                                                b.bytesused, format_, bytesperline_);
       if (io_->Ioctl(fd_, VIDIOC_QBUF, &b) != 0) return Lost();
-      if (corrupt) continue;  // the driver flagged it: take the next one
+      if (corrupt) continue;  // flagged by the driver, or stale: take the next one (same deadline)
       if (!img.ok()) return Err("sent a frame that cannot be decoded: " + img.status().message());
       return img;
     }
@@ -205,20 +220,41 @@ class V4l2Camera final : public Camera {
     return Status(StatusCode::kUnavailable, "camera " + path_ + " " + what);
   }
   Status Lost() {
+    const int e = errno;  // before the clean-up ioctls overwrite it
     StopStreaming();
+    if (e != ENODEV && e != ENXIO && e != EIO)
+      return Status(StatusCode::kUnavailable,
+                    "camera " + path_ + ": streaming failed (" + std::strerror(e) + ")");
     return Status(StatusCode::kUnavailable,
-                  "camera " + path_ + " was lost (unplugged or reset: " + std::strerror(errno) +
+                  "camera " + path_ + " was lost (unplugged or reset: " + std::strerror(e) +
                       "); reconnect it and resume the capture");
   }
 
   Status StartStreaming() {
+    Status st = TryStartStreaming();
+    if (!st.ok()) {
+      StopStreaming();
+      FreeBuffers();  // REQBUFS 0 even when nothing was mapped
+    }
+    return st;
+  }
+
+  void FreeBuffers() {
+    v4l2_requestbuffers req{};
+    req.type = V4L2_BUF_TYPE_VIDEO_CAPTURE;
+    req.memory = V4L2_MEMORY_MMAP;
+    io_->Ioctl(fd_, VIDIOC_REQBUFS, &req);
+  }
+
+  Status TryStartStreaming() {
     v4l2_requestbuffers req{};
     req.count = uint32_t(nbuf_);
     req.type = V4L2_BUF_TYPE_VIDEO_CAPTURE;
     req.memory = V4L2_MEMORY_MMAP;
-    if (io_->Ioctl(fd_, VIDIOC_REQBUFS, &req) != 0 || req.count < 2)
+    if (io_->Ioctl(fd_, VIDIOC_REQBUFS, &req) != 0)
       return errno == EBUSY ? Err("is busy: another program is streaming from it")
                             : Err("cannot allocate streaming buffers");
+    if (req.count < 2) return Err("granted fewer than 2 streaming buffers");
     for (uint32_t i = 0; i < req.count; ++i) {
       v4l2_buffer b{};
       b.type = V4L2_BUF_TYPE_VIDEO_CAPTURE;

@@ -8,6 +8,7 @@
 #include <filesystem>
 #include <fstream>
 #include <random>
+#include <sstream>
 
 #include "capture/calibrate.h"
 #include "capture/hdr.h"
@@ -139,6 +140,14 @@ TEST_F(SessionTest, AnInterruptedCaptureResumesToTheSameDataset) {
                 .message()
                 .find("another plan"),
             std::string::npos);
+  auto other_hdr = ReadPlan(Plan(R"({"exposures_s": [0.01], "dark_frames": 1,
+                                      "hdr_range": [0.3, 0.4]})"));
+  EXPECT_NE(RunCapture(**again, **rig, *other_hdr, (tmp_ / "part").string(), false)
+                .status()
+                .message()
+                .find("another plan"),
+            std::string::npos)
+      << "the merge range is part of the plan's identity";
   auto resumed = RunCapture(**again, **rig, *plan, (tmp_ / "part").string(), false);
   ASSERT_TRUE(resumed.ok()) << resumed.status().message();
   EXPECT_EQ(resumed->resumed, 6);
@@ -156,6 +165,16 @@ TEST_F(SessionTest, AnInterruptedCaptureResumesToTheSameDataset) {
                 .message()
                 .find("finished capture"),
             std::string::npos);
+  // --force redoes a capture but keeps the user's own files in its folder.
+  std::ofstream(tmp_ / "part" / "notes.txt") << "mine";
+  ASSERT_TRUE(RunCapture(**again, **rig, *plan, (tmp_ / "part").string(), true).ok());
+  EXPECT_TRUE(fs::exists(tmp_ / "part" / "notes.txt"));
+  std::ifstream rec(tmp_ / "part" / "capture.json");
+  std::stringstream text;
+  text << rec.rdbuf();
+  size_t records = 0;
+  for (size_t at = 0; (at = text.str().find("\"file\"", at)) != std::string::npos; ++at) ++records;
+  EXPECT_EQ(records, 12u) << "one record per image";
 }
 
 TEST_F(SessionTest, PlanAndDeviceErrorsAreClear) {
@@ -173,6 +192,8 @@ TEST_F(SessionTest, PlanAndDeviceErrorsAreClear) {
   EXPECT_NE(
       OpenCamera("sim:camera?colour=red").status().message().find("unknown parameter 'colour'"),
       std::string::npos);
+  EXPECT_NE(OpenCamera("sim:camera?format=MJPEG").status().message().find("Y16, GREY or RGB24"),
+            std::string::npos);
   auto plan = ReadPlan(Plan(R"({"exposures_s": [0.01], "leds": [0, 99]})"));
   auto cam = OpenCamera("sim:camera?size=16");
   auto rig = OpenLightRig("sim:rig?lights=ring:8:45", "");
@@ -194,7 +215,9 @@ TEST_F(SessionTest, PlanAndDeviceErrorsAreClear) {
                 .find("not a capture"),
             std::string::npos);
   EXPECT_TRUE(fs::exists(tmp_ / "mine" / "precious.txt"));
-  auto slow = ReadPlan(Plan(R"({"exposures_s": [20]})"));
+  EXPECT_NE(ReadPlan(Plan(R"({"exposures_s": [20]})")).status().message().find("timeout_ms"),
+            std::string::npos);
+  auto slow = ReadPlan(Plan(R"({"exposures_s": [20], "timeout_ms": 60000})"));
   EXPECT_NE(RunCapture(**cam, **rig, *slow, (tmp_ / "y").string(), false)
                 .status()
                 .message()
