@@ -271,8 +271,15 @@ const MaterialMaps* SimCameraTruth(const Camera& camera, bool flat_fielded, Mate
   for (int y = 0; y < h; ++y)
     for (int x = 0; x < w; ++x) mean_v += sim->Vignette(x, y);
   mean_v /= double(w) * h;
+  const bool grey = sim->Format().pixel_format != PixelFormat::kRgb24;
   for (int y = 0; y < h; ++y)
     for (int x = 0; x < w; ++x) {
+      const int64_t i = int64_t(y) * w + x;
+      if (grey) {  // a grey sensor sees the mean of the channels (as Grab renders it)
+        float m = 0;
+        for (int c = 0; c < 3; ++c) m += out->albedo.Plane(c)[i] / 3;
+        for (int c = 0; c < 3; ++c) out->albedo.Plane(c)[i] = m;
+      }
       const double k = sim->sensitivity() * (flat_fielded ? mean_v : sim->Vignette(x, y));
       for (int c = 0; c < out->albedo.channels(); ++c)
         out->albedo.Plane(c)[int64_t(y) * w + x] *= float(k);

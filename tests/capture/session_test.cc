@@ -116,6 +116,14 @@ TEST_F(SessionTest, SimulatedCaptureFitsToTheTrueNormals) {
   std::printf("capture → lambert: normal MAE %.3f°, p95 %.3f°, albedo RMSE %.4f\n",
               f->truth->normal_mae_deg, f->truth->normal_p95_deg, f->truth->albedo_rmse);
   EXPECT_LT(f->truth->normal_mae_deg, 1.0);  // the fitting issue's 1 %-noise bound
+  // The truth albedo is in the capture's units (sensitivity × mean vignetting, grey sensor).
+  auto truth_albedo = ReadImage((tmp_ / "set" / "truth" / "albedo.exr").string());
+  ASSERT_TRUE(truth_albedo.ok());
+  double mean = 0;
+  for (float v : truth_albedo->data()) mean += v;
+  mean /= double(truth_albedo->data().size());
+  EXPECT_LT(f->truth->albedo_rmse, 0.03 * mean)
+      << "albedo RMSE " << f->truth->albedo_rmse << " for a mean albedo of " << mean;
 }
 
 TEST_F(SessionTest, AnInterruptedCaptureResumesToTheSameDataset) {
