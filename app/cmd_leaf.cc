@@ -33,12 +33,8 @@ int RunLeaf(LeafArgs& a) {
   SetNumThreads(a.threads);
   if (!a.no_preview) {
     const int size = a.preview_size;
-    // The renderer's leaf shading, CPU backend: lit from the front (θ 30°) and from behind
-    // (θ 150°: the light passes through the leaf toward the camera).
     a.job.preview = [size](const MaterialMaps& m, bool behind) {
-      render::RenderOptions ro;
-      ro.size = size, ro.theta_deg = behind ? 150 : 30, ro.phi_deg = 45, ro.ambient = 0.02;
-      return render::RenderCpu(m, ro);  // the plane keeps the crop's aspect ratio
+      return render::RenderLeafPreview(m, behind, size);
     };
   }
   std::unique_ptr<ProgressReporter> bar;

@@ -41,4 +41,10 @@ StatusOr<Image> RenderCpu(const MaterialMaps& m, const RenderOptions& o) {
   return out;
 }
 
+StatusOr<Image> RenderLeafPreview(const MaterialMaps& maps, bool from_behind, int size) {
+  RenderOptions ro;
+  ro.size = size, ro.theta_deg = from_behind ? 150 : 30, ro.phi_deg = 45, ro.ambient = 0.02;
+  return RenderCpu(maps, ro);
+}
+
 }  // namespace matfit::render

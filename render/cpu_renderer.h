@@ -13,4 +13,9 @@ namespace matfit::render {
 // alpha 1 on the material, 0 on background or masked texels.
 StatusOr<Image> RenderCpu(const MaterialMaps& maps, const RenderOptions& o);
 
+// The leaf pack previews (`matfit leaf`, the server's leaf jobs): the plane lit from the front
+// (θ 30°) or from behind (θ 150°: the light passes through the leaf toward the camera), φ 45°,
+// ambient 0.02, size × size pixels; the plane keeps the crop's aspect ratio.
+StatusOr<Image> RenderLeafPreview(const MaterialMaps& maps, bool from_behind, int size);
+
 }  // namespace matfit::render

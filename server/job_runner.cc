@@ -75,9 +75,7 @@ StatusOr<std::string> RunJob(const JobSpec& spec, const std::string& dataset,
     o.overwrite = true;
     o.confine = true;
     o.preview = [](const MaterialMaps& m, bool behind) {  // as `matfit leaf` does
-      render::RenderOptions ro;
-      ro.size = 256, ro.theta_deg = behind ? 150 : 30, ro.phi_deg = 45, ro.ambient = 0.02;
-      return render::RenderCpu(m, ro);
+      return render::RenderLeafPreview(m, behind, 256);
     };
     auto r = leaf::RunLeafJob(o, stage);
     if (!r.ok()) return r.status();
