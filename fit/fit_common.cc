@@ -18,6 +18,8 @@ const char* TexelStatusName(uint8_t s) {
     case kTexelTooFewLights: return "too few usable lights";
     case kTexelIllConditioned: return "ill-conditioned lights";
     case kTexelSaturated: return "clipped samples";
+    case kTexelUnverifiable: return "error cannot be bounded";
+    case kTexelSuspectData: return "suspect data";
   }
   return "unknown";
 }

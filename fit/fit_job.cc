@@ -4,6 +4,7 @@
 #include "core/pack/pack.h"
 #include "core/pack/pack_reader.h"
 #include "core/synth/truth_io.h"
+#include "fit/assess.h"
 #include "fit/method.h"
 #include "fit/report.h"
 
@@ -74,6 +75,8 @@ StatusOr<FitJobResult> RunFitJob(const FitJobOptions& o, const StageProgress& pr
   FitJobResult r;
   r.images = stack->num_images();
   r.reconstruction = Reconstruction(*stack, fit->maps, fit->status);
+  const std::vector<uint8_t> fitted_status = fit->status;  // metrics describe what was fitted
+  r.assessment = AssessFit(*stack, method->parameters_per_texel(), &*fit);
   if (o.holdout >= 2) {
     if (progress && !progress("heldout", 0, o.holdout))
       return Status(StatusCode::kCancelled, "cancelled");
@@ -88,7 +91,7 @@ StatusOr<FitJobResult> RunFitJob(const FitJobOptions& o, const StageProgress& pr
   if (!truth_dir.empty()) {
     auto truth = synth::ReadTruth(truth_dir);
     if (truth.ok() && truth->width == stack->width() && truth->height == stack->height())
-      r.truth = CompareToTruth(fit->maps, *truth, fit->status);
+      r.truth = CompareToTruth(fit->maps, *truth, fitted_status);
     else
       fit->warnings.push_back(
           "truth folder '" + truth_dir + "' could not be used: " +
@@ -103,6 +106,7 @@ StatusOr<FitJobResult> RunFitJob(const FitJobOptions& o, const StageProgress& pr
   ri.reconstruction = r.reconstruction;
   ri.heldout = r.heldout;
   ri.truth = r.truth;
+  ri.assessment = &r.assessment;
   ri.source = o.input;
   r.report_json = MakeReportJson(ri);
 
@@ -114,6 +118,13 @@ StatusOr<FitJobResult> RunFitJob(const FitJobOptions& o, const StageProgress& pr
   info.model_parameters = r.fit.parameters;
   info.mm_per_texel = stack->mm_per_texel;
   info.warnings = r.fit.warnings;
+  Image bound(stack->width(), stack->height(), 1);
+  std::copy(r.assessment.confidence.bound.begin(), r.assessment.confidence.bound.end(),
+            bound.Plane(0).begin());
+  info.extra_maps.push_back({"confidence", "confidence.exr",
+                             "per-texel bound on the RMS relighting error (linear, per unit "
+                             "light; +inf = flagged), docs/stability.md",
+                             std::move(bound)});
   MATFIT_RETURN_IF_ERROR(WritePack(r.fit.maps, r.fit.status, info, {o.zip, o.overwrite}, o.out));
   if (progress) progress("write", 1, 1);
   return r;

@@ -7,6 +7,7 @@
 #include <string>
 
 #include "core/dataset/dataset.h"
+#include "fit/assess.h"
 #include "fit/fit_types.h"
 #include "fit/holdout.h"
 #include "fit/metrics.h"
@@ -32,6 +33,7 @@ struct FitJobResult {
   ReconstructionMetrics reconstruction;
   std::optional<HeldOutMetrics> heldout;
   std::optional<TruthMetrics> truth;
+  FitAssessment assessment;  // diagnostics + per-texel error bound (not with report_only)
   std::string report_json;
 };
 

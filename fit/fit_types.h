@@ -21,6 +21,10 @@ enum TexelStatus : uint8_t {
   kTexelIllConditioned = 5,  // usable lights nearly coplanar for this texel
   kTexelSaturated = 6,       // a sample sits at the file's maximum code (clipped): the linear
                              // models cannot use it (lambert-robust drops such samples instead)
+  kTexelUnverifiable = 7,    // the fit cannot bound its own error: no residual degrees of freedom,
+                             // or the lights cannot predict other directions (fit/confidence.h)
+  kTexelSuspectData = 8,     // a stack-level defect was detected (e.g. gamma-encoded images read
+                             // as linear, fit/diagnostics.h): the maps are not trustworthy
 };
 const char* TexelStatusName(uint8_t status);
 

@@ -51,6 +51,27 @@ ReconstructionMetrics Reconstruction(const LightStack& s, const MaterialMaps& ma
   return m;
 }
 
+std::vector<float> RelightingError(const MaterialMaps& f, const MaterialMaps& t,
+                                   const std::vector<Vec3>& lights, const Vec3& view) {
+  const int64_t T = int64_t(t.width) * t.height;
+  std::vector<float> err(size_t(T), NAN);
+  const Vec3f v(view);
+  ParallelFor(0, t.height, [&](int64_t y0, int64_t y1) {
+    for (int64_t p = y0 * t.width; p < y1 * t.width; ++p) {
+      if (!t.mask.empty() && t.mask.data()[p] < 0.5f) continue;
+      double acc = 0;
+      for (const Vec3& l : lights)
+        for (int c = 0; c < 3; ++c) {
+          const double d =
+              EvaluateTexel(f, p, c, Vec3f(l), v) - EvaluateTexel(t, p, c, Vec3f(l), v);
+          acc += d * d;
+        }
+      err[p] = float(std::sqrt(acc / (3.0 * std::max<size_t>(1, lights.size()))));
+    }
+  });
+  return err;
+}
+
 TruthMetrics CompareToTruth(const MaterialMaps& f, const MaterialMaps& t,
                             const std::vector<uint8_t>& status) {
   TruthMetrics m;

@@ -38,6 +38,12 @@ struct TruthMetrics {
   std::map<std::string, double> parameter_errors;
 };
 
+// Per texel: RMS over `lights` (unit directions) and channels of the fitted maps' forward
+// evaluation minus the truth's (local shading, no cast shadows): the relighting error a
+// renderer would show, in linear radiance per unit light. NaN outside the truth mask.
+std::vector<float> RelightingError(const MaterialMaps& fitted, const MaterialMaps& truth,
+                                   const std::vector<Vec3>& lights, const Vec3& view);
+
 // Over texels with status 0 inside the truth mask.
 TruthMetrics CompareToTruth(const MaterialMaps& fitted, const MaterialMaps& truth,
                             const std::vector<uint8_t>& status);

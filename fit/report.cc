@@ -1,5 +1,6 @@
 #include "fit/report.h"
 
+#include <algorithm>
 #include <cmath>
 #include <map>
 #include <nlohmann/json.hpp>
@@ -52,6 +53,26 @@ std::string MakeReportJson(const FitReportInputs& in) {
                     {"deviation_percent_by_theta", ByTheta(h.deviation_percent_by_theta)},
                     {"psnr_db", Finite(h.psnr_db)},
                     {"failed_folds", h.failed_folds}};
+  }
+  if (in.assessment) {
+    const Confidence& c = in.assessment->confidence;
+    std::vector<float> b;
+    for (float v : c.bound)
+      if (std::isfinite(v)) b.push_back(v);
+    double median = NAN;
+    if (!b.empty()) {
+      std::nth_element(b.begin(), b.begin() + b.size() / 2, b.end());
+      median = b[b.size() / 2];
+    }
+    j["confidence"] = {{"pooled_sigma", Finite(c.pooled_sigma)},
+                       {"extrapolation", Finite(c.extrapolation)},
+                       {"bound_median", Finite(median)},
+                       {"unverifiable_texels", c.unverifiable}};
+    const StackDiagnostics& d = in.assessment->diagnostics;
+    j["diagnostics"] = {{"encoding_exponent", d.encoding_exponent},
+                        {"looks_gamma_encoded", d.looks_gamma_encoded},
+                        {"residual_linear", d.residual_linear},
+                        {"residual_best", d.residual_best}};
   }
   if (in.truth) {
     // null where the model has no such map (see TruthMetrics).

@@ -4,6 +4,7 @@
 #include <optional>
 #include <string>
 
+#include "fit/assess.h"
 #include "fit/fit_types.h"
 #include "fit/holdout.h"
 #include "fit/metrics.h"
@@ -17,6 +18,7 @@ struct FitReportInputs {
   ReconstructionMetrics reconstruction;
   std::optional<HeldOutMetrics> heldout;
   std::optional<TruthMetrics> truth;
+  const FitAssessment* assessment = nullptr;  // optional
   std::string source;
 };
 

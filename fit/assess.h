@@ -1,0 +1,22 @@
+// The fit's own account of how far to trust it: stack diagnostics (fit/diagnostics.h) and the
+// per-texel error bound (fit/confidence.h), applied to a finished fit. `matfit fit`, the
+// server, the bench and the stability matrix all call this after FitMethod::Fit.
+#pragma once
+
+#include "fit/confidence.h"
+#include "fit/diagnostics.h"
+#include "fit/fit_types.h"
+
+namespace matfit::fit {
+
+struct FitAssessment {
+  Confidence confidence;
+  StackDiagnostics diagnostics;
+};
+
+// Marks texels kTexelUnverifiable (no bound) and, when the stack looks gamma-encoded, every ok
+// texel kTexelSuspectData (bound +inf); appends the warnings; recounts flagged_texels.
+FitAssessment AssessFit(const LightStack& stack, int parameters, FitResult* result,
+                        const ConfidenceOptions& options = {});
+
+}  // namespace matfit::fit

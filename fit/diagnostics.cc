@@ -1,0 +1,113 @@
+#include "fit/diagnostics.h"
+
+#include <Eigen/Dense>
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+
+#include "fit/fit_common.h"
+
+namespace matfit::fit {
+namespace {
+
+struct TexelSamples {
+  std::vector<Eigen::Vector3d> l;
+  std::vector<double> p;
+};
+
+// Pooled relative residual Σ_x Σ (y − l·g_x)² / Σ_x Σ y² of per-texel least squares on y = p^γ.
+double LambertResidual(const std::vector<TexelSamples>& texels, double gamma) {
+  double num = 0, den = 0;
+  for (const auto& t : texels) {
+    Eigen::Matrix3d A = Eigen::Matrix3d::Zero();
+    Eigen::Vector3d b = Eigen::Vector3d::Zero();
+    std::vector<double> y(t.p.size());
+    for (size_t i = 0; i < t.p.size(); ++i) {
+      y[i] = std::pow(t.p[i], gamma);
+      A += t.l[i] * t.l[i].transpose();
+      b += y[i] * t.l[i];
+    }
+    const Eigen::Vector3d g = A.ldlt().solve(b);
+    for (size_t i = 0; i < y.size(); ++i) {
+      const double r = y[i] - t.l[i].dot(g);
+      num += r * r, den += y[i] * y[i];
+    }
+  }
+  return den > 0 ? num / den : 0;
+}
+
+}  // namespace
+
+StackDiagnostics DiagnoseStack(const LightStack& s, int max_texels) {
+  StackDiagnostics d;
+  const int n = s.num_images(), C = s.channels();
+  if (n < 6) return d;
+  const int64_t T = s.plane_size();
+  const int64_t stride = std::max<int64_t>(1, T / std::max(1, max_texels));
+  const std::vector<float> inv = InverseIntensities(s);
+  std::vector<TexelSamples> texels;
+  std::vector<std::pair<double, int>> v;
+  for (int64_t p = stride / 2; p < T; p += stride) {
+    if (s.has_mask() && s.mask.data()[p] < 0.5f) continue;
+    v.clear();
+    for (int i = 0; i < n; ++i) {
+      double y = 0;
+      bool good = s.lights()[i].direction.z > 0;
+      for (int c = 0; c < C; ++c) {
+        const float raw = s.Plane(i, c)[p];
+        good = good && std::isfinite(raw) && raw < kClipLevel;
+        y += (C == 3 ? kLuma[c] : 1.0f) * raw * inv[size_t(i) * C + c];
+      }
+      if (good && y > 1e-3) v.push_back({y, i});
+    }
+    if (v.size() < 8) continue;
+    std::sort(v.begin(), v.end());
+    const size_t lo = v.size() / 10, hi = v.size() - v.size() / 4;
+    if (hi - lo < 6) continue;
+    TexelSamples t;
+    const double scale = 1.0 / v[hi - 1].first;  // γ acts on relative values
+    for (size_t k = lo; k < hi; ++k) {
+      const auto& dir = s.lights()[v[k].second].direction;
+      t.l.emplace_back(dir.x, dir.y, dir.z);
+      t.p.push_back(v[k].first * scale);
+    }
+    texels.push_back(std::move(t));
+  }
+  d.texels_used = int(texels.size());
+  if (texels.size() < 16) return d;
+  d.residual_linear = LambertResidual(texels, 1.0);
+  // Golden-section search on log γ over [0.3, 3.3] after a coarse scan.
+  double best = 1.0, best_r = d.residual_linear;
+  for (int k = 0; k <= 24; ++k) {
+    const double g = 0.3 * std::pow(11.0, k / 24.0);
+    const double r = LambertResidual(texels, g);
+    if (r < best_r) best_r = r, best = g;
+  }
+  double a = std::log(best) - std::log(11.0) / 24, b = std::log(best) + std::log(11.0) / 24;
+  const double phi = (std::sqrt(5.0) - 1) / 2;
+  for (int it = 0; it < 20; ++it) {
+    const double x1 = b - phi * (b - a), x2 = a + phi * (b - a);
+    if (LambertResidual(texels, std::exp(x1)) < LambertResidual(texels, std::exp(x2)))
+      b = x2;
+    else
+      a = x1;
+  }
+  const double g = std::exp((a + b) / 2), r = LambertResidual(texels, g);
+  if (r < best_r) best = g, best_r = r;
+  d.encoding_exponent = best;
+  d.residual_best = best_r;
+  d.looks_gamma_encoded = best >= 1.6 && best <= 3.0 && best_r < 0.5 * d.residual_linear;
+  if (d.looks_gamma_encoded) {
+    char msg[320];
+    std::snprintf(
+        msg, sizeof msg,
+        "the images look gamma-encoded but were read as linear: values grow like "
+        "(n·l)^(1/%.2f), not n·l (Lambertian residual %.2g → %.2g); re-read them as "
+        "sRGB (--color-space srgb) or linearise them; every texel is marked 'suspect data'",
+        best, d.residual_linear, best_r);
+    d.warnings.push_back(msg);
+  }
+  return d;
+}
+
+}  // namespace matfit::fit
