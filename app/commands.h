@@ -19,6 +19,7 @@ void RegisterRender(CLI::App& app, int* exit_code);
 void RegisterLeaf(CLI::App& app, int* exit_code);
 void RegisterServe(CLI::App& app, int* exit_code);
 void RegisterCapture(CLI::App& app, int* exit_code);  // capture, calibrate-lights, devices
+void RegisterBench(CLI::App& app, int* exit_code);
 
 // Shared helpers.
 bool ParseViewArg(const char* text, double* theta, double* phi);  // "THETA,PHI" in degrees

@@ -59,6 +59,7 @@ int main(int argc, char** argv) {
   matfit::app::RegisterLeaf(app, &exit_code);
   matfit::app::RegisterServe(app, &exit_code);
   matfit::app::RegisterCapture(app, &exit_code);
+  matfit::app::RegisterBench(app, &exit_code);
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {

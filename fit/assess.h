@@ -6,6 +6,7 @@
 #include "fit/confidence.h"
 #include "fit/diagnostics.h"
 #include "fit/fit_types.h"
+#include "fit/method.h"
 
 namespace matfit::fit {
 
@@ -16,7 +17,7 @@ struct FitAssessment {
 
 // Marks texels kTexelUnverifiable (no bound) and, when the stack looks gamma-encoded, every ok
 // texel kTexelSuspectData (bound +inf); appends the warnings; recounts flagged_texels.
-FitAssessment AssessFit(const LightStack& stack, int parameters, FitResult* result,
+FitAssessment AssessFit(const LightStack& stack, const FitMethod& method, FitResult* result,
                         const ConfidenceOptions& options = {});
 
 }  // namespace matfit::fit

@@ -19,6 +19,11 @@ bool ConfidenceOptions::Check(std::string* why) const {
     *why = "confidence kappa must be a positive number, got " + std::to_string(kappa);
     return false;
   }
+  if (!(max_frontal_gap_deg > 0 && max_frontal_gap_deg <= 90)) {
+    *why = "confidence max_frontal_gap_deg must be in (0, 90], got " +
+           std::to_string(max_frontal_gap_deg);
+    return false;
+  }
   if (!(max_condition > 1)) {
     *why = "confidence max_condition must be > 1, got " + std::to_string(max_condition);
     return false;
@@ -26,7 +31,8 @@ bool ConfidenceOptions::Check(std::string* why) const {
   return true;
 }
 
-double MeanDomeLeverage(const std::vector<LightSample>& lights, double max_condition, int count) {
+double MeanDomeLeverage(const std::vector<LightSample>& lights, double max_condition,
+                        double max_theta_deg, int count) {
   Eigen::Matrix3d M = Eigen::Matrix3d::Zero();
   for (const auto& l : lights) {
     const Eigen::Vector3d d(l.direction.x, l.direction.y, l.direction.z);
@@ -36,8 +42,8 @@ double MeanDomeLeverage(const std::vector<LightSample>& lights, double max_condi
   const Eigen::Vector3d ev = eig.eigenvalues();  // ascending
   if (!(ev(0) > 0) || ev(2) / ev(0) > max_condition) return std::numeric_limits<double>::infinity();
   const Eigen::Matrix3d Minv = M.inverse();
-  // Fibonacci spiral, equal area in cos θ over [cos 75°, 1].
-  const double zmin = std::cos(75.0 * M_PI / 180.0), golden = M_PI * (3.0 - std::sqrt(5.0));
+  // Fibonacci spiral, equal area in cos θ over [cos θ_max, 1].
+  const double zmin = std::cos(max_theta_deg * M_PI / 180.0), golden = M_PI * (3.0 - std::sqrt(5.0));
   double g = 0;
   for (int k = 0; k < count; ++k) {
     const double z = 1.0 - (k + 0.5) / count * (1.0 - zmin);
@@ -48,42 +54,60 @@ double MeanDomeLeverage(const std::vector<LightSample>& lights, double max_condi
   return g / count;
 }
 
-Confidence ComputeConfidence(const LightStack& s, const MaterialMaps& maps, int parameters,
+double SupportedThetaDeg(const std::vector<LightSample>& lights) {
+  double t = 0;
+  for (const auto& l : lights)
+    if (l.direction.z > 0) t = std::max(t, std::acos(std::min(1.0, l.direction.z)) * 180 / M_PI);
+  return std::min(75.0, t + 15.0);
+}
+
+Confidence ComputeConfidence(const LightStack& s, const MaterialMaps& maps, ModelSize size,
                              std::vector<uint8_t>* status, const ConfidenceOptions& o) {
   const int64_t T = s.plane_size();
   const int n = s.num_images(), C = s.channels();
-  const double P = std::max(1, parameters);
+  const double P = std::max(1, size.parameters);
+  const int min_lights = size.light_parameters + 3;
   const double inf = std::numeric_limits<double>::infinity();
   Confidence out;
   out.bound.assign(size_t(T), float(inf));
   if (status && status->empty()) status->assign(size_t(T), kTexelOk);
   auto ok = [&](int64_t p) { return !status || (*status)[p] == kTexelOk; };
 
-  const double g = MeanDomeLeverage(s.lights(), o.max_condition);
+  out.supported_theta_deg = SupportedThetaDeg(s.lights());
+  double nearest = 90;
+  for (const auto& l : s.lights())
+    if (l.direction.z > 0)
+      nearest = std::min(nearest, std::acos(std::min(1.0, l.direction.z)) * 180 / M_PI);
+  out.frontal_covered = nearest <= o.max_frontal_gap_deg;
+  const double g = MeanDomeLeverage(s.lights(), o.max_condition, out.supported_theta_deg);
   out.extrapolation = std::isfinite(g) ? std::max(1.0, n * g / 3.0) : inf;
 
-  // Pass 1: per-texel residual sums (Σ r², n_x).
-  std::vector<double> rss(size_t(T), 0.0);
-  std::vector<int> samples(size_t(T), 0);
+  // Pass 1: per-texel residual sums (Σ r², n_x), usable lights m_x and mean level μ_x.
+  std::vector<double> rss(size_t(T), 0.0), level(size_t(T), 0.0);
+  std::vector<int> samples(size_t(T), 0), used_lights(size_t(T), 0);
   const Vec3f v(s.view_direction);
   std::vector<float> inv = InverseIntensities(s);
   ParallelFor(0, s.height(), [&](int64_t y0, int64_t y1) {
     for (int64_t p = y0 * s.width(); p < y1 * s.width(); ++p) {
       if (!ok(p)) continue;
-      double acc = 0;
-      int k = 0;
+      double acc = 0, sum = 0;
+      int k = 0, m = 0;
       for (int i = 0; i < n; ++i) {
         const Vec3f l(s.lights()[i].direction);
+        bool used = false;
         for (int c = 0; c < C; ++c) {
           const float raw = s.Plane(i, c)[p];
           if (!std::isfinite(raw) || raw >= kClipLevel) continue;
-          const double r = double(raw) * inv[size_t(i) * C + c] - EvaluateTexel(maps, p, c, l, v);
+          const double q = double(raw) * inv[size_t(i) * C + c];
+          const double r = q - EvaluateTexel(maps, p, c, l, v);
           if (!std::isfinite(r)) continue;
-          acc += r * r;
+          acc += r * r, sum += std::abs(q);
           ++k;
+          used = true;
         }
+        m += used;
       }
-      rss[p] = acc, samples[p] = k;
+      rss[p] = acc, samples[p] = k, used_lights[p] = m, level[p] = k ? sum / k : 0;
     }
   });
   // Pooled noise over texels with residual degrees of freedom.
@@ -95,13 +119,16 @@ Confidence ComputeConfidence(const LightStack& s, const MaterialMaps& maps, int 
   for (int64_t p = 0; p < T; ++p) {
     if (!ok(p)) continue;
     const double dof = samples[p] - P;
-    if (dof < 1 || !std::isfinite(out.extrapolation) || !std::isfinite(sigma2)) {
+    if (dof < 1 || used_lights[p] < min_lights || !out.frontal_covered ||
+        !std::isfinite(out.extrapolation) || !std::isfinite(sigma2)) {
       if (status) (*status)[p] = kTexelUnverifiable;
       ++out.unverifiable;
       continue;
     }
     const double s2 = std::max(rss[p] / dof, sigma2);
-    out.bound[p] = float(o.kappa * std::sqrt(s2 * out.extrapolation * (1.0 + P / samples[p])));
+    const double extra = (out.extrapolation - 1) * level[p];
+    out.bound[p] = float(
+        std::sqrt(o.kappa * o.kappa * s2 * out.extrapolation * (1.0 + P / samples[p]) + extra * extra));
   }
   return out;
 }

@@ -6,11 +6,17 @@
 //   s_x² = Σ r² / (n_x − P),   r = p − f(x, l_i)   (f: the shared forward evaluation).
 // Noise is pooled over all texels, σ̂² = Σ_x Σ r² / Σ_x (n_x − P), and floors s_x² (one texel's
 // few residual degrees of freedom can be small by chance). The error at a new light direction
-// l* grows with the design's leverage l*ᵀ(Σ_i l_i l_iᵀ)⁻¹l*; its mean over a dome of directions
-// θ ≤ 75°, g, against the well-spread value 3/m, gives the extrapolation factor
-// a = max(1, m·g/3). The bound on the RMS error over directions is
-//   b_x = κ · sqrt(max(s_x², σ̂²) · a · (1 + P/n_x)).
-// Texels with n_x ≤ P, or lights whose moment matrix is singular, are kTexelUnverifiable.
+// l* grows with the design's leverage l*ᵀ(Σ_i l_i l_iᵀ)⁻¹l*; its mean over the supported dome
+// (θ ≤ θ_s = min(75°, largest light θ + 15°)), g, against the well-spread value 3/m, gives the
+// extrapolation factor a = max(1, m·g/3). Where the lights do not span the dome (a > 1), no
+// residual can tell how a wrong model extrapolates, so up to (a − 1) times the texel's mean
+// level μ_x is added. The bound on the RMS error over the supported dome is
+//   b_x = sqrt(κ² · max(s_x², σ̂²) · a · (1 + P/n_x) + ((a − 1) μ_x)²).
+// Texels with n_x ≤ P, with fewer usable lights than the model's light parameters + 3 (too few
+// spare lights to reveal misfit), lights whose moment matrix is singular, or lights that all
+// miss the frontal cone (no light within max_frontal_gap_deg of the normal direction: the
+// appearance under the most common light is never seen, e.g. grazing-only rigs) are
+// kTexelUnverifiable.
 #pragma once
 
 #include <cstdint>
@@ -25,25 +31,38 @@ namespace matfit::fit {
 struct ConfidenceOptions {
   double kappa = 3.5;          // coverage factor κ, > 0
   double max_condition = 1e6;  // light moment matrix condition number above which → unverifiable
+  double max_frontal_gap_deg = 45;  // some light must have θ ≤ this
 
   bool Check(std::string* why) const;
+};
+
+// Size of the model being checked (FitMethod::parameters_per_texel / light_parameters).
+struct ModelSize {
+  int parameters = 0;        // P: fitted scalars per texel
+  int light_parameters = 0;  // of which the light variation must determine
 };
 
 struct Confidence {
   std::vector<float> bound;  // b_x per texel (linear radiance per unit light); +inf when flagged
   double pooled_sigma = 0;   // σ̂
   double extrapolation = 1;  // a
+  double supported_theta_deg = 75;  // θ_s: the bound covers light directions up to this
+  bool frontal_covered = true;      // some light within max_frontal_gap_deg of the normal
   int64_t unverifiable = 0;  // texels newly marked kTexelUnverifiable
 };
 
 // status: the fit's status plane (may be empty = all ok); texels found unverifiable are marked
-// kTexelUnverifiable in it. parameters: P of the method (FitMethod::parameters_per_texel()).
-Confidence ComputeConfidence(const LightStack& stack, const MaterialMaps& maps, int parameters,
+// kTexelUnverifiable in it.
+Confidence ComputeConfidence(const LightStack& stack, const MaterialMaps& maps, ModelSize size,
                              std::vector<uint8_t>* status, const ConfidenceOptions& options = {});
 
-// Mean leverage over a Fibonacci dome of `count` directions at θ ≤ 75°: g = mean l*ᵀ M⁻¹ l*,
-// M = Σ_i l_i l_iᵀ over the stack's lights; +inf when M's condition number exceeds max_condition.
+// θ_s of the stack's lights (see above).
+double SupportedThetaDeg(const std::vector<LightSample>& lights);
+
+// Mean leverage over a Fibonacci dome of `count` directions at θ ≤ max_theta_deg:
+// g = mean l*ᵀ M⁻¹ l*, M = Σ_i l_i l_iᵀ over the lights; +inf when M's condition number exceeds
+// max_condition.
 double MeanDomeLeverage(const std::vector<LightSample>& lights, double max_condition,
-                        int count = 64);
+                        double max_theta_deg = 75, int count = 64);
 
 }  // namespace matfit::fit

@@ -76,7 +76,7 @@ StatusOr<FitJobResult> RunFitJob(const FitJobOptions& o, const StageProgress& pr
   r.images = stack->num_images();
   r.reconstruction = Reconstruction(*stack, fit->maps, fit->status);
   const std::vector<uint8_t> fitted_status = fit->status;  // metrics describe what was fitted
-  r.assessment = AssessFit(*stack, method->parameters_per_texel(), &*fit);
+  r.assessment = AssessFit(*stack, *method, &*fit);
   if (o.holdout >= 2) {
     if (progress && !progress("heldout", 0, o.holdout))
       return Status(StatusCode::kCancelled, "cancelled");

@@ -18,6 +18,10 @@ class FitMethod {
   virtual std::string description() const = 0;
   virtual int parameters_per_texel() const = 0;  // fitted scalars per texel
   virtual int bytes_per_texel() const = 0;       // as stored in a pack
+  // Parameters the variation over lights must determine at one texel (channels share the
+  // geometry: lambert 3 = normal 2 + albedo level): a texel needs this many usable lights + 3
+  // before its residual can bound its error (fit/confidence.h).
+  virtual int light_parameters() const = 0;
   virtual StatusOr<FitResult> Fit(const LightStack& stack, const FitOptions& options) const = 0;
 };
 

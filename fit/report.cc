@@ -66,6 +66,7 @@ std::string MakeReportJson(const FitReportInputs& in) {
     }
     j["confidence"] = {{"pooled_sigma", Finite(c.pooled_sigma)},
                        {"extrapolation", Finite(c.extrapolation)},
+                       {"supported_theta_deg", c.supported_theta_deg},
                        {"bound_median", Finite(median)},
                        {"unverifiable_texels", c.unverifiable}};
     const StackDiagnostics& d = in.assessment->diagnostics;

@@ -34,7 +34,7 @@ Outcome FitAndAssess(const std::string& model, const synth::SynthResult& data) {
   auto fit = method->Fit(data.stack, {});
   EXPECT_TRUE(fit.ok()) << fit.status().ToString();
   o.fit = std::move(*fit);
-  o.a = AssessFit(data.stack, method->parameters_per_texel(), &o.fit);
+  o.a = AssessFit(data.stack, *method, &o.fit);
   const auto err = RelightingError(o.fit.maps, data.truth, Dome(), data.stack.view_direction);
   std::vector<double> ratio;
   for (size_t p = 0; p < err.size(); ++p) {
@@ -84,7 +84,7 @@ TEST(Confidence, CoplanarLightsCannotBeVerified) {
   auto method = MakeMethod("mean");
   auto fit = method->Fit(flat.stack, {});
   ASSERT_TRUE(fit.ok());
-  const FitAssessment a = AssessFit(flat.stack, method->parameters_per_texel(), &*fit);
+  const FitAssessment a = AssessFit(flat.stack, *method, &*fit);
   EXPECT_EQ(a.confidence.unverifiable, 16 * 16);
   for (uint8_t s : fit->status) EXPECT_EQ(s, kTexelUnverifiable);
 }
@@ -95,7 +95,7 @@ TEST(Confidence, TooFewSamplesForTheParametersAreUnverifiable) {
   auto method = MakeMethod("hsh2");
   auto fit = method->Fit(data.stack, {});
   ASSERT_TRUE(fit.ok()) << fit.status().ToString();
-  const FitAssessment a = AssessFit(data.stack, method->parameters_per_texel(), &*fit);
+  const FitAssessment a = AssessFit(data.stack, *method, &*fit);
   for (uint8_t s : fit->status) EXPECT_EQ(s, kTexelUnverifiable);
   EXPECT_EQ(a.confidence.unverifiable, 16 * 16);
 }

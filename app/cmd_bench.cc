@@ -1,0 +1,175 @@
+// `matfit bench [--quick] --out DIR`: speed vs accuracy of every method on a fixed suite, the
+// stability matrix, and their charts (SVG, plus PNG when rsvg-convert is installed).
+#include <CLI/CLI.hpp>
+#include <cmath>
+#include <cstdio>
+#include <cstdlib>
+#include <filesystem>
+#include <memory>
+#include <string>
+
+#include "app/commands.h"
+#include "core/atomic_file.h"
+#include "core/parallel.h"
+#include "core/progress.h"
+#include "eval/bench.h"
+#include "eval/bench_charts.h"
+#include "eval/stability.h"
+
+namespace matfit::app {
+namespace {
+
+namespace fs = std::filesystem;
+
+struct BenchArgs {
+  eval::BenchOptions bench;
+  eval::StabilityOptions stability;
+  std::string out, shared_data = "../shared/data", methods;
+  bool no_stability = false, stability_only = false, no_png = false, overwrite = false;
+  bool quiet = false;
+  int threads = 0;
+};
+
+std::vector<std::string> SplitComma(const std::string& s) {
+  std::vector<std::string> out;
+  size_t b = 0;
+  while (b <= s.size() && !s.empty()) {
+    const size_t e = s.find(',', b);
+    out.push_back(s.substr(b, e == std::string::npos ? std::string::npos : e - b));
+    if (e == std::string::npos) break;
+    b = e + 1;
+  }
+  return out;
+}
+
+ProgressFn Bar(bool quiet, const char* stage, std::unique_ptr<ProgressReporter>* bar) {
+  if (quiet) return {};
+  *bar = std::make_unique<ProgressReporter>(stage);
+  return [bar](int64_t d, int64_t t) {
+    (*bar)->Update(d, t);
+    return true;
+  };
+}
+
+void PrintBench(const eval::BenchResult& r) {
+  std::printf("\n%-14s %-15s %9s %10s %6s %9s %9s %9s %8s\n", "dataset", "method", "fit s",
+              "texels/s", "B/tx", "render ns", "dev %", "held-out", "normal°");
+  for (const auto& p : r.points) {
+    if (!p.ok) {
+      std::printf("%-14s %-15s refused: %s\n", p.dataset.c_str(), p.method.c_str(),
+                  p.error.c_str());
+      continue;
+    }
+    std::printf("%-14s %-15s %9.3f %10.3g %6d %9.1f %9.4f %9.4f %8s\n", p.dataset.c_str(),
+                p.method.c_str(), p.fit_seconds, p.texels_per_second, p.bytes_per_texel,
+                p.render_ns_per_pixel, p.deviation_percent, p.heldout_rmse,
+                p.normal_mae_deg ? std::to_string(*p.normal_mae_deg).substr(0, 6).c_str() : "-");
+  }
+  for (const auto& s : r.skipped) std::printf("skipped: %s\n", s.c_str());
+  for (const auto& h : r.hl2)
+    std::printf("leaf HL2 N_L %4d: mean error %.2f %%, fast precompute %.1f ms\n", h.directions,
+                h.mean_error_percent, 1e3 * h.precompute_seconds);
+}
+
+void PrintStability(const eval::StabilityResult& r) {
+  int64_t silent = 0;
+  std::printf("\nstability (%d², %zu methods × %zu perturbations): silent failures\n", r.size,
+              r.methods.size(), r.perturbations.size());
+  for (const auto& c : r.cells)
+    if (c.applicable && c.silent > 0) {
+      silent += c.silent;
+      std::printf("  %-15s %-18s %lld texel(s) (%.2f %%), median error %.4g vs bound %.4g\n",
+                  c.method.c_str(), c.perturbation.c_str(), (long long)c.silent,
+                  100 * c.silent_fraction, c.error_median, c.bound_median);
+    }
+  std::printf("  total silent texels: %lld\n", (long long)silent);
+}
+
+int RunBench(BenchArgs& a) {
+  if (a.out.empty()) return Fail("bench", "--out DIR is required");
+  if (a.no_stability && a.stability_only)
+    return Fail("bench", "--no-stability and --stability-only exclude each other");
+  SetNumThreads(a.threads);
+  a.bench.shared_data = a.shared_data;
+  a.bench.methods = SplitComma(a.methods);
+  a.stability.methods = a.bench.methods;
+  if (a.bench.quick && a.stability.size == 32) a.stability.size = 20;
+  std::string why;
+  if (!a.bench.Check(&why) || !a.stability.Check(&why)) return Fail("bench", why.c_str());
+  AtomicDir dir(a.out);
+  if (Status s = dir.Begin(a.overwrite); !s.ok()) return Fail("bench", s.message().c_str());
+  std::map<std::string, std::string> files;
+  std::unique_ptr<ProgressReporter> bar;
+  if (!a.stability_only) {
+    a.bench.progress = Bar(a.quiet, "bench", &bar);
+    auto r = eval::RunBench(a.bench);
+    bar.reset();
+    if (!r.ok()) return Fail("bench", r.status().message().c_str());
+    files["bench.json"] = eval::BenchJson(*r);
+    for (auto& [name, svg] : eval::BenchCharts(*r)) files["charts/" + name] = std::move(svg);
+    if (!a.quiet) PrintBench(*r);
+  }
+  if (!a.no_stability) {
+    a.stability.progress = Bar(a.quiet, "stability", &bar);
+    auto r = eval::RunStability(a.stability);
+    bar.reset();
+    if (!r.ok()) return Fail("bench", r.status().message().c_str());
+    files["stability.json"] = eval::StabilityJson(*r);
+    for (auto& [name, svg] : eval::StabilityCharts(*r)) files["charts/" + name] = std::move(svg);
+    if (!a.quiet) PrintStability(*r);
+  }
+  std::error_code ec;
+  fs::create_directories(fs::path(dir.temp_path()) / "charts", ec);
+  for (const auto& [name, text] : files)
+    if (Status s = WriteFileAtomic((fs::path(dir.temp_path()) / name).string(), text); !s.ok())
+      return Fail("bench", s.message().c_str());
+  // PNG copies of the charts through librsvg's converter, when installed.
+  const bool have_rsvg = !a.no_png && std::system("command -v rsvg-convert >/dev/null 2>&1") == 0;
+  int png = 0;
+  if (have_rsvg) {
+    for (const auto& [name, text] : files) {
+      if (name.rfind("charts/", 0) != 0) continue;
+      const fs::path svg = fs::path(dir.temp_path()) / name;
+      fs::path out = svg;
+      out.replace_extension(".png");
+      const std::string cmd = "rsvg-convert -b white -o '" + out.string() + "' '" +
+                              svg.string() + "'";
+      if (std::system(cmd.c_str()) == 0) ++png;
+      else std::fprintf(stderr, "matfit bench: warning: rsvg-convert failed on %s\n", name.c_str());
+    }
+  } else if (!a.no_png) {
+    std::fprintf(stderr,
+                 "matfit bench: warning: rsvg-convert not found (Debian package librsvg2-bin): "
+                 "charts are SVG only\n");
+  }
+  if (Status s = dir.Commit(); !s.ok()) return Fail("bench", s.message().c_str());
+  std::printf("\nwrote %s: %zu files, %d PNG charts\n", a.out.c_str(), files.size(), png);
+  return 0;
+}
+
+}  // namespace
+
+void RegisterBench(CLI::App& app, int* exit_code) {
+  auto args = std::make_shared<BenchArgs>();
+  auto* sub = app.add_subcommand(
+      "bench", "Speed vs accuracy of every method, the stability matrix, and charts");
+  sub->add_flag("--quick", args->bench.quick, "small suite, one repeat (< 2 minutes)");
+  sub->add_option("--out", args->out, "output folder (bench.json, stability.json, charts/)")
+      ->required();
+  sub->add_option("--shared-data", args->shared_data, "real datasets folder (psm/…)")
+      ->capture_default_str();
+  sub->add_option("--methods", args->methods, "comma-separated subset of the ladder");
+  sub->add_option("--repeats", args->bench.repeats, "fit timings per point (median)");
+  sub->add_option("--holdout", args->bench.holdout, "held-out-light folds")->capture_default_str();
+  sub->add_option("--stability-size", args->stability.size, "texels per side of stability cases")
+      ->capture_default_str();
+  sub->add_flag("--no-stability", args->no_stability, "skip the stability matrix");
+  sub->add_flag("--stability-only", args->stability_only, "only the stability matrix");
+  sub->add_flag("--no-png", args->no_png, "SVG charts only");
+  sub->add_flag("--overwrite", args->overwrite, "replace an existing output folder");
+  sub->add_option("--threads", args->threads, "worker threads (0 = all cores)");
+  sub->add_flag("--quiet", args->quiet, "no progress or tables");
+  sub->callback([args, exit_code] { *exit_code = RunBench(*args); });
+}
+
+}  // namespace matfit::app

@@ -1,0 +1,106 @@
+#include "core/stack_ops.h"
+
+#include <algorithm>
+#include <string>
+
+namespace matfit {
+namespace {
+
+LightStack EmptyLike(const LightStack& s, int w, int h) {
+  LightStack out(w, h, s.channels(), s.num_images());
+  out.lights() = s.lights();
+  out.view_direction = s.view_direction;
+  out.view_theta_deg = s.view_theta_deg, out.view_phi_deg = s.view_phi_deg;
+  out.mm_per_texel = s.mm_per_texel;
+  out.layout = s.layout, out.source = s.source, out.object_name = s.object_name;
+  out.image_files = s.image_files;
+  out.encodings = s.encodings, out.encoding_reasons = s.encoding_reasons;
+  out.saturated_pixels = s.saturated_pixels, out.nonfinite_samples = s.nonfinite_samples;
+  return out;
+}
+
+}  // namespace
+
+StatusOr<LightStack> CropStack(const LightStack& s, int x, int y, int w, int h) {
+  if (w < 1 || h < 1 || x < 0 || y < 0 || x + w > s.width() || y + h > s.height())
+    return InvalidArgument("crop " + std::to_string(w) + "x" + std::to_string(h) + "+" +
+                           std::to_string(x) + "+" + std::to_string(y) + " is outside the " +
+                           std::to_string(s.width()) + "x" + std::to_string(s.height()) + " stack");
+  LightStack out = EmptyLike(s, w, h);
+  for (int i = 0; i < s.num_images(); ++i)
+    for (int c = 0; c < s.channels(); ++c)
+      for (int r = 0; r < h; ++r)
+        std::copy_n(s.Plane(i, c).data() + int64_t(y + r) * s.width() + x, w,
+                    out.Plane(i, c).data() + int64_t(r) * w);
+  if (s.has_mask()) {
+    out.mask.resize(size_t(w) * h);
+    for (int r = 0; r < h; ++r)
+      std::copy_n(s.mask.data() + int64_t(y + r) * s.width() + x, w,
+                  out.mask.data() + int64_t(r) * w);
+  }
+  return out;
+}
+
+StatusOr<LightStack> DownsampleStack(const LightStack& s, int f) {
+  if (f < 1) return InvalidArgument("downsample factor must be ≥ 1, got " + std::to_string(f));
+  const int w = s.width() / f, h = s.height() / f;
+  if (w < 1 || h < 1)
+    return InvalidArgument("downsampling the " + std::to_string(s.width()) + "x" +
+                           std::to_string(s.height()) + " stack by " + std::to_string(f) +
+                           " leaves no texel");
+  if (f == 1) return CropStack(s, 0, 0, s.width(), s.height());
+  LightStack out = EmptyLike(s, w, h);
+  out.mm_per_texel = s.mm_per_texel * f;
+  // Per block: which source texels count (mask) and the block's own mask bit.
+  std::vector<uint8_t> inside(size_t(w) * h, 1);
+  auto in_mask = [&](int64_t p) { return !s.has_mask() || s.mask[p] != 0; };
+  if (s.has_mask()) {
+    out.mask.assign(size_t(w) * h, 0);
+    for (int by = 0; by < h; ++by)
+      for (int bx = 0; bx < w; ++bx) {
+        int k = 0;
+        for (int dy = 0; dy < f; ++dy)
+          for (int dx = 0; dx < f; ++dx) k += in_mask(int64_t(by * f + dy) * s.width() + bx * f + dx);
+        out.mask[size_t(by) * w + bx] = inside[size_t(by) * w + bx] = 2 * k >= f * f;
+      }
+  }
+  for (int i = 0; i < s.num_images(); ++i)
+    for (int c = 0; c < s.channels(); ++c) {
+      const float* src = s.Plane(i, c).data();
+      float* dst = out.Plane(i, c).data();
+      for (int by = 0; by < h; ++by)
+        for (int bx = 0; bx < w; ++bx) {
+          double sum = 0;
+          int k = 0;
+          for (int dy = 0; dy < f; ++dy)
+            for (int dx = 0; dx < f; ++dx) {
+              const int64_t p = int64_t(by * f + dy) * s.width() + bx * f + dx;
+              if (inside[size_t(by) * w + bx] && !in_mask(p)) continue;
+              sum += src[p], ++k;
+            }
+          dst[int64_t(by) * w + bx] = k ? float(sum / k) : 0.0f;
+        }
+    }
+  return out;
+}
+
+void MaskBounds(const LightStack& s, int margin, int* x, int* y, int* w, int* h) {
+  int x0 = s.width(), y0 = s.height(), x1 = -1, y1 = -1;
+  if (!s.has_mask()) {
+    *x = 0, *y = 0, *w = s.width(), *h = s.height();
+    return;
+  }
+  for (int r = 0; r < s.height(); ++r)
+    for (int c = 0; c < s.width(); ++c)
+      if (s.mask[size_t(r) * s.width() + c])
+        x0 = std::min(x0, c), x1 = std::max(x1, c), y0 = std::min(y0, r), y1 = std::max(y1, r);
+  if (x1 < 0) {
+    *x = 0, *y = 0, *w = s.width(), *h = s.height();
+    return;
+  }
+  x0 = std::max(0, x0 - margin), y0 = std::max(0, y0 - margin);
+  x1 = std::min(s.width() - 1, x1 + margin), y1 = std::min(s.height() - 1, y1 + margin);
+  *x = x0, *y = y0, *w = x1 - x0 + 1, *h = y1 - y0 + 1;
+}
+
+}  // namespace matfit
