@@ -132,10 +132,12 @@ int RunBench(BenchArgs& a) {
       const fs::path svg = fs::path(dir.temp_path()) / name;
       fs::path out = svg;
       out.replace_extension(".png");
-      const std::string cmd = "rsvg-convert -b white -o '" + out.string() + "' '" +
-                              svg.string() + "'";
-      if (std::system(cmd.c_str()) == 0) ++png;
-      else std::fprintf(stderr, "matfit bench: warning: rsvg-convert failed on %s\n", name.c_str());
+      const std::string cmd =
+          "rsvg-convert -b white -o '" + out.string() + "' '" + svg.string() + "'";
+      if (std::system(cmd.c_str()) == 0)
+        ++png;
+      else
+        std::fprintf(stderr, "matfit bench: warning: rsvg-convert failed on %s\n", name.c_str());
     }
   } else if (!a.no_png) {
     std::fprintf(stderr,

@@ -100,7 +100,11 @@ void RegisterFit(CLI::App& app, int* exit_code) {
   CLI::App* sub =
       app.add_subcommand("fit", "Fit a material model to a dataset and write a material pack");
   sub->add_option("DIR", j.input, "dataset folder (or .lp file)");
-  sub->add_option("--model", j.model, "model of the ladder, or 'list'")->capture_default_str();
+  sub->add_option("--model", j.model, "model of the ladder, 'auto' (selection), or 'list'")
+      ->capture_default_str();
+  sub->add_option("--scene", j.scene,
+                  "--model auto: scene.json (footprint, lighting, budgets; docs/selection.md)");
+  sub->add_option("--budget", j.budget, "--model auto: held-out RMSE budget (linear)");
   sub->add_option("--out", j.out, "pack folder (or .zip file with --zip), written atomically");
   sub->add_flag("--zip", j.zip, "write the pack as one zip file");
   sub->add_flag("--force", j.overwrite, "replace --out if it exists");

@@ -60,7 +60,8 @@ StatusOr<LightStack> DownsampleStack(const LightStack& s, int f) {
       for (int bx = 0; bx < w; ++bx) {
         int k = 0;
         for (int dy = 0; dy < f; ++dy)
-          for (int dx = 0; dx < f; ++dx) k += in_mask(int64_t(by * f + dy) * s.width() + bx * f + dx);
+          for (int dx = 0; dx < f; ++dx)
+            k += in_mask(int64_t(by * f + dy) * s.width() + bx * f + dx);
         out.mask[size_t(by) * w + bx] = inside[size_t(by) * w + bx] = 2 * k >= f * f;
       }
   }

@@ -76,7 +76,8 @@ std::vector<Vec3> Dome48() {
 double RenderCost(const MaterialMaps& maps) {
   const int64_t T = int64_t(maps.width) * maps.height;
   const Vec3f lights[4] = {Vec3f(0, 0, 1), Normalize(Vec3f(0.5f, 0.2f, 0.8f)),
-                           Normalize(Vec3f(-0.3f, 0.6f, 0.7f)), Normalize(Vec3f(0.7f, -0.6f, 0.4f))};
+                           Normalize(Vec3f(-0.3f, 0.6f, 0.7f)),
+                           Normalize(Vec3f(0.7f, -0.6f, 0.4f))};
   const Vec3f v(0, 0, 1);
   std::vector<double> runs;
   volatile float sink = 0;
@@ -135,7 +136,8 @@ BenchPoint RunPoint(const fit::FitMethod& method, const std::string& dataset, co
     const auto t = fit::CompareToTruth(fit->maps, *data.truth, fitted);
     if (t.has_normal) pt.normal_mae_deg = t.normal_mae_deg;
     if (t.has_albedo) pt.albedo_rmse = t.albedo_rmse;
-    const auto err = fit::RelightingError(fit->maps, *data.truth, Dome48(), data.stack.view_direction);
+    const auto err =
+        fit::RelightingError(fit->maps, *data.truth, Dome48(), data.stack.view_direction);
     double s2 = 0;
     int64_t k = 0;
     for (size_t p = 0; p < err.size(); ++p)
@@ -151,8 +153,8 @@ std::vector<Hl2Point> RunHl2(bool quick, std::string* leaf_name) {
   leaf::MakeSyntheticLeaf(size, 0.1, 4.0, &s);
   *leaf_name = "synthetic leaf " + std::to_string(size) + "², 0.1 mm/texel, 4× relief";
   std::vector<Hl2Point> out;
-  const std::vector<int> counts =
-      quick ? std::vector<int>{8, 32, 128, 512} : std::vector<int>{8, 16, 32, 64, 128, 256, 512, 1024};
+  const std::vector<int> counts = quick ? std::vector<int>{8, 32, 128, 512}
+                                        : std::vector<int>{8, 16, 32, 64, 128, 256, 512, 1024};
   const std::vector<double> elevations = {M_PI / 2, M_PI / 4, M_PI / 8};
   {  // warm-up: the first call pays one-time set-up (kernel tables, FFT plans)
     leaf::TranslucencyOptions o;
@@ -226,8 +228,9 @@ StatusOr<BenchResult> RunBench(const BenchOptions& o) {
     if (!c.path.empty()) {
       const std::string full = (std::filesystem::path(o.shared_data) / c.path).string();
       if (o.shared_data.empty() || !std::filesystem::exists(full)) {
-        res.skipped.push_back(c.name + ": " + (o.shared_data.empty() ? "no shared data folder"
-                                                                     : full + " is absent"));
+        res.skipped.push_back(
+            c.name + ": " +
+            (o.shared_data.empty() ? "no shared data folder" : full + " is absent"));
         done += int64_t(methods.size());
         continue;
       }
@@ -243,7 +246,8 @@ StatusOr<BenchResult> RunBench(const BenchOptions& o) {
     res.cases.push_back(c);
     for (const auto& m : methods) {
       res.points.push_back(RunPoint(*fit::MakeMethod(m), c.name, *data, o, repeats));
-      if (o.progress && !o.progress(++done, total)) return Status(StatusCode::kCancelled, "cancelled");
+      if (o.progress && !o.progress(++done, total))
+        return Status(StatusCode::kCancelled, "cancelled");
     }
   }
   res.hl2 = RunHl2(o.quick, &res.hl2_leaf);
@@ -294,8 +298,8 @@ std::string BenchJson(const BenchResult& r) {
                    {"mean_error_percent", h.mean_error_percent},
                    {"error_percent_by_elevation", h.error_percent_by_elevation},
                    {"precompute_seconds", h.precompute_seconds}});
-  json j = {{"schema", "matfit.bench/1"}, {"cases", cases},          {"skipped", r.skipped},
-            {"points", points},           {"hl2_leaf", r.hl2_leaf},  {"hl2", hl2},
+  json j = {{"schema", "matfit.bench/1"}, {"cases", cases},         {"skipped", r.skipped},
+            {"points", points},           {"hl2_leaf", r.hl2_leaf}, {"hl2", hl2},
             {"seconds", r.seconds}};
   return j.dump(2, ' ', false, json::error_handler_t::replace) + "\n";
 }

@@ -22,17 +22,17 @@ struct BenchCase {
   std::string material;  // synthetic material (core/synth/materials.h), empty for real data
   std::string lights = "bonn81";
   int size = 64;
-  std::string path;     // real dataset folder
-  int downsample = 1;   // real data: box factor after cropping to the mask
+  std::string path;    // real dataset folder
+  int downsample = 1;  // real data: box factor after cropping to the mask
 };
 
 struct BenchOptions {
-  bool quick = false;          // the suite and repeats of --quick (< 2 min on 2 cores)
-  std::string shared_data;     // ../shared/data; real cases are skipped when absent
+  bool quick = false;                // the suite and repeats of --quick (< 2 min on 2 cores)
+  std::string shared_data;           // ../shared/data; real cases are skipped when absent
   std::vector<std::string> methods;  // empty: the whole ladder
-  int repeats = 0;             // fit timings per point (median); 0 = 1 quick, 3 full
-  int holdout = 4;             // k-fold held-out lights
-  ProgressFn progress;         // points done / total
+  int repeats = 0;                   // fit timings per point (median); 0 = 1 quick, 3 full
+  int holdout = 4;                   // k-fold held-out lights
+  ProgressFn progress;               // points done / total
 
   bool Check(std::string* why) const;
 };
@@ -43,31 +43,31 @@ struct BenchPoint {
   std::string error;  // when the method refused the dataset
   int64_t texels = 0;
   int images = 0, parameters = 0, bytes_per_texel = 0;
-  double fit_seconds = 0;              // median of the repeats
+  double fit_seconds = 0;  // median of the repeats
   double texels_per_second = 0;
-  double render_ns_per_pixel = 0;      // CPU shading function, one light, 3 channels (median)
-  double deviation_percent = 0;        // reconstruction at the fitted lights (METHODS.md §2)
+  double render_ns_per_pixel = 0;  // CPU shading function, one light, 3 channels (median)
+  double deviation_percent = 0;    // reconstruction at the fitted lights (METHODS.md §2)
   std::map<int, double> deviation_percent_by_theta;
   double heldout_rmse = NAN, heldout_deviation_percent = NAN;
   std::optional<double> normal_mae_deg, albedo_rmse;
   std::optional<double> relight_rmse;  // vs truth over a 48-light dome (synthetic only)
   int64_t flagged_texels = 0;
-  double bound_median = NAN;           // median per-texel error bound (fit/confidence.h)
+  double bound_median = NAN;  // median per-texel error bound (fit/confidence.h)
 };
 
 struct Hl2Point {
-  int directions = 0;                  // N_L
-  double mean_error_percent = 0;       // HL2 vs multipole, mean over 3 elevations
+  int directions = 0;                              // N_L
+  double mean_error_percent = 0;                   // HL2 vs multipole, mean over 3 elevations
   std::vector<double> error_percent_by_elevation;  // π/2, π/4, π/8
-  double precompute_seconds = 0;       // fast method
+  double precompute_seconds = 0;                   // fast method
 };
 
 struct BenchResult {
   std::vector<BenchCase> cases;
-  std::vector<std::string> skipped;    // e.g. real data absent
+  std::vector<std::string> skipped;  // e.g. real data absent
   std::vector<BenchPoint> points;
-  std::vector<Hl2Point> hl2;           // leaf HL2 precompute: error vs N_L
-  std::string hl2_leaf;                // which leaf
+  std::vector<Hl2Point> hl2;  // leaf HL2 precompute: error vs N_L
+  std::string hl2_leaf;       // which leaf
   double seconds = 0;
 };
 

@@ -131,8 +131,9 @@ std::map<std::string, std::string> StabilityCharts(const StabilityResult& r) {
       continue;
     }
     e.values.push_back(c.error_median);
-    e.cell_text.push_back((std::isfinite(c.error_median) ? Fmt("%.3g", 1e3 * c.error_median) : "—") +
-                          "\n" + Fmt("%.0f%% fl", 100 * c.flagged_fraction));
+    e.cell_text.push_back(
+        (std::isfinite(c.error_median) ? Fmt("%.3g", 1e3 * c.error_median) : "—") + "\n" +
+        Fmt("%.0f%% fl", 100 * c.flagged_fraction));
     s.values.push_back(100 * c.silent_fraction);
     s.cell_text.push_back(Fmt("%.2g%%", 100 * c.silent_fraction));
   }

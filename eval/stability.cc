@@ -49,31 +49,49 @@ StatusOr<CaseData> MakeCase(const std::string& name, int size) {
   p.gaussian_sigma = 0.005;  // every case but "clean" has a good camera's read noise
   p.seed = 7;
   std::vector<LightSample> custom;
-  if (name == "clean") p.gaussian_sigma = 0;
-  else if (name == "noise-0.5%") p.gaussian_sigma = 0.005;
-  else if (name == "noise-1%") p.gaussian_sigma = 0.01;
-  else if (name == "noise-2%") p.gaussian_sigma = 0.02;
-  else if (name == "noise-5%") p.gaussian_sigma = 0.05;
-  else if (name == "shot-noise") p.gaussian_sigma = 0, p.shot_photons = 400;
-  else if (name == "cast-shadows") material = "corduroy", shadows = true;
-  else if (name == "highlights") material = "plastic";
-  else if (name == "clip-0.9") material = "plastic", p.clip = 0.9;
-  else if (name == "clip-0.8") material = "plastic", p.clip = 0.8;
+  if (name == "clean")
+    p.gaussian_sigma = 0;
+  else if (name == "noise-0.5%")
+    p.gaussian_sigma = 0.005;
+  else if (name == "noise-1%")
+    p.gaussian_sigma = 0.01;
+  else if (name == "noise-2%")
+    p.gaussian_sigma = 0.02;
+  else if (name == "noise-5%")
+    p.gaussian_sigma = 0.05;
+  else if (name == "shot-noise")
+    p.gaussian_sigma = 0, p.shot_photons = 400;
+  else if (name == "cast-shadows")
+    material = "corduroy", shadows = true;
+  else if (name == "highlights")
+    material = "plastic";
+  else if (name == "clip-0.9")
+    material = "plastic", p.clip = 0.9;
+  else if (name == "clip-0.8")
+    material = "plastic", p.clip = 0.8;
   else if (name == "gamma-8bit") {
-  } else if (name == "misregister-0.5px") material = "granite", p.misregister_px = 0.5;
-  else if (name == "misregister-1px") material = "granite", p.misregister_px = 1.0;
-  else if (name == "lights-3") lights = "dome:3";
-  else if (name == "lights-4") lights = "dome:4";
-  else if (name == "lights-6") lights = "dome:6";
+  } else if (name == "misregister-0.5px")
+    material = "granite", p.misregister_px = 0.5;
+  else if (name == "misregister-1px")
+    material = "granite", p.misregister_px = 1.0;
+  else if (name == "lights-3")
+    lights = "dome:3";
+  else if (name == "lights-4")
+    lights = "dome:4";
+  else if (name == "lights-6")
+    lights = "dome:6";
   else if (name == "coplanar") {
     for (int i = 0; i < 12; ++i) {
       const double t = (-60.0 + 120.0 * i / 11) * M_PI / 180;
       custom.push_back(FromDirection(Vec3(std::sin(t), 0, std::cos(t))));
     }
-  } else if (name == "grazing-only") lights = "ring:12:75";
+  } else if (name == "grazing-only")
+    lights = "ring:12:75";
   else if (name == "nan-pixels") {
-  } else if (name == "leaf") material = "leaf";
-  else return InvalidArgument("unknown stability case '" + name + "'");
+  } else if (name == "leaf")
+    material = "leaf";
+  else
+    return InvalidArgument("unknown stability case '" + name + "'");
   auto maps = synth::MakeMaterial(material, size, 3);
   if (!maps.ok()) return maps.status();
   if (custom.empty()) {
@@ -267,9 +285,12 @@ StatusOr<StabilityResult> RunStability(const StabilityOptions& o) {
       const bool leaf_method = cell.method == kLeafMethod;
       cell.applicable = leaf_method ? (c == "leaf" || c == "thin-leaf") : c != "thin-leaf";
       if (cell.applicable) {
-        if (leaf_method) ScoreLeaf(c, o.size, &cell);
-        else if (!data.ok()) return data.status();
-        else ScoreFit(cell.method, *data, &cell);
+        if (leaf_method)
+          ScoreLeaf(c, o.size, &cell);
+        else if (!data.ok())
+          return data.status();
+        else
+          ScoreFit(cell.method, *data, &cell);
       }
       if (o.progress && !o.progress(++done, total))
         return Status(StatusCode::kCancelled, "cancelled");
@@ -285,7 +306,8 @@ std::string StabilityJson(const StabilityResult& r) {
   json cells = json::array(), cases = json::array();
   for (const auto& c : StabilityCases())
     if (std::find(r.perturbations.begin(), r.perturbations.end(), c.name) != r.perturbations.end())
-      cases.push_back({{"name", c.name}, {"description", c.description}, {"degenerate", c.degenerate}});
+      cases.push_back(
+          {{"name", c.name}, {"description", c.description}, {"degenerate", c.degenerate}});
   for (const auto& c : r.cells)
     cells.push_back({{"method", c.method},
                      {"perturbation", c.perturbation},
@@ -301,9 +323,8 @@ std::string StabilityJson(const StabilityResult& r) {
                      {"silent_texels", c.silent},
                      {"silent_fraction", c.silent_fraction},
                      {"bound_median", num(c.bound_median)}});
-  json j = {{"schema", "matfit.stability/1"}, {"size", r.size},
-            {"methods", r.methods},          {"perturbations", cases},
-            {"cells", cells},                {"seconds", r.seconds}};
+  json j = {{"schema", "matfit.stability/1"}, {"size", r.size}, {"methods", r.methods},
+            {"perturbations", cases},         {"cells", cells}, {"seconds", r.seconds}};
   return j.dump(2, ' ', false, json::error_handler_t::replace) + "\n";
 }
 

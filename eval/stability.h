@@ -33,16 +33,16 @@ const std::vector<StabilityCase>& StabilityCases();
 
 struct StabilityCell {
   std::string method, perturbation;
-  bool applicable = true;   // leaf-hl2 only runs on leaf cases, fits not on thin-leaf
-  bool refused = false;     // the method returned an error (it knew)
-  std::string error;        // its message
-  int64_t texels = 0;       // texels scored (inside the truth mask)
+  bool applicable = true;  // leaf-hl2 only runs on leaf cases, fits not on thin-leaf
+  bool refused = false;    // the method returned an error (it knew)
+  std::string error;       // its message
+  int64_t texels = 0;      // texels scored (inside the truth mask)
   double error_median = NAN, error_p95 = NAN;  // relighting RMS error over a dome, linear
   double normal_mae_deg = NAN;                 // ok texels, methods with a normal
   double flagged_fraction = 0;                 // texels not ok (any reason)
   int warnings = 0;
-  int64_t silent = 0;                          // ok texels with error > bound
-  double silent_fraction = 0;                  // silent / texels
+  int64_t silent = 0;          // ok texels with error > bound
+  double silent_fraction = 0;  // silent / texels
   double bound_median = NAN;
 };
 

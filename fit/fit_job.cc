@@ -1,8 +1,11 @@
 #include "fit/fit_job.h"
 
+#include <fstream>
+#include <sstream>
 #include "core/atomic_file.h"
 #include "core/pack/pack.h"
 #include "core/pack/pack_reader.h"
+#include "core/stack_ops.h"
 #include "core/synth/truth_io.h"
 #include "fit/assess.h"
 #include "fit/method.h"
@@ -17,10 +20,15 @@ bool FitJobOptions::Check(std::string* why) const {
   };
   if (input.empty()) return fail("the dataset path is empty");
   if (out.empty() && report_only.empty()) return fail("--out PACK is required");
-  if (!MakeMethod(model)) {
+  if (model == "auto") {
+    if (!report_only.empty()) return fail("--report-only scores an existing pack: no --model auto");
+    if (budget < 0 || !std::isfinite(budget)) return fail("--budget must be > 0 (0 = the scene's)");
+  } else if (!scene.empty() || budget != 0) {
+    return fail("--scene and --budget go with --model auto");
+  } else if (!MakeMethod(model)) {
     std::string list;
     for (const auto& n : MethodNames()) list += (list.empty() ? "" : ", ") + n;
-    return fail("--model '" + model + "' is not a method; choose one of: " + list);
+    return fail("--model '" + model + "' is not a method; choose one of: " + list + " (or auto)");
   }
   if (holdout == 1 || holdout < 0) return fail("--holdout must be 0 (off) or ≥ 2 folds");
   return read.Check(why) && fit.Check(why);
@@ -66,7 +74,33 @@ StatusOr<FitJobResult> RunFitJob(const FitJobOptions& o, const StageProgress& pr
     if (!o.out.empty()) MATFIT_RETURN_IF_ERROR(WriteFileAtomic(o.out, r.report_json));
     return r;
   }
-  const auto method = MakeMethod(o.model);
+  std::optional<Selection> selection;
+  SceneSpec scene;
+  std::string model = o.model;
+  if (model == "auto") {
+    if (!o.scene.empty()) {
+      std::ifstream in(o.scene, std::ios::binary);
+      if (!in) return NotFound("cannot read the scene file '" + o.scene + "'");
+      std::stringstream text;
+      text << in.rdbuf();
+      auto parsed = ParseScene(text.str(), o.scene);
+      if (!parsed.ok()) return parsed.status();
+      scene = *parsed;
+    }
+    if (o.budget > 0) scene.error_budget = o.budget;
+    SelectOptions so;
+    so.fit.progress = stage("select");
+    auto sel = SelectModel(*stack, scene, so);
+    if (!sel.ok()) return sel.status();
+    selection = std::move(*sel);
+    model = selection->method;
+    if (selection->level > 0) {
+      auto small = DownsampleStack(*stack, 1 << selection->level);
+      if (!small.ok()) return small.status();
+      *stack = std::move(*small);
+    }
+  }
+  const auto method = MakeMethod(model);
   FitOptions fo = o.fit;
   fo.progress = stage("fit");
   auto fit = method->Fit(*stack, fo);
@@ -77,6 +111,10 @@ StatusOr<FitJobResult> RunFitJob(const FitJobOptions& o, const StageProgress& pr
   r.reconstruction = Reconstruction(*stack, fit->maps, fit->status);
   const std::vector<uint8_t> fitted_status = fit->status;  // metrics describe what was fitted
   r.assessment = AssessFit(*stack, *method, &*fit);
+  if (selection) {
+    for (const auto& w : selection->warnings) fit->warnings.push_back("model selection: " + w);
+    r.selection = selection;
+  }
   if (o.holdout >= 2) {
     if (progress && !progress("heldout", 0, o.holdout))
       return Status(StatusCode::kCancelled, "cancelled");
@@ -107,6 +145,7 @@ StatusOr<FitJobResult> RunFitJob(const FitJobOptions& o, const StageProgress& pr
   ri.heldout = r.heldout;
   ri.truth = r.truth;
   ri.assessment = &r.assessment;
+  if (selection) ri.selection_json = SelectionJson(*selection, scene);
   ri.source = o.input;
   r.report_json = MakeReportJson(ri);
 

@@ -11,17 +11,20 @@
 #include "fit/fit_types.h"
 #include "fit/holdout.h"
 #include "fit/metrics.h"
+#include "fit/select.h"
 
 namespace matfit::fit {
 
 struct FitJobOptions {
-  std::string input;  // dataset folder or .lp file
-  std::string model = "lambert";
-  ReadOptions read;         // layout, view, colour space
-  FitOptions fit;           // tile, method options
-  int holdout = 0;          // k-fold held-out-light error; 0 = off, else ≥ 2
-  std::string out;          // pack folder (or .zip with zip); report file with report_only
-  std::string report_only;  // score this existing pack against the dataset (no fitting)
+  std::string input;              // dataset folder or .lp file
+  std::string model = "lambert";  // or "auto": fit/select.h picks model and map resolution
+  std::string scene;              // auto: scene.json (empty: a dynamic, full-resolution scene)
+  double budget = 0;              // auto: error budget overriding the scene's (0 = keep)
+  ReadOptions read;               // layout, view, colour space
+  FitOptions fit;                 // tile, method options
+  int holdout = 0;                // k-fold held-out-light error; 0 = off, else ≥ 2
+  std::string out;                // pack folder (or .zip with zip); report file with report_only
+  std::string report_only;        // score this existing pack against the dataset (no fitting)
   bool zip = false, overwrite = false;
 
   bool Check(std::string* why) const;
@@ -33,13 +36,15 @@ struct FitJobResult {
   ReconstructionMetrics reconstruction;
   std::optional<HeldOutMetrics> heldout;
   std::optional<TruthMetrics> truth;
-  FitAssessment assessment;  // diagnostics + per-texel error bound (not with report_only)
+  FitAssessment assessment;
+  std::optional<Selection> selection;  // with model "auto"  // diagnostics + per-texel error bound
+                                       // (not with report_only)
   std::string report_json;
 };
 
 // With report_only: reads the pack, scores it against the dataset (reconstruction, truth when
 // present), fills report_json and writes it to `out` when `out` is set.
-// stage is "read", "fit", "heldout" or "write"; return false to cancel.
+// stage is "read", "select" (auto), "fit", "heldout" or "write"; return false to cancel.
 using StageProgress = std::function<bool(const std::string& stage, int64_t done, int64_t total)>;
 
 StatusOr<FitJobResult> RunFitJob(const FitJobOptions& options, const StageProgress& progress = {});

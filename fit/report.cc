@@ -75,6 +75,7 @@ std::string MakeReportJson(const FitReportInputs& in) {
                         {"residual_linear", d.residual_linear},
                         {"residual_best", d.residual_best}};
   }
+  if (!in.selection_json.empty()) j["selection"] = json::parse(in.selection_json);
   if (in.truth) {
     // null where the model has no such map (see TruthMetrics).
     j["normal_mae_deg"] = in.truth->has_normal ? json(in.truth->normal_mae_deg) : json();

@@ -19,6 +19,7 @@ struct FitReportInputs {
   std::optional<HeldOutMetrics> heldout;
   std::optional<TruthMetrics> truth;
   const FitAssessment* assessment = nullptr;  // optional
+  std::string selection_json;                 // optional: SelectionJson (model auto)
   std::string source;
 };
 

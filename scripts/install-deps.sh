@@ -24,6 +24,8 @@ PACKAGES=(
   chromium
   # capture: USB light rigs, V4L2 cameras
   libusb-1.0-0-dev linux-libc-dev
+  # bench: PNG copies of the SVG charts
+  librsvg2-bin
 )
 
 missing=()

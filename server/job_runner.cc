@@ -100,6 +100,7 @@ StatusOr<std::string> RunJob(const JobSpec& spec, const std::string& dataset,
   o.input = dataset;
   o.model = spec.model;
   o.holdout = spec.holdout;
+  o.budget = spec.budget;
   o.out = out_dir;
   o.overwrite = true;
   o.read.confine_to = dataset;

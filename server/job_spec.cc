@@ -1,5 +1,6 @@
 #include "server/job_spec.h"
 
+#include <cmath>
 #include <cstdlib>
 #include <nlohmann/json.hpp>
 
@@ -30,7 +31,8 @@ bool ParseView(const std::string& s, double* theta, double* phi) {
 }  // namespace
 
 json JobSpec::ToJson() const {
-  return {{"mode", mode}, {"model", model}, {"view", view}, {"holdout", holdout}};
+  return {
+      {"mode", mode}, {"model", model}, {"view", view}, {"holdout", holdout}, {"budget", budget}};
 }
 
 StatusOr<JobSpec> ParseJobSpecFields(const std::map<std::string, std::string>& fields) {
@@ -53,26 +55,36 @@ StatusOr<JobSpec> ParseJobSpecFields(const std::map<std::string, std::string>& f
       if (v.empty() || *end || h < 0 || h == 1 || h > 1000)
         return FieldError("holdout", "must be 0 (off) or a fold count ≥ 2, got '" + v + "'");
       s.holdout = int(h);
+    } else if (k == "budget") {
+      char* end = nullptr;
+      const double b = std::strtod(v.c_str(), &end);
+      if (v.empty() || *end || !(b > 0) || !std::isfinite(b))
+        return FieldError("budget", "must be a positive held-out RMSE (linear), got '" + v + "'");
+      s.budget = b;
     } else if (k != "file" && k != "dataset") {
       return FieldError(k,
-                        "is not an option; use model, view, mode, holdout (and file or dataset)");
+                        "is not an option; use model, view, mode, holdout, budget (and file or "
+                        "dataset)");
     }
   }
   if (s.mode == "fit") {
-    if (s.model == "auto")
-      return FieldError("model", "'auto' (model selection) is not available yet; name a model");
-    bool known = false;
+    if (s.budget > 0 && s.model != "auto")
+      return FieldError("budget", "applies to model=auto only");
+    bool known = s.model == "auto";
     std::string list;
     for (const auto& n : fit::MethodNames()) {
       known = known || n == s.model;
       list += (list.empty() ? "" : ", ") + n;
     }
     if (!known)
-      return FieldError("model", "'" + s.model + "' is not a model; choose one of: " + list);
-  } else if (fields.count("model") || fields.count("view") || fields.count("holdout")) {
-    return FieldError(fields.count("model")  ? "model"
-                      : fields.count("view") ? "view"
-                                             : "holdout",
+      return FieldError("model",
+                        "'" + s.model + "' is not a model; choose one of: " + list + " or auto");
+  } else if (fields.count("model") || fields.count("view") || fields.count("holdout") ||
+             fields.count("budget")) {
+    return FieldError(fields.count("model")     ? "model"
+                      : fields.count("view")    ? "view"
+                      : fields.count("holdout") ? "holdout"
+                                                : "budget",
                       "does not apply to mode=leaf");
   }
   return s;
@@ -96,6 +108,9 @@ StatusOr<JobSpec> ParseJobSpecJson(const std::string& body, std::string* dataset
     if (k == "holdout") {
       if (!v.is_number_integer()) return FieldError("holdout", "must be an integer");
       fields[k] = std::to_string(v.get<int64_t>());
+    } else if (k == "budget") {
+      if (!v.is_number()) return FieldError("budget", "must be a number");
+      fields[k] = v.dump();
     } else if (v.is_string()) {
       fields[k] = v.get<std::string>();
     } else {
@@ -113,6 +128,7 @@ StatusOr<JobSpec> JobSpecFromJson(const std::string& stored) {
   s.model = j.value("model", s.model);
   s.view = j.value("view", "");
   s.holdout = j.value("holdout", 0);
+  s.budget = j.value("budget", 0.0);
   return s;
 }
 

@@ -13,8 +13,9 @@ namespace matfit::server {
 struct JobSpec {
   std::string mode = "fit";  // "fit" | "leaf"
   std::string model = "lambert-robust";
-  std::string view;  // "THETA,PHI" (BTF view) or empty
-  int holdout = 0;   // k-fold held-out-light error (fit)
+  std::string view;   // "THETA,PHI" (BTF view) or empty
+  int holdout = 0;    // k-fold held-out-light error (fit)
+  double budget = 0;  // model "auto": held-out RMSE budget (0 = the default scene's)
   nlohmann::json ToJson() const;
 };
 

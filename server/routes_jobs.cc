@@ -138,8 +138,8 @@ void Server::Impl::RegisterJobRoutes() {
       const bool ok = reader(
           [&](const httplib::MultipartFormData& part) {
             current = part.name;
-            static const std::set<std::string> kFields = {"file", "model", "view", "mode",
-                                                          "holdout"};
+            static const std::set<std::string> kFields = {"file", "model",   "view",
+                                                          "mode", "holdout", "budget"};
             if (!kFields.count(current)) return problem_field = current, unknown = true, false;
             if (current == "file") {
               if (has_file) return problem_field = "file", false;
@@ -176,10 +176,11 @@ void Server::Impl::RegisterJobRoutes() {
                                  "file");
       if (write_failed) return SendErrorAndClose(res, 507, "the server could not store the upload");
       if (unknown)
-        return SendErrorAndClose(res, 400,
-                                 "form field '" + problem_field +
-                                     "' is not an option; use file, model, view, mode, holdout",
-                                 problem_field);
+        return SendErrorAndClose(
+            res, 400,
+            "form field '" + problem_field +
+                "' is not an option; use file, model, view, mode, holdout, budget",
+            problem_field);
       if (!problem_field.empty())
         return SendErrorAndClose(
             res, 400, "form field '" + problem_field + "' is repeated or longer than 4 KiB",

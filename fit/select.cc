@@ -1,0 +1,361 @@
+#include "fit/select.h"
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <nlohmann/json.hpp>
+
+#include "core/shading/evaluate.h"
+#include "core/stack_ops.h"
+#include "fit/fit_common.h"
+#include "fit/method.h"
+#include "fit/metrics.h"
+
+namespace matfit::fit {
+namespace {
+
+using nlohmann::json;
+
+// Held-out accumulators of one candidate over all folds.
+struct HeldOutSums {
+  std::vector<double> sse;      // per image: Σ (pred − meas)² over ok texels × channels
+  std::vector<int64_t> count;   // per image: samples
+  std::vector<double> env_err;  // per texel × channel: Σ_i w_i (pred − meas), w_i = max(0, l_z)
+  std::vector<double> env_w;    // per texel × channel: Σ_i w_i over the images it was scored on
+  int64_t flagged = 0, scored = 0;
+  double fit_seconds = 0;
+  MaterialMaps last_maps;
+  bool any = false;
+};
+
+// Folds over images (image i in fold i mod K). `coarse` is the level-(L+k) stack, `fine` the
+// level-L one; texel (x, y) of fine is predicted by texel (x >> k, y >> k) of coarse.
+StatusOr<HeldOutSums> Score(const FitMethod& m, const LightStack& fine, const LightStack& coarse,
+                            int k, int folds) {
+  const int n = fine.num_images(), C = fine.channels();
+  const int64_t T = fine.plane_size();
+  HeldOutSums h;
+  h.sse.assign(size_t(n), 0), h.count.assign(size_t(n), 0);
+  h.env_err.assign(size_t(T) * C, 0), h.env_w.assign(size_t(T) * C, 0);
+  const std::vector<float> inv = InverseIntensities(fine);
+  const Vec3f v(fine.view_direction);
+  for (int f = 0; f < folds; ++f) {
+    std::vector<int> train, test;
+    for (int i = 0; i < n; ++i) (i % folds == f ? test : train).push_back(i);
+    auto fit = m.Fit(SelectImages(coarse, train), {});
+    if (!fit.ok()) {
+      if (fit.status().code() == StatusCode::kCancelled) return fit.status();
+      continue;  // this fold leaves too few lights: counted as all-flagged below
+    }
+    if (f == 0) h.fit_seconds = fit->fit_seconds;
+    h.any = true;
+    for (int y = 0; y < fine.height(); ++y)
+      for (int x = 0; x < fine.width(); ++x) {
+        const int64_t p = int64_t(y) * fine.width() + x;
+        if (fine.has_mask() && !fine.mask[p]) continue;
+        const int cx = std::min(coarse.width() - 1, x >> k),
+                  cy = std::min(coarse.height() - 1, y >> k);
+        const int64_t q = int64_t(cy) * coarse.width() + cx;
+        ++h.scored;
+        if (fit->status[q] != kTexelOk) {
+          ++h.flagged;
+          continue;
+        }
+        for (int i : test) {
+          const Vec3f l(fine.lights()[i].direction);
+          const double w = std::max(0.0f, l.z);
+          for (int c = 0; c < C; ++c) {
+            const float raw = fine.Plane(i, c)[p];
+            if (!std::isfinite(raw) || raw >= kClipLevel) continue;
+            const double d = EvaluateTexel(fit->maps, q, c, l, v) - raw * inv[size_t(i) * C + c];
+            h.sse[i] += d * d, ++h.count[i];
+            h.env_err[size_t(p) * C + c] += w * d, h.env_w[size_t(p) * C + c] += w;
+          }
+        }
+      }
+    h.last_maps = std::move(fit->maps);
+  }
+  return h;
+}
+
+double AngleDeg(const Vec3& a, const Vec3& b) {
+  return std::acos(std::clamp(Dot(Normalize(a), Normalize(b)), -1.0, 1.0)) * 180 / M_PI;
+}
+
+// Per-image weights of the scene's light: 1 (dynamic), or a 15° Gaussian around a static sun;
+// all 1 with a warning when no light lies within 30° of the sun.
+std::vector<double> LightWeights(const LightStack& s, const SceneSpec& scene,
+                                 std::vector<std::string>* warnings) {
+  std::vector<double> w(size_t(s.num_images()), 1.0);
+  if (!scene.static_light || scene.environment) return w;
+  const Vec3 sun = DirectionFromAnglesDeg(scene.sun_theta_deg, scene.sun_phi_deg);
+  double best = 180;
+  for (size_t i = 0; i < w.size(); ++i) {
+    const double a = AngleDeg(s.lights()[i].direction, sun);
+    best = std::min(best, a);
+    w[i] = std::exp(-std::pow(a / 15.0, 2));
+  }
+  if (best > 30) {
+    if (warnings)
+      warnings->push_back("no measured light lies within 30° of the scene's sun (nearest " +
+                          std::to_string(int(best)) +
+                          "°): the error there is extrapolated; all lights are weighted alike");
+    std::fill(w.begin(), w.end(), 1.0);
+  }
+  return w;
+}
+
+double SceneError(const HeldOutSums& h, const std::vector<double>& w, const SceneSpec& scene) {
+  if (scene.environment) {
+    double e2 = 0;
+    int64_t k = 0;
+    for (size_t j = 0; j < h.env_err.size(); ++j)
+      if (h.env_w[j] > 0) e2 += std::pow(h.env_err[j] / h.env_w[j], 2), ++k;
+    return k ? std::sqrt(e2 / k) : NAN;
+  }
+  double num = 0, den = 0;
+  for (size_t i = 0; i < w.size(); ++i) num += w[i] * h.sse[i], den += w[i] * double(h.count[i]);
+  return den > 0 ? std::sqrt(num / den) : NAN;
+}
+
+double ShadingCost(const MaterialMaps& maps) {
+  const int64_t T = int64_t(maps.width) * maps.height;
+  if (T == 0) return 0;
+  const Vec3f l = Normalize(Vec3f(0.4f, 0.3f, 0.8f)), v(0, 0, 1);
+  double best = INFINITY;
+  volatile float sink = 0;
+  for (int rep = 0; rep < 3; ++rep) {
+    const auto t0 = std::chrono::steady_clock::now();
+    float acc = 0;
+    for (int64_t p = 0; p < T; ++p)
+      for (int c = 0; c < 3; ++c) acc += EvaluateTexel(maps, p, c, l, v);
+    sink = sink + acc;
+    best = std::min(best,
+                    std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count());
+  }
+  return best * 1e9 / double(T);
+}
+
+}  // namespace
+
+bool SceneSpec::Check(std::string* why) const {
+  auto fail = [&](const std::string& m) {
+    *why = (source.empty() ? "" : source + ": ") + m;
+    return false;
+  };
+  if (!(texel_footprint_px > 0) || !std::isfinite(texel_footprint_px))
+    return fail("texel_footprint_px must be > 0 (screen pixels per texel), got " +
+                std::to_string(texel_footprint_px));
+  if (!(error_budget > 0) || !std::isfinite(error_budget))
+    return fail("error_budget must be > 0 (held-out RMSE, linear), got " +
+                std::to_string(error_budget));
+  if (memory_budget_bytes < 0 || !std::isfinite(memory_budget_bytes))
+    return fail("memory_budget_bytes must be ≥ 0 (0 = unlimited)");
+  if (static_light && !environment && !(sun_theta_deg >= 0 && sun_theta_deg < 90))
+    return fail("sun_theta_deg must be in [0, 90), got " + std::to_string(sun_theta_deg));
+  return true;
+}
+
+StatusOr<SceneSpec> ParseScene(const std::string& text, const std::string& source) {
+  json j;
+  try {
+    j = json::parse(text);
+  } catch (const json::parse_error& e) {
+    return InvalidArgument(source + ": not JSON (" + e.what() + ")");
+  }
+  if (!j.is_object()) return InvalidArgument(source + ": the scene must be a JSON object");
+  SceneSpec s;
+  s.source = source;
+  auto number = [&](const char* key, double* out) -> Status {
+    if (!j.contains(key)) return Status::Ok();
+    if (!j[key].is_number())
+      return InvalidArgument(source + ": field '" + key + "' must be a number");
+    *out = j[key].get<double>();
+    return Status::Ok();
+  };
+  static const char* kKeys[] = {
+      "schema",      "texel_footprint_px",  "lighting",     "light",      "sun_theta_deg",
+      "sun_phi_deg", "memory_budget_bytes", "error_budget", "description"};
+  for (const auto& [k, v] : j.items())
+    if (std::none_of(std::begin(kKeys), std::end(kKeys), [&](const char* x) { return k == x; }))
+      return InvalidArgument(source + ": unknown field '" + k +
+                             "' (known: texel_footprint_px, lighting, light, sun_theta_deg, "
+                             "sun_phi_deg, memory_budget_bytes, error_budget)");
+  if (j.contains("schema") && j["schema"] != "matfit.scene/1")
+    return InvalidArgument(source + ": field 'schema' must be \"matfit.scene/1\"");
+  MATFIT_RETURN_IF_ERROR(number("texel_footprint_px", &s.texel_footprint_px));
+  MATFIT_RETURN_IF_ERROR(number("sun_theta_deg", &s.sun_theta_deg));
+  MATFIT_RETURN_IF_ERROR(number("sun_phi_deg", &s.sun_phi_deg));
+  MATFIT_RETURN_IF_ERROR(number("memory_budget_bytes", &s.memory_budget_bytes));
+  MATFIT_RETURN_IF_ERROR(number("error_budget", &s.error_budget));
+  if (j.contains("lighting")) {
+    const auto& v = j["lighting"];
+    if (v != "dynamic" && v != "static")
+      return InvalidArgument(source + ": field 'lighting' must be \"dynamic\" or \"static\"");
+    s.static_light = v == "static";
+  }
+  if (j.contains("light")) {
+    const auto& v = j["light"];
+    if (v != "directional" && v != "environment")
+      return InvalidArgument(source + ": field 'light' must be \"directional\" or \"environment\"");
+    s.environment = v == "environment";
+  }
+  std::string why;
+  if (!s.Check(&why)) return InvalidArgument(why);
+  return s;
+}
+
+StatusOr<Selection> SelectModel(const LightStack& stack, const SceneSpec& scene,
+                                const SelectOptions& o) {
+  std::string why;
+  if (!scene.Check(&why)) return InvalidArgument(why);
+  if (o.folds < 2 || o.folds > stack.num_images())
+    return InvalidArgument("selection needs 2..images held-out folds, got " +
+                           std::to_string(o.folds));
+  Selection sel;
+  const int L = std::max(0, int(std::floor(std::log2(1.0 / scene.texel_footprint_px) + 1e-9)));
+  int level = L;
+  while (level > 0 && (stack.width() >> level) < 4) --level;
+  sel.scene_level = level;
+  auto fine = DownsampleStack(stack, 1 << level);
+  if (!fine.ok()) return fine.status();
+  std::vector<std::string> methods = o.methods.empty() ? MethodNames() : o.methods;
+  std::vector<std::pair<std::unique_ptr<FitMethod>, int>> cands;  // method, k
+  std::vector<Candidate> table;
+  for (const auto& name : methods) {
+    auto m = MakeMethod(name);
+    if (!m) return InvalidArgument("selection: '" + name + "' is not a method");
+    for (int k = 0; k <= o.max_coarser_levels; ++k) {
+      const int w = fine->width() >> k, h = fine->height() >> k;
+      if (w < 4 || h < 4) break;
+      Candidate c;
+      c.method = name;
+      c.level = level + k, c.width = w, c.height = h;
+      c.bytes = int64_t(m->bytes_per_texel()) * w * h;
+      table.push_back(c);
+      cands.emplace_back(MakeMethod(name), k);
+    }
+  }
+  // Fewest bytes first; ties: fewer parameters, then finer maps.
+  std::vector<size_t> order(table.size());
+  for (size_t i = 0; i < order.size(); ++i) order[i] = i;
+  std::stable_sort(order.begin(), order.end(), [&](size_t a, size_t b) {
+    if (table[a].bytes != table[b].bytes) return table[a].bytes < table[b].bytes;
+    const int pa = cands[a].first->parameters_per_texel(),
+              pb = cands[b].first->parameters_per_texel();
+    if (pa != pb) return pa < pb;
+    return table[a].level < table[b].level;
+  });
+  std::vector<StatusOr<LightStack>> coarse;
+  for (int k = 0; k <= o.max_coarser_levels; ++k) coarse.push_back(DownsampleStack(*fine, 1 << k));
+  const std::vector<double> weights = LightWeights(*fine, scene, &sel.warnings);
+  int chosen = -1, best = -1;
+  int64_t done = 0;
+  for (size_t idx : order) {
+    Candidate& c = table[idx];
+    if (chosen >= 0) {
+      c.note = "not evaluated: a smaller candidate met the budget";
+      sel.candidates.push_back(c);
+      continue;
+    }
+    if (scene.memory_budget_bytes > 0 && double(c.bytes) > scene.memory_budget_bytes) {
+      c.note = "over the memory budget";
+      sel.candidates.push_back(c);
+      continue;
+    }
+    const int k = cands[idx].second;
+    if (!coarse[k].ok()) {
+      c.note = coarse[k].status().message();
+      sel.candidates.push_back(c);
+      continue;
+    }
+    auto h = Score(*cands[idx].first, *fine, *coarse[k], k, o.folds);
+    if (!h.ok()) return h.status();
+    c.evaluated = true;
+    c.fit_seconds = h->fit_seconds;
+    c.flagged_fraction = h->scored ? double(h->flagged) / h->scored : 1;
+    c.error = h->any ? SceneError(*h, weights, scene) : NAN;
+    c.render_ns_per_pixel = h->any ? ShadingCost(h->last_maps) : 0;
+    if (!h->any)
+      c.note = "refused every fold (too few lights)";
+    else if (c.flagged_fraction > 0.01)
+      c.note = "flags " + std::to_string(int(100 * c.flagged_fraction)) + " % of its texels";
+    else if (!(c.error <= scene.error_budget))
+      c.note = "error above the budget";
+    else
+      c.meets = true;
+    if (c.meets) chosen = int(sel.candidates.size());
+    if (std::isfinite(c.error) && c.flagged_fraction <= 0.01 &&
+        (best < 0 || c.error < sel.candidates[best].error))
+      best = int(sel.candidates.size());
+    sel.candidates.push_back(c);
+    ++done;
+    if (o.fit.progress && !o.fit.progress(done, int64_t(table.size())))
+      return Status(StatusCode::kCancelled, "cancelled");
+  }
+  int pick = chosen;
+  if (pick < 0) {
+    sel.budget_met = false;
+    pick = best;
+    if (pick < 0)
+      return InvalidArgument("model selection: no candidate could be fitted to this dataset");
+    sel.warnings.push_back("no candidate met the error budget " +
+                           std::to_string(scene.error_budget) + "; using the most accurate one, " +
+                           sel.candidates[pick].method);
+  }
+  const Candidate& c = sel.candidates[pick];
+  sel.method = c.method;
+  sel.level = c.level, sel.width = c.width, sel.height = c.height;
+  sel.error = c.error;
+  char buf[400];
+  std::snprintf(
+      buf, sizeof buf,
+      "%s at %dx%d (mip %d; the scene shows mip %d): held-out %s error %.4g %s the "
+      "budget %.4g with %lld bytes of maps, the fewest among %d evaluated candidates",
+      c.method.c_str(), c.width, c.height, c.level, level,
+      scene.environment ? "environment-light" : (scene.static_light ? "sun-weighted" : "all-light"),
+      c.error, c.error <= scene.error_budget ? "meets" : "exceeds", scene.error_budget,
+      (long long)c.bytes, int(done));
+  sel.reason = buf;
+  return sel;
+}
+
+std::string SelectionJson(const Selection& s, const SceneSpec& scene) {
+  auto num = [](double v) { return std::isfinite(v) ? json(v) : json(); };
+  json cands = json::array();
+  for (const auto& c : s.candidates)
+    cands.push_back({{"method", c.method},
+                     {"level", c.level},
+                     {"width", c.width},
+                     {"height", c.height},
+                     {"bytes", c.bytes},
+                     {"evaluated", c.evaluated},
+                     {"error", num(c.error)},
+                     {"flagged_fraction", c.flagged_fraction},
+                     {"fit_seconds", num(c.fit_seconds)},
+                     {"render_ns_per_pixel", num(c.render_ns_per_pixel)},
+                     {"meets_budget", c.meets},
+                     {"note", c.note}});
+  json j = {{"chosen", s.method},
+            {"level", s.level},
+            {"scene_level", s.scene_level},
+            {"width", s.width},
+            {"height", s.height},
+            {"error", num(s.error)},
+            {"budget_met", s.budget_met},
+            {"reason", s.reason},
+            {"warnings", s.warnings},
+            {"scene",
+             {{"texel_footprint_px", scene.texel_footprint_px},
+              {"lighting", scene.static_light ? "static" : "dynamic"},
+              {"light", scene.environment ? "environment" : "directional"},
+              {"sun_theta_deg", scene.sun_theta_deg},
+              {"sun_phi_deg", scene.sun_phi_deg},
+              {"memory_budget_bytes", scene.memory_budget_bytes},
+              {"error_budget", scene.error_budget},
+              {"source", scene.source}}},
+            {"candidates", cands}};
+  return j.dump();
+}
+
+}  // namespace matfit::fit

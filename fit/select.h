@@ -1,0 +1,82 @@
+// Model selection, "no more model than the scene needs" (`matfit fit --model auto`).
+//
+// A scene (scene.json, schema "matfit.scene/1") says how the material will be seen:
+//   texel_footprint_px  screen pixels one texel covers at the viewing distance (1 = full
+//                       resolution; 0.25 = four texels per pixel → mip level 1)
+//   lighting            "dynamic" (any direction) or "static"
+//   light               "directional" (a sun) or "environment" (light from the whole
+//                       hemisphere, cosine-weighted)
+//   sun_theta_deg, sun_phi_deg   static directional: the sun's direction
+//   memory_budget_bytes          0 = unlimited
+//   error_budget                 held-out RMSE allowed (linear radiance), > 0
+// Level L = max(0, floor(log2(1 / footprint))): the stack is box-downsampled by 2^L (what the
+// renderer shows), and candidates are (model, map resolution 2^-(L+k), k = 0..2). Each is
+// scored by k-fold held-out lights at level L — maps fitted at level L+k predict level-L texels
+// from their parent texel — weighted for the scene's light: all lights (dynamic), lights near
+// the sun (static directional, Gaussian of 15° in angle), or the error of the cosine-weighted
+// light average (environment). Candidates are tried from the fewest bytes up; the first that
+// meets the error budget (flagging ≤ 1 % of its texels) and the memory budget wins.
+#pragma once
+
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "core/light_stack.h"
+#include "core/status.h"
+#include "fit/fit_types.h"
+
+namespace matfit::fit {
+
+struct SceneSpec {
+  double texel_footprint_px = 1;
+  bool static_light = false;
+  bool environment = false;
+  double sun_theta_deg = 0, sun_phi_deg = 0;
+  double memory_budget_bytes = 0;
+  double error_budget = 0.02;
+  std::string source;  // file it came from (for messages)
+
+  bool Check(std::string* why) const;
+};
+
+// Parses scene.json text; errors name the field and `source`.
+StatusOr<SceneSpec> ParseScene(const std::string& json_text, const std::string& source);
+
+struct SelectOptions {
+  std::vector<std::string> methods;  // empty: the whole ladder
+  int folds = 3;                     // held-out folds, ≥ 2
+  int max_coarser_levels = 2;        // k = 0..this
+  FitOptions fit;                    // progress: candidates done / total
+};
+
+struct Candidate {
+  std::string method;
+  int level = 0, width = 0, height = 0;  // map resolution
+  int64_t bytes = 0;                     // bytes_per_texel × map texels
+  bool evaluated = false;
+  double error = NAN;              // scene-weighted held-out RMSE at the scene's level
+  double flagged_fraction = 0;     // texels the folds' fits flagged
+  double fit_seconds = 0;          // one fit at this resolution (the first fold's)
+  double render_ns_per_pixel = 0;  // CPU shading cost of the fitted maps
+  bool meets = false;
+  std::string note;  // why not chosen / not evaluated
+};
+
+struct Selection {
+  std::string method;
+  int level = 0, scene_level = 0, width = 0, height = 0;
+  double error = NAN;
+  std::vector<Candidate> candidates;  // in the order tried (fewest bytes first)
+  std::string reason;
+  std::vector<std::string> warnings;
+  bool budget_met = true;  // false: nothing met the budget; the lowest-error candidate is used
+};
+
+StatusOr<Selection> SelectModel(const LightStack& stack, const SceneSpec& scene,
+                                const SelectOptions& options);
+
+// report.json "selection" object.
+std::string SelectionJson(const Selection& s, const SceneSpec& scene);
+
+}  // namespace matfit::fit

@@ -1,0 +1,137 @@
+// matfit bench and the stability matrix: real properties of their results and stable schemas.
+#include <gtest/gtest.h>
+
+#include <filesystem>
+#include <nlohmann/json.hpp>
+#include <set>
+
+#include "eval/bench.h"
+#include "eval/bench_charts.h"
+#include "eval/stability.h"
+
+namespace matfit::eval {
+namespace {
+
+using nlohmann::json;
+
+std::set<std::string> Keys(const json& j) {
+  std::set<std::string> k;
+  for (const auto& [key, v] : j.items()) k.insert(key);
+  return k;
+}
+
+TEST(Stability, NoSilentFailureOnAnyDegenerateCase) {
+  StabilityOptions o;
+  o.size = 16;
+  o.methods = {"mean", "lambert", "lambert-robust", "ptm", "blinn-phong", "leaf-hl2"};
+  auto r = RunStability(o);
+  ASSERT_TRUE(r.ok()) << r.status().ToString();
+  ASSERT_EQ(r->cells.size(), o.methods.size() * StabilityCases().size());
+  std::map<std::string, bool> degenerate;
+  for (const auto& c : StabilityCases()) degenerate[c.name] = c.degenerate;
+  auto cell = [&](const std::string& m, const std::string& p) -> const StabilityCell& {
+    for (const auto& c : r->cells)
+      if (c.method == m && c.perturbation == p) return c;
+    ADD_FAILURE() << m << " " << p;
+    return r->cells[0];
+  };
+  for (const auto& c : r->cells) {
+    if (!c.applicable || c.refused) continue;
+    EXPECT_GT(c.texels, 0) << c.method << " " << c.perturbation;
+    if (degenerate[c.perturbation]) {
+      EXPECT_EQ(c.silent, 0) << c.method << " fails silently on " << c.perturbation;
+    }
+  }
+  // The matrix measures what it says: clean Lambertian data is fitted near-exactly by lambert,
+  // the gamma mistake and grazing-only lights are flagged, thin leaves are flagged.
+  EXPECT_LT(cell("lambert", "clean").error_median, 1e-3);
+  EXPECT_GT(cell("mean", "clean").error_median, 10 * cell("lambert", "clean").error_median);
+  for (const char* m : {"lambert", "blinn-phong"}) {
+    EXPECT_DOUBLE_EQ(cell(m, "gamma-8bit").flagged_fraction, 1.0) << m;
+    EXPECT_DOUBLE_EQ(cell(m, "grazing-only").flagged_fraction, 1.0) << m;
+    const auto& cop = cell(m, "coplanar");
+    EXPECT_TRUE(cop.refused || cop.flagged_fraction == 1.0) << m;
+  }
+  EXPECT_GT(cell("leaf-hl2", "thin-leaf").flagged_fraction, 0.5);
+  EXPECT_FALSE(cell("leaf-hl2", "clean").applicable);
+  EXPECT_FALSE(cell("lambert", "thin-leaf").applicable);
+
+  const json j = json::parse(StabilityJson(*r));
+  EXPECT_EQ(j["schema"], "matfit.stability/1");
+  EXPECT_EQ(Keys(j), (std::set<std::string>{"schema", "size", "methods", "perturbations", "cells",
+                                            "seconds"}));
+  EXPECT_EQ(
+      Keys(j["cells"][0]),
+      (std::set<std::string>{"method", "perturbation", "applicable", "refused", "error", "texels",
+                             "error_median", "error_p95", "normal_mae_deg", "flagged_fraction",
+                             "warnings", "silent_texels", "silent_fraction", "bound_median"}));
+  const auto charts = StabilityCharts(*r);
+  EXPECT_EQ(charts.size(), 2u);
+  for (const auto& [name, svg] : charts) EXPECT_NE(svg.find("</svg>"), std::string::npos) << name;
+}
+
+TEST(Bench, QuickSuiteScoresEveryMethodOnEveryCase) {
+  BenchOptions o;
+  o.quick = true;
+  o.methods = {"mean", "lambert"};
+  o.shared_data = MATFIT_SHARED_DATA;
+  auto r = RunBench(o);
+  ASSERT_TRUE(r.ok()) << r.status().ToString();
+  const bool real = std::filesystem::exists(std::string(MATFIT_SHARED_DATA) + "/psm/cat");
+  if (!real)
+    std::printf("shared data absent: the real cases are skipped (%zu)\n", r->skipped.size());
+  EXPECT_EQ(r->cases.size(), real ? 8u : 6u);
+  ASSERT_EQ(r->points.size(), r->cases.size() * 2);
+  for (size_t i = 0; i < r->points.size(); i += 2) {
+    const BenchPoint& mean = r->points[i];
+    const BenchPoint& lam = r->points[i + 1];
+    ASSERT_EQ(mean.dataset, lam.dataset);
+    EXPECT_TRUE(mean.ok && lam.ok) << lam.dataset << ": " << lam.error;
+    EXPECT_GT(lam.fit_seconds, 0);
+    EXPECT_GT(lam.render_ns_per_pixel, 0);
+    EXPECT_EQ(lam.parameters, 5);
+    // Shading beats a constant on every dataset, whichever error scores it.
+    if (lam.relight_rmse) {
+      EXPECT_LT(*lam.relight_rmse, *mean.relight_rmse) << lam.dataset;
+      EXPECT_TRUE(lam.normal_mae_deg.has_value());
+    } else {
+      EXPECT_LT(lam.heldout_rmse, mean.heldout_rmse) << lam.dataset;
+    }
+  }
+  ASSERT_FALSE(r->hl2.empty());
+  EXPECT_LT(r->hl2.back().mean_error_percent, 5.0);  // N_L 512 on the 4× relief leaf
+
+  const json j = json::parse(BenchJson(*r));
+  EXPECT_EQ(j["schema"], "matfit.bench/1");
+  EXPECT_EQ(Keys(j), (std::set<std::string>{"schema", "cases", "skipped", "points", "hl2_leaf",
+                                            "hl2", "seconds"}));
+  EXPECT_EQ(Keys(j["points"][0]), (std::set<std::string>{"method",
+                                                         "dataset",
+                                                         "ok",
+                                                         "error",
+                                                         "texels",
+                                                         "images",
+                                                         "parameters",
+                                                         "bytes_per_texel",
+                                                         "fit_seconds",
+                                                         "texels_per_second",
+                                                         "render_ns_per_pixel",
+                                                         "deviation_percent",
+                                                         "deviation_percent_by_theta",
+                                                         "heldout_rmse",
+                                                         "heldout_deviation_percent",
+                                                         "normal_mae_deg",
+                                                         "albedo_rmse",
+                                                         "relight_rmse",
+                                                         "flagged_texels",
+                                                         "bound_median"}));
+  const auto charts = BenchCharts(*r);
+  for (const auto& c : r->cases) {
+    EXPECT_TRUE(charts.count("pareto_" + c.name + ".svg")) << c.name;
+    EXPECT_TRUE(charts.count("theta_" + c.name + ".svg")) << c.name;
+  }
+  EXPECT_TRUE(charts.count("hl2_directions.svg"));
+}
+
+}  // namespace
+}  // namespace matfit::eval

@@ -1,0 +1,129 @@
+// Model selection (fit/select.h): never over the budget, no larger than the true model when the
+// budget is loose, clear errors for bad scenes.
+#include <gtest/gtest.h>
+
+#include "core/stack_ops.h"
+#include "fit/holdout.h"
+#include "fit/method.h"
+#include "fit/select.h"
+#include "synth_data.h"
+
+namespace matfit::fit {
+namespace {
+
+int Params(const std::string& m) { return MakeMethod(m)->parameters_per_texel(); }
+
+TEST(Scene, ErrorsNameTheField) {
+  EXPECT_NE(ParseScene("{\"texel_footprint_px\": \"far\"}", "s.json")
+                .status()
+                .message()
+                .find("'texel_footprint_px'"),
+            std::string::npos);
+  EXPECT_NE(
+      ParseScene("{\"lighting\": \"moving\"}", "s.json").status().message().find("'lighting'"),
+      std::string::npos);
+  EXPECT_NE(
+      ParseScene("{\"budget\": 1}", "s.json").status().message().find("unknown field 'budget'"),
+      std::string::npos);
+  EXPECT_NE(ParseScene("{\"error_budget\": -1}", "s.json").status().message().find("error_budget"),
+            std::string::npos);
+  EXPECT_NE(ParseScene("[1,", "s.json").status().message().find("s.json: not JSON"),
+            std::string::npos);
+  auto ok = ParseScene(
+      "{\"schema\":\"matfit.scene/1\",\"texel_footprint_px\":0.25,\"lighting\":\"static\","
+      "\"light\":\"directional\",\"sun_theta_deg\":30,\"error_budget\":0.05}",
+      "s.json");
+  ASSERT_TRUE(ok.ok()) << ok.status().ToString();
+  EXPECT_TRUE(ok->static_light);
+  EXPECT_FALSE(ok->environment);
+  EXPECT_DOUBLE_EQ(ok->texel_footprint_px, 0.25);
+}
+
+// The chosen candidate's error, recomputed independently with HeldOut at its level (k = 0).
+double IndependentHeldOut(const LightStack& s, const Selection& sel, int folds) {
+  auto small = DownsampleStack(s, 1 << sel.level);
+  EXPECT_TRUE(small.ok());
+  auto h = HeldOut(*MakeMethod(sel.method), *small, folds, {});
+  EXPECT_TRUE(h.ok());
+  return h.ok() ? h->rmse : INFINITY;
+}
+
+struct Truth {
+  const char* material;
+  const char* true_model;
+};
+
+TEST(Select, NeverOverTheBudgetAndNoLargerThanTheTrueModelWhenLoose) {
+  for (const Truth t : {Truth{"plaster", "lambert"}, Truth{"plastic", "blinn-phong"}}) {
+    const auto data = SynthData({.material = t.material, .size = 32, .noise = 0.005});
+    for (double budget : {0.2, 0.05, 0.012}) {
+      SceneSpec scene;
+      scene.error_budget = budget;
+      SelectOptions o;
+      o.max_coarser_levels = 0;  // so HeldOut can check the error independently
+      auto sel = SelectModel(data.stack, scene, o);
+      ASSERT_TRUE(sel.ok()) << sel.status().ToString();
+      SCOPED_TRACE(std::string(t.material) + " budget " + std::to_string(budget) + ": " +
+                   sel->reason);
+      ASSERT_TRUE(sel->budget_met);
+      EXPECT_LE(sel->error, budget);
+      EXPECT_NEAR(IndependentHeldOut(data.stack, *sel, o.folds), sel->error, 1e-6 + 0.02 * budget);
+      if (budget >= 0.05) {
+        EXPECT_LE(Params(sel->method), Params(t.true_model));
+      }
+      // Everything tried before the winner failed the budget (it is the smallest that meets).
+      for (const Candidate& c : sel->candidates) {
+        if (c.method == sel->method && c.level == sel->level) break;
+        EXPECT_FALSE(c.meets) << c.method;
+      }
+    }
+  }
+}
+
+TEST(Select, GlossyMaterialNeedsASpecularModelUnderATightBudget) {
+  const auto data = SynthData({.material = "plastic", .size = 32, .noise = 0.005});
+  SceneSpec scene;
+  scene.error_budget = 0.012;
+  auto sel = SelectModel(data.stack, scene, {});
+  ASSERT_TRUE(sel.ok());
+  EXPECT_TRUE(sel->method == "blinn-phong" || sel->method == "cook-torrance" ||
+              sel->method.rfind("lafortune", 0) == 0)
+      << sel->reason;
+}
+
+TEST(Select, FarAwayUnderEnvironmentLightACoarseSmallMapSuffices) {
+  const auto data = SynthData({.material = "plaster", .size = 64, .noise = 0.005});
+  SceneSpec scene;
+  scene.texel_footprint_px = 0.25;  // mip 2
+  scene.static_light = scene.environment = true;
+  scene.error_budget = 0.03;
+  auto sel = SelectModel(data.stack, scene, {});
+  ASSERT_TRUE(sel.ok());
+  EXPECT_EQ(sel->scene_level, 2);
+  EXPECT_GE(sel->level, 3) << sel->reason;  // coarser than what the scene shows
+  EXPECT_LE(MakeMethod(sel->method)->bytes_per_texel(), MakeMethod("lambert")->bytes_per_texel());
+  EXPECT_LE(sel->error, 0.03);
+}
+
+TEST(Select, MemoryBudgetAndUnreachableBudgetAreReported) {
+  const auto data = SynthData({.material = "plastic", .size = 32, .noise = 0.005});
+  SceneSpec scene;
+  scene.error_budget = 1e-5;  // below the noise: nothing can meet it
+  scene.memory_budget_bytes = 12000;
+  SelectOptions o;
+  o.methods = {"mean", "lambert", "blinn-phong", "hsh3"};
+  auto sel = SelectModel(data.stack, scene, o);
+  ASSERT_TRUE(sel.ok());
+  EXPECT_FALSE(sel->budget_met);
+  ASSERT_FALSE(sel->warnings.empty());
+  for (const Candidate& c : sel->candidates) {
+    if (c.bytes > 12000) {
+      EXPECT_FALSE(c.evaluated);
+      EXPECT_EQ(c.note, "over the memory budget");
+    }
+  }
+  EXPECT_LE(MakeMethod(sel->method)->bytes_per_texel() * sel->width * sel->height, 12000);
+}
+
+}  // namespace
+}  // namespace matfit::fit
