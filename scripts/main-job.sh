@@ -2,7 +2,8 @@
 # The README's main job: install dependencies, build, then on the bundled data: summarise
 # every dataset, synthesise one with ground truth, fit it → material pack → summary table;
 # preview renders; leaf materials from the bundled leaf scan (and the shared sheet if present);
-# a simulated capture fitted back; chrome-sphere calibration; a service session on loopback.
+# a simulated capture fitted back; chrome-sphere calibration; a service session on loopback;
+# model selection for a scene; the quick benchmark and stability matrix with charts.
 set -euo pipefail
 root=$(cd "$(dirname "$0")/.." && pwd)
 "$root/scripts/install-deps.sh"
@@ -28,6 +29,11 @@ for model in lambert blinn-phong; do
   echo "== matfit fit fixtures/plastic-ring12 --model $model (glossy Blinn–Phong truth) =="
   "$matfit" fit "$root/fixtures/plastic-ring12" --model $model --holdout 4 --out "$out/plastic-$model-pack" --force --quiet
 done
+echo
+echo "== matfit fit corduroy-bonn81 --model auto: the smallest model the close-up scene needs =="
+"$matfit" fit "$out/corduroy-bonn81" --model auto --scene "$root/docs/examples/scene-closeup-cloth.json" \
+  --out "$out/corduroy-auto-pack" --force --quiet
+grep -m1 '"reason"' "$out/corduroy-auto-pack/report.json"
 echo
 echo "== matfit render: previews of the fitted packs (EGL if available, else CPU) =="
 "$matfit" render "$out/plastic-blinn-phong-pack" --light 40,30 --scene sphere --size 256 \
@@ -84,6 +90,10 @@ echo "pack $out/served-pack.zip, preview $out/served-preview.png, viewer http://
 kill -TERM "$serve_pid"
 wait "$serve_pid"
 echo
+echo "== matfit bench --quick: every method timed and scored, the stability matrix, charts =="
+"$matfit" bench --quick --shared-data "$root/../shared/data" --out "$out/bench" --overwrite
+echo
 echo "packs written to $out/*-pack (material.json, material.gltf, maps/, report.json, preview.png)"
 echo "previews: $out/plastic-blinn-phong-sphere.png, $out/corduroy-heinrich-sweep.png"
 echo "leaf materials: $out/leaf-scan-leaves/leaves.json (and leaf-sheet-leaves/ with the shared data)"
+echo "benchmark: $out/bench/bench.json, stability.json, charts/*.svg|png"
