@@ -138,15 +138,17 @@ void ScoreFit(const std::string& method_name, const CaseData& d, StabilityCell* 
   int64_t flagged = 0;
   const bool has_normal = fit::CompareToTruth(fit->maps, d.truth, {}).has_normal;
   for (size_t p = 0; p < err.size(); ++p) {
-    if (!std::isfinite(err[p])) continue;  // outside the truth mask
+    if (!d.truth.mask.empty() && d.truth.mask.data()[p] < 0.5f) continue;  // background
     ++cell->texels;
     if (fit->status[p] != fit::kTexelOk) {
       ++flagged;
       continue;
     }
-    errs.push_back(err[p]);
+    // An ok texel whose maps do not even evaluate to a number has failed silently.
+    const double e = std::isfinite(err[p]) ? err[p] : INFINITY;
+    errs.push_back(e);
     bounds.push_back(a.confidence.bound[p]);
-    cell->silent += err[p] > a.confidence.bound[p];
+    cell->silent += e > a.confidence.bound[p];
     if (has_normal) {
       const Vec3 nf(fit->maps.normal.Plane(0)[p], fit->maps.normal.Plane(1)[p],
                     fit->maps.normal.Plane(2)[p]);

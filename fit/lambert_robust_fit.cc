@@ -86,15 +86,22 @@ StatusOr<FitResult> FitLambertRobust(const LightStack& s, const FitOptions& o) {
       for (int k = 0; k < t.width; ++k) {
         const int64_t p = base + k;
         if (r.status[p] != kTexelOk) continue;
-        bool finite = true;
-        for (int i = 0; i < n; ++i)
-          y[i] = lum[size_t(i) * t.width + k], finite &= std::isfinite(y[i]);
-        // Clipped samples (at the file's maximum code) are never used.
+        // Clipped samples (at the file's maximum code) and non-finite ones (NaN/Inf in any
+        // channel: dead pixels, decode holes) are never used; they rank as dark.
         std::fill(clipped.begin(), clipped.end(), 0);
         if (may_clip)
           for (int i = 0; i < n; ++i)
             for (int c = 0; c < C; ++c) clipped[i] |= s.Plane(i, c)[p] >= kClipLevel;
-        if (!finite) {
+        int finite = 0;
+        for (int i = 0; i < n; ++i) {
+          y[i] = lum[size_t(i) * t.width + k];
+          if (std::isfinite(y[i])) {
+            ++finite;
+          } else {
+            y[i] = 0, clipped[i] = 1;
+          }
+        }
+        if (finite < 3) {
           r.status[p] = kTexelNonFinite;
           continue;
         }

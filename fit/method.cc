@@ -11,8 +11,8 @@ using FitFn = std::function<StatusOr<FitResult>(const LightStack&, const FitOpti
 
 class FunctionMethod : public FitMethod {
  public:
-  FunctionMethod(std::string name, std::string description, int params, int bytes,
-                 int light_params, FitFn fn)
+  FunctionMethod(std::string name, std::string description, int params, int bytes, int light_params,
+                 FitFn fn)
       : name_(std::move(name)),
         description_(std::move(description)),
         params_(params),
@@ -48,12 +48,12 @@ std::unique_ptr<FitMethod> MakeMethod(const std::string& name) {
   if (name == "mean")
     return std::make_unique<FunctionMethod>(name, "per-texel mean colour", 3, 3, 1, FitMean);
   if (name == "lambert")
-    return std::make_unique<FunctionMethod>(name, "photometric stereo: normal + albedo", 5, 9,
-                                            3, FitLambert);
+    return std::make_unique<FunctionMethod>(name, "photometric stereo: normal + albedo", 5, 9, 3,
+                                            FitLambert);
   if (name == "lambert-robust")
     return std::make_unique<FunctionMethod>(
-        name, "photometric stereo rejecting shadows and highlights per texel", 5, 9, 3,
-        FitLambertRobust);
+        name, "photometric stereo rejecting shadows, highlights, clipped and NaN samples per texel",
+        5, 9, 3, FitLambertRobust);
   if (name == "heinrich")
     return std::make_unique<FunctionMethod>(
         name, "seed method A: mean texture, unnormalised normal, grey ambient, specular map", 12,

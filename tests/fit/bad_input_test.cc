@@ -63,7 +63,7 @@ TEST(BadInput, ClippedSamplesAreFlaggedOrDroppedNeverUsed) {
   EXPECT_LT(CompareToTruth(robust->maps, data.truth, robust->status).normal_mae_deg, 2.0);
 }
 
-TEST(BadInput, NanPixelsAreFlaggedByTheLinearMethods) {
+TEST(BadInput, NanPixelsAreFlaggedByTheLinearMethodsAndDroppedByTheRobustOne) {
   LightStack s = Plastic(8).stack;
   s.At(7, 0, 3, 3) = std::nanf("");
   for (const char* name : {"lambert", "heinrich", "ptm", "hsh3", "mean"}) {
@@ -72,9 +72,24 @@ TEST(BadInput, NanPixelsAreFlaggedByTheLinearMethods) {
     EXPECT_EQ(fit->status[3 * 8 + 3], kTexelNonFinite) << name;
     EXPECT_EQ(fit->flagged_texels, 1) << name;
   }
+  // lambert-robust drops the lost sample and fits the texel from the others.
+  const auto data = Plastic(8);
   auto robust = MakeMethod("lambert-robust")->Fit(s, {});
   ASSERT_TRUE(robust.ok());
-  EXPECT_EQ(robust->status[3 * 8 + 3], kTexelNonFinite);
+  EXPECT_EQ(robust->status[3 * 8 + 3], kTexelOk);
+  auto clean = MakeMethod("lambert-robust")->Fit(data.stack, {});
+  ASSERT_TRUE(clean.ok());
+  const Vec3 a(robust->maps.normal.Plane(0)[27], robust->maps.normal.Plane(1)[27],
+               robust->maps.normal.Plane(2)[27]);
+  const Vec3 b(clean->maps.normal.Plane(0)[27], clean->maps.normal.Plane(1)[27],
+               clean->maps.normal.Plane(2)[27]);
+  EXPECT_LT(AngleBetweenDeg(a, b), 1.0);
+  // A texel left with fewer than 3 finite samples is flagged.
+  LightStack holes = data.stack;
+  for (int i = 0; i < holes.num_images() - 2; ++i) holes.At(i, 1, 3, 3) = std::nanf("");
+  auto sparse = MakeMethod("lambert-robust")->Fit(holes, {});
+  ASSERT_TRUE(sparse.ok());
+  EXPECT_EQ(sparse->status[27], kTexelNonFinite);
 }
 
 TEST(BadInput, TooFewAndCoplanarLightsAreClearErrors) {
