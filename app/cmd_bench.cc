@@ -1,6 +1,10 @@
 // `matfit bench [--quick] --out DIR`: speed vs accuracy of every method on a fixed suite, the
 // stability matrix, and their charts (SVG, plus PNG when rsvg-convert is installed).
+#include <fcntl.h>
+#include <spawn.h>
+#include <sys/wait.h>
 #include <CLI/CLI.hpp>
+#include <cerrno>
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
@@ -26,9 +30,28 @@ struct BenchArgs {
   eval::StabilityOptions stability;
   std::string out, shared_data = "../shared/data", methods;
   bool no_stability = false, stability_only = false, no_png = false, overwrite = false;
-  bool quiet = false;
+  bool quiet = false, stability_size_given = false;
   int threads = 0;
 };
+
+// Runs argv without a shell (paths may hold any character), its stdout to /dev/null; true on
+// exit status 0.
+bool RunProgram(const std::vector<std::string>& argv) {
+  std::vector<char*> args;
+  for (const auto& a : argv) args.push_back(const_cast<char*>(a.c_str()));
+  args.push_back(nullptr);
+  posix_spawn_file_actions_t fa;
+  posix_spawn_file_actions_init(&fa);
+  posix_spawn_file_actions_addopen(&fa, 1, "/dev/null", O_WRONLY, 0);
+  pid_t pid = 0;
+  const int rc = posix_spawnp(&pid, args[0], &fa, nullptr, args.data(), environ);
+  posix_spawn_file_actions_destroy(&fa);
+  if (rc != 0) return false;
+  int status = 0;
+  while (waitpid(pid, &status, 0) < 0)
+    if (errno != EINTR) return false;
+  return WIFEXITED(status) && WEXITSTATUS(status) == 0;
+}
 
 std::vector<std::string> SplitComma(const std::string& s) {
   std::vector<std::string> out;
@@ -91,9 +114,10 @@ int RunBench(BenchArgs& a) {
     return Fail("bench", "--no-stability and --stability-only exclude each other");
   SetNumThreads(a.threads);
   a.bench.shared_data = a.shared_data;
-  a.bench.methods = SplitComma(a.methods);
-  a.stability.methods = a.bench.methods;
-  if (a.bench.quick && a.stability.size == 32) a.stability.size = 20;
+  a.stability.methods = SplitComma(a.methods);
+  for (const auto& m : a.stability.methods)  // leaf-hl2 is a stability row only
+    if (m != "leaf-hl2") a.bench.methods.push_back(m);
+  if (a.bench.quick && !a.stability_size_given) a.stability.size = 20;
   std::string why;
   if (!a.bench.Check(&why) || !a.stability.Check(&why)) return Fail("bench", why.c_str());
   AtomicDir dir(a.out);
@@ -124,7 +148,7 @@ int RunBench(BenchArgs& a) {
     if (Status s = WriteFileAtomic((fs::path(dir.temp_path()) / name).string(), text); !s.ok())
       return Fail("bench", s.message().c_str());
   // PNG copies of the charts through librsvg's converter, when installed.
-  const bool have_rsvg = !a.no_png && std::system("command -v rsvg-convert >/dev/null 2>&1") == 0;
+  const bool have_rsvg = !a.no_png && RunProgram({"rsvg-convert", "--version"});
   int png = 0;
   if (have_rsvg) {
     for (const auto& [name, text] : files) {
@@ -163,8 +187,9 @@ void RegisterBench(CLI::App& app, int* exit_code) {
   sub->add_option("--methods", args->methods, "comma-separated subset of the ladder");
   sub->add_option("--repeats", args->bench.repeats, "fit timings per point (median)");
   sub->add_option("--holdout", args->bench.holdout, "held-out-light folds")->capture_default_str();
-  sub->add_option("--stability-size", args->stability.size, "texels per side of stability cases")
-      ->capture_default_str();
+  sub->add_option("--stability-size", args->stability.size,
+                  "texels per side of stability cases (default 32, --quick 20)")
+      ->each([args](const std::string&) { args->stability_size_given = true; });
   sub->add_flag("--no-stability", args->no_stability, "skip the stability matrix");
   sub->add_flag("--stability-only", args->stability_only, "only the stability matrix");
   sub->add_flag("--no-png", args->no_png, "SVG charts only");

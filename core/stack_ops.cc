@@ -1,10 +1,14 @@
 #include "core/stack_ops.h"
 
 #include <algorithm>
+#include <cmath>
 #include <string>
 
 namespace matfit {
 namespace {
+
+// The fits' clip test (fit/fit_common.h kClipLevel): samples at the file's maximum code.
+constexpr float kClippedLevel = 0.9999f;
 
 LightStack EmptyLike(const LightStack& s, int w, int h) {
   LightStack out(w, h, s.channels(), s.num_images());
@@ -51,6 +55,8 @@ StatusOr<LightStack> DownsampleStack(const LightStack& s, int f) {
   if (f == 1) return CropStack(s, 0, 0, s.width(), s.height());
   LightStack out = EmptyLike(s, w, h);
   out.mm_per_texel = s.mm_per_texel * f;
+  bool may_clip = false;
+  for (int64_t v : s.saturated_pixels) may_clip = may_clip || v > 0;
   // Per block: which source texels count (mask) and the block's own mask bit.
   std::vector<uint8_t> inside(size_t(w) * h, 1);
   auto in_mask = [&](int64_t p) { return !s.has_mask() || s.mask[p] != 0; };
@@ -73,13 +79,17 @@ StatusOr<LightStack> DownsampleStack(const LightStack& s, int f) {
         for (int bx = 0; bx < w; ++bx) {
           double sum = 0;
           int k = 0;
+          bool clipped = false;
           for (int dy = 0; dy < f; ++dy)
             for (int dx = 0; dx < f; ++dx) {
               const int64_t p = int64_t(by * f + dy) * s.width() + bx * f + dx;
               if (inside[size_t(by) * w + bx] && !in_mask(p)) continue;
+              if (!std::isfinite(src[p])) continue;  // a lost sample does not poison the block
+              clipped = clipped || (may_clip && src[p] >= kClippedLevel);
               sum += src[p], ++k;
             }
-          dst[int64_t(by) * w + bx] = k ? float(sum / k) : 0.0f;
+          // A block with a clipped sample stays at the clip code, so fits still see it clipped.
+          dst[int64_t(by) * w + bx] = k == 0 ? NAN : clipped ? 1.0f : float(sum / k);
         }
     }
   return out;

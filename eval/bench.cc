@@ -7,6 +7,7 @@
 #include <nlohmann/json.hpp>
 
 #include "core/dataset/dataset.h"
+#include "core/parallel.h"
 #include "core/shading/evaluate.h"
 #include "core/stack_ops.h"
 #include "core/synth/light_sets.h"
@@ -219,6 +220,8 @@ StatusOr<BenchResult> RunBench(const BenchOptions& o) {
   if (!o.Check(&why)) return InvalidArgument(why);
   const auto t0 = Clock::now();
   BenchResult res;
+  res.holdout = o.holdout;
+  res.threads = NumThreads();
   const std::vector<std::string> methods = o.methods.empty() ? fit::MethodNames() : o.methods;
   const int repeats = o.repeats ? o.repeats : (o.quick ? 1 : 3);
   std::vector<BenchCase> suite = DefaultSuite(o.quick);
@@ -300,7 +303,7 @@ std::string BenchJson(const BenchResult& r) {
                    {"precompute_seconds", h.precompute_seconds}});
   json j = {{"schema", "matfit.bench/1"}, {"cases", cases},         {"skipped", r.skipped},
             {"points", points},           {"hl2_leaf", r.hl2_leaf}, {"hl2", hl2},
-            {"seconds", r.seconds}};
+            {"holdout", r.holdout},       {"threads", r.threads},   {"seconds", r.seconds}};
   return j.dump(2, ' ', false, json::error_handler_t::replace) + "\n";
 }
 

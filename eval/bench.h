@@ -66,8 +66,9 @@ struct BenchResult {
   std::vector<BenchCase> cases;
   std::vector<std::string> skipped;  // e.g. real data absent
   std::vector<BenchPoint> points;
-  std::vector<Hl2Point> hl2;  // leaf HL2 precompute: error vs N_L
-  std::string hl2_leaf;       // which leaf
+  std::vector<Hl2Point> hl2;     // leaf HL2 precompute: error vs N_L
+  std::string hl2_leaf;          // which leaf
+  int holdout = 0, threads = 0;  // as run
   double seconds = 0;
 };
 

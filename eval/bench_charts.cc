@@ -30,10 +30,10 @@ std::map<std::string, std::string> BenchCharts(const BenchResult& r) {
     const bool synthetic = !c.material.empty();
     XYChart xy;
     xy.title = c.name + ": fit time vs error (" + std::to_string(c.size) + "², " +
-               (synthetic ? "relighting error vs truth over a 48-light dome"
-                          : "held-out-light error, 4 folds") +
+               (synthetic ? std::string("relighting error vs truth over a 48-light dome")
+                          : "held-out-light error, " + std::to_string(r.holdout) + " folds") +
                ")";
-    xy.x_label = "fit time (s, median, 2 threads)";
+    xy.x_label = "fit time (s, median, " + std::to_string(r.threads) + " threads)";
     xy.y_label = synthetic ? "relighting RMSE (linear radiance)" : "held-out RMSE (linear)";
     xy.log_x = xy.log_y = true;
     std::vector<double> xs, ys;

@@ -115,13 +115,6 @@ StatusOr<CaseData> MakeCase(const std::string& name, int size) {
   return d;
 }
 
-std::vector<Vec3> Dome48() {
-  std::vector<Vec3> d;
-  const auto set = synth::MakeLightSet("dome:48", 1);
-  for (const auto& l : *set) d.push_back(l.direction);
-  return d;
-}
-
 void ScoreFit(const std::string& method_name, const CaseData& d, StabilityCell* cell) {
   auto method = fit::MakeMethod(method_name);
   auto fit = method->Fit(d.stack, {});
@@ -133,7 +126,11 @@ void ScoreFit(const std::string& method_name, const CaseData& d, StabilityCell* 
   const std::vector<uint8_t> fitted = fit->status;
   const auto a = fit::AssessFit(d.stack, *method, &*fit);
   cell->warnings = int(fit->warnings.size());
-  const auto err = fit::RelightingError(fit->maps, d.truth, Dome48(), d.stack.view_direction);
+  // Scored over the directions the bound claims (fit/confidence.h: the supported cone).
+  const auto err = fit::RelightingError(
+      fit->maps, d.truth,
+      fit::DomeDirections(48, a.confidence.supported_theta_deg, a.confidence.supported_axis),
+      d.stack.view_direction);
   std::vector<double> errs, bounds, angles;
   int64_t flagged = 0;
   const bool has_normal = fit::CompareToTruth(fit->maps, d.truth, {}).has_normal;

@@ -1,6 +1,10 @@
 #include "fit/assess.h"
 
+#include <algorithm>
+#include <cstdio>
 #include <limits>
+
+#include "fit/fit_common.h"
 
 namespace matfit::fit {
 
@@ -9,8 +13,9 @@ FitAssessment AssessFit(const LightStack& stack, const FitMethod& method, FitRes
   FitAssessment a;
   a.diagnostics = DiagnoseStack(stack);
   a.confidence = ComputeConfidence(
-      stack, r->maps, {method.parameters_per_texel(), method.light_parameters()}, &r->status,
-      options);
+      stack, r->maps,
+      {method.parameters_per_texel(), method.parameters_per_channel(), method.light_parameters()},
+      &r->status, options);
   if (a.diagnostics.looks_gamma_encoded) {
     for (size_t p = 0; p < r->status.size(); ++p)
       if (r->status[p] == kTexelOk) {
@@ -19,14 +24,30 @@ FitAssessment AssessFit(const LightStack& stack, const FitMethod& method, FitRes
       }
   }
   for (const auto& w : a.diagnostics.warnings) r->warnings.push_back(w);
-  if (a.confidence.unverifiable > 0)
-    r->warnings.push_back(std::to_string(a.confidence.unverifiable) +
-                          " texel(s) cannot bound their error (fewer usable lights than the "
-                          "model's light parameters + 3, no light within 45° of the normal, or lights that cannot predict other "
-                          "directions): marked "
-                          "'error cannot be bounded'");
-  r->flagged_texels = 0;
-  for (uint8_t s : r->status) r->flagged_texels += s != kTexelOk && s != kTexelMasked;
+  if (a.confidence.unverifiable > 0) {
+    char why[400];
+    std::snprintf(why, sizeof why,
+                  "%lld texel(s) cannot bound their error and are marked 'error cannot be "
+                  "bounded': %s",
+                  (long long)a.confidence.unverifiable,
+                  !a.confidence.frontal_covered
+                      ? "no light lies within the frontal cone of the sample (add lights nearer "
+                        "the camera axis)"
+                  : !std::isfinite(a.confidence.extrapolation)
+                      ? "the lights cannot predict other directions (nearly coplanar or "
+                        "one-sided)"
+                      : "fewer usable lights than the model's light parameters + 3 (add "
+                        "lights or use a smaller model)");
+    r->warnings.push_back(why);
+  }
+  // The fit's own "N texel(s) flagged" summary is stale now: count again.
+  r->warnings.erase(std::remove_if(r->warnings.begin(), r->warnings.end(),
+                                   [](const std::string& w) {
+                                     return w.find(" texel(s) flagged, mostly '") !=
+                                            std::string::npos;
+                                   }),
+                    r->warnings.end());
+  SummariseStatus(r);
   return a;
 }
 

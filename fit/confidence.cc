@@ -24,6 +24,10 @@ bool ConfidenceOptions::Check(std::string* why) const {
            std::to_string(max_frontal_gap_deg);
     return false;
   }
+  if (!(max_extrapolation >= 1)) {
+    *why = "confidence max_extrapolation must be ≥ 1, got " + std::to_string(max_extrapolation);
+    return false;
+  }
   if (!(max_condition > 1)) {
     *why = "confidence max_condition must be > 1, got " + std::to_string(max_condition);
     return false;
@@ -31,8 +35,32 @@ bool ConfidenceOptions::Check(std::string* why) const {
   return true;
 }
 
+std::vector<Vec3> DomeDirections(int count, double max_theta_deg, const Vec3& axis) {
+  // Fibonacci spiral, equal area in cos θ over [cos θ_max, 1] about +z, then rotated so +z
+  // becomes `axis` (an orthonormal frame t, b, a).
+  const Vec3 a = Normalize(axis);
+  const Vec3 t = Normalize(std::abs(a.x) < 0.9 ? Cross(Vec3(1, 0, 0), a) : Cross(Vec3(0, 1, 0), a));
+  const Vec3 b = Cross(a, t);
+  const double zmin = std::cos(max_theta_deg * M_PI / 180.0),
+               golden = M_PI * (3.0 - std::sqrt(5.0));
+  std::vector<Vec3> d;
+  for (int k = 0; k < count; ++k) {
+    const double z = 1.0 - (k + 0.5) / count * (1.0 - zmin);
+    const double r = std::sqrt(std::max(0.0, 1.0 - z * z)), phi = k * golden;
+    d.push_back(t * (r * std::cos(phi)) + b * (r * std::sin(phi)) + a * z);
+  }
+  return d;
+}
+
+Vec3 LightAxis(const std::vector<LightSample>& lights) {
+  Vec3 sum;
+  for (const auto& l : lights)
+    if (l.direction.z > 0 && IsFinite(l.direction)) sum += Normalize(l.direction);
+  return Length(sum) > 1e-9 ? Normalize(sum) : Vec3(0, 0, 1);
+}
+
 double MeanDomeLeverage(const std::vector<LightSample>& lights, double max_condition,
-                        double max_theta_deg, int count) {
+                        double max_theta_deg, const Vec3& axis, int count) {
   Eigen::Matrix3d M = Eigen::Matrix3d::Zero();
   for (const auto& l : lights) {
     const Eigen::Vector3d d(l.direction.x, l.direction.y, l.direction.z);
@@ -42,22 +70,19 @@ double MeanDomeLeverage(const std::vector<LightSample>& lights, double max_condi
   const Eigen::Vector3d ev = eig.eigenvalues();  // ascending
   if (!(ev(0) > 0) || ev(2) / ev(0) > max_condition) return std::numeric_limits<double>::infinity();
   const Eigen::Matrix3d Minv = M.inverse();
-  // Fibonacci spiral, equal area in cos θ over [cos θ_max, 1].
-  const double zmin = std::cos(max_theta_deg * M_PI / 180.0), golden = M_PI * (3.0 - std::sqrt(5.0));
   double g = 0;
-  for (int k = 0; k < count; ++k) {
-    const double z = 1.0 - (k + 0.5) / count * (1.0 - zmin);
-    const double r = std::sqrt(std::max(0.0, 1.0 - z * z)), phi = k * golden;
-    const Eigen::Vector3d d(r * std::cos(phi), r * std::sin(phi), z);
+  for (const Vec3& v : DomeDirections(count, max_theta_deg, axis)) {
+    const Eigen::Vector3d d(v.x, v.y, v.z);
     g += d.dot(Minv * d);
   }
   return g / count;
 }
 
-double SupportedThetaDeg(const std::vector<LightSample>& lights) {
+double SupportedThetaDeg(const std::vector<LightSample>& lights, const Vec3& axis) {
   double t = 0;
   for (const auto& l : lights)
-    if (l.direction.z > 0) t = std::max(t, std::acos(std::min(1.0, l.direction.z)) * 180 / M_PI);
+    if (l.direction.z > 0 && IsFinite(l.direction))
+      t = std::max(t, AngleBetweenDeg(l.direction, axis));
   return std::min(75.0, t + 15.0);
 }
 
@@ -65,7 +90,9 @@ Confidence ComputeConfidence(const LightStack& s, const MaterialMaps& maps, Mode
                              std::vector<uint8_t>* status, const ConfidenceOptions& o) {
   const int64_t T = s.plane_size();
   const int n = s.num_images(), C = s.channels();
-  const double P = std::max(1, size.parameters);
+  // Grey stacks fit the per-channel parameters once instead of three times.
+  const double P = std::max(1, size.parameters - (3 - std::min(C, 3)) * size.per_channel);
+  const bool clip = StackMayBeClipped(s);
   const int min_lights = size.light_parameters + 3;
   const double inf = std::numeric_limits<double>::infinity();
   Confidence out;
@@ -73,14 +100,24 @@ Confidence ComputeConfidence(const LightStack& s, const MaterialMaps& maps, Mode
   if (status && status->empty()) status->assign(size_t(T), kTexelOk);
   auto ok = [&](int64_t p) { return !status || (*status)[p] == kTexelOk; };
 
-  out.supported_theta_deg = SupportedThetaDeg(s.lights());
   double nearest = 90;
   for (const auto& l : s.lights())
     if (l.direction.z > 0)
       nearest = std::min(nearest, std::acos(std::min(1.0, l.direction.z)) * 180 / M_PI);
   out.frontal_covered = nearest <= o.max_frontal_gap_deg;
-  const double g = MeanDomeLeverage(s.lights(), o.max_condition, out.supported_theta_deg);
-  out.extrapolation = std::isfinite(g) ? std::max(1.0, n * g / 3.0) : inf;
+  // θ_s: from min(75°, widest light angle from the axis + 15°) down in 5° steps until the
+  // extrapolation factor is at most max_extrapolation; none → the lights cannot predict any
+  // cone of directions: unverifiable.
+  out.supported_axis = LightAxis(s.lights());
+  out.extrapolation = inf;
+  for (double t = SupportedThetaDeg(s.lights(), out.supported_axis); t >= 10 - 1e-9; t -= 5) {
+    const double g = MeanDomeLeverage(s.lights(), o.max_condition, t, out.supported_axis);
+    const double a = std::isfinite(g) ? std::max(1.0, n * g / 3.0) : inf;
+    if (!std::isfinite(g)) break;  // singular: no smaller dome helps
+    out.supported_theta_deg = t, out.extrapolation = a;
+    if (a <= o.max_extrapolation) break;
+  }
+  if (out.extrapolation > o.max_extrapolation) out.extrapolation = inf;
 
   // Pass 1: per-texel residual sums (Σ r², n_x), usable lights m_x and mean level μ_x.
   std::vector<double> rss(size_t(T), 0.0), level(size_t(T), 0.0);
@@ -97,7 +134,7 @@ Confidence ComputeConfidence(const LightStack& s, const MaterialMaps& maps, Mode
         bool used = false;
         for (int c = 0; c < C; ++c) {
           const float raw = s.Plane(i, c)[p];
-          if (!std::isfinite(raw) || raw >= kClipLevel) continue;
+          if (!std::isfinite(raw) || (clip && raw >= kClipLevel)) continue;
           const double q = double(raw) * inv[size_t(i) * C + c];
           const double r = q - EvaluateTexel(maps, p, c, l, v);
           if (!std::isfinite(r)) continue;
@@ -127,8 +164,8 @@ Confidence ComputeConfidence(const LightStack& s, const MaterialMaps& maps, Mode
     }
     const double s2 = std::max(rss[p] / dof, sigma2);
     const double extra = (out.extrapolation - 1) * level[p];
-    out.bound[p] = float(
-        std::sqrt(o.kappa * o.kappa * s2 * out.extrapolation * (1.0 + P / samples[p]) + extra * extra));
+    out.bound[p] = float(std::sqrt(
+        o.kappa * o.kappa * s2 * out.extrapolation * (1.0 + P / samples[p]) + extra * extra));
   }
   return out;
 }

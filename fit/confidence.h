@@ -6,17 +6,20 @@
 //   s_x² = Σ r² / (n_x − P),   r = p − f(x, l_i)   (f: the shared forward evaluation).
 // Noise is pooled over all texels, σ̂² = Σ_x Σ r² / Σ_x (n_x − P), and floors s_x² (one texel's
 // few residual degrees of freedom can be small by chance). The error at a new light direction
-// l* grows with the design's leverage l*ᵀ(Σ_i l_i l_iᵀ)⁻¹l*; its mean over the supported dome
-// (θ ≤ θ_s = min(75°, largest light θ + 15°)), g, against the well-spread value 3/m, gives the
-// extrapolation factor a = max(1, m·g/3). Where the lights do not span the dome (a > 1), no
-// residual can tell how a wrong model extrapolates, so up to (a − 1) times the texel's mean
-// level μ_x is added. The bound on the RMS error over the supported dome is
+// l* grows with the design's leverage l*ᵀ(Σ_i l_i l_iᵀ)⁻¹l*; its mean over the supported cone,
+// g, against the well-spread value 3/m, gives the extrapolation factor a = max(1, m·g/3). The
+// cone is centred on the lights' mean direction (the axis; +z for a dome); its half-angle θ_s
+// starts at min(75°, widest light angle from the axis + 15°) and shrinks in 5° steps until
+// a ≤ max_extrapolation (2): the bound claims only directions the lights can predict. Where
+// a > 1 no residual can tell how a wrong model extrapolates, so up to (a − 1) times the texel's
+// mean level μ_x is added. The bound on the RMS error over the supported dome is
 //   b_x = sqrt(κ² · max(s_x², σ̂²) · a · (1 + P/n_x) + ((a − 1) μ_x)²).
 // Texels with n_x ≤ P, with fewer usable lights than the model's light parameters + 3 (too few
-// spare lights to reveal misfit), lights whose moment matrix is singular, or lights that all
-// miss the frontal cone (no light within max_frontal_gap_deg of the normal direction: the
-// appearance under the most common light is never seen, e.g. grazing-only rigs) are
-// kTexelUnverifiable.
+// spare lights to reveal misfit), lights whose moment matrix is singular or that predict no
+// dome down to 10° within max_extrapolation, or lights that all miss the frontal cone (no light
+// within max_frontal_gap_deg of the sample's +z axis, checked once per stack: the appearance
+// under the most common light is never seen, e.g. grazing-only rigs) are kTexelUnverifiable.
+// Samples at the file's maximum code count only when the stack may be clipped (integer files).
 #pragma once
 
 #include <cstdint>
@@ -25,6 +28,7 @@
 
 #include "core/light_stack.h"
 #include "core/material_maps.h"
+#include "core/vec3.h"
 
 namespace matfit::fit {
 
@@ -32,23 +36,26 @@ struct ConfidenceOptions {
   double kappa = 3.5;          // coverage factor κ, > 0
   double max_condition = 1e6;  // light moment matrix condition number above which → unverifiable
   double max_frontal_gap_deg = 45;  // some light must have θ ≤ this
+  double max_extrapolation = 2;     // largest extrapolation factor a a bound may carry
 
   bool Check(std::string* why) const;
 };
 
 // Size of the model being checked (FitMethod::parameters_per_texel / light_parameters).
 struct ModelSize {
-  int parameters = 0;        // P: fitted scalars per texel
-  int light_parameters = 0;  // of which the light variation must determine
+  int parameters = 0;   // fitted scalars per texel, counted for RGB
+  int per_channel = 0;  // of which fitted per colour channel (grey: P = parameters − 2 · this)
+  int light_parameters = 0;  // that the light variation must determine
 };
 
 struct Confidence {
   std::vector<float> bound;  // b_x per texel (linear radiance per unit light); +inf when flagged
   double pooled_sigma = 0;   // σ̂
   double extrapolation = 1;  // a
-  double supported_theta_deg = 75;  // θ_s: the bound covers light directions up to this
+  double supported_theta_deg = 75;  // θ_s: the bound covers light directions within this angle
+  Vec3 supported_axis{0, 0, 1};     // of this axis (the lights' mean direction)
   bool frontal_covered = true;      // some light within max_frontal_gap_deg of the normal
-  int64_t unverifiable = 0;  // texels newly marked kTexelUnverifiable
+  int64_t unverifiable = 0;         // texels newly marked kTexelUnverifiable
 };
 
 // status: the fit's status plane (may be empty = all ok); texels found unverifiable are marked
@@ -56,13 +63,18 @@ struct Confidence {
 Confidence ComputeConfidence(const LightStack& stack, const MaterialMaps& maps, ModelSize size,
                              std::vector<uint8_t>* status, const ConfidenceOptions& options = {});
 
-// θ_s of the stack's lights (see above).
-double SupportedThetaDeg(const std::vector<LightSample>& lights);
+// The lights' mean direction (upper hemisphere; +z when there is none).
+Vec3 LightAxis(const std::vector<LightSample>& lights);
+// The starting θ_s: min(75°, widest light angle from `axis` + 15°).
+double SupportedThetaDeg(const std::vector<LightSample>& lights, const Vec3& axis);
 
-// Mean leverage over a Fibonacci dome of `count` directions at θ ≤ max_theta_deg:
+// `count` directions on a Fibonacci spiral, equal-area within max_theta_deg of `axis`.
+std::vector<Vec3> DomeDirections(int count, double max_theta_deg, const Vec3& axis = {0, 0, 1});
+
+// Mean leverage over `count` DomeDirections within max_theta_deg of axis:
 // g = mean l*ᵀ M⁻¹ l*, M = Σ_i l_i l_iᵀ over the lights; +inf when M's condition number exceeds
 // max_condition.
 double MeanDomeLeverage(const std::vector<LightSample>& lights, double max_condition,
-                        double max_theta_deg = 75, int count = 64);
+                        double max_theta_deg = 75, const Vec3& axis = {0, 0, 1}, int count = 64);
 
 }  // namespace matfit::fit

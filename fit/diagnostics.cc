@@ -15,22 +15,26 @@ struct TexelSamples {
   std::vector<double> p;
 };
 
-// Pooled relative residual Σ_x Σ (y − l·g_x)² / Σ_x Σ y² of per-texel least squares on y = p^γ.
+// Pooled relative residual Σ_x Σ (y − l·g_x)² / Σ_x Σ (y − ȳ_x)² of per-texel least squares on
+// y = p^γ: the share of each texel's variation over lights that n·l does not explain (the
+// variance, not the energy, so γ → 0, where y flattens to a constant, is not favoured).
 double LambertResidual(const std::vector<TexelSamples>& texels, double gamma) {
   double num = 0, den = 0;
   for (const auto& t : texels) {
     Eigen::Matrix3d A = Eigen::Matrix3d::Zero();
     Eigen::Vector3d b = Eigen::Vector3d::Zero();
     std::vector<double> y(t.p.size());
+    double mean = 0;
     for (size_t i = 0; i < t.p.size(); ++i) {
       y[i] = std::pow(t.p[i], gamma);
+      mean += y[i] / double(y.size());
       A += t.l[i] * t.l[i].transpose();
       b += y[i] * t.l[i];
     }
     const Eigen::Vector3d g = A.ldlt().solve(b);
     for (size_t i = 0; i < y.size(); ++i) {
       const double r = y[i] - t.l[i].dot(g);
-      num += r * r, den += y[i] * y[i];
+      num += r * r, den += (y[i] - mean) * (y[i] - mean);
     }
   }
   return den > 0 ? num / den : 0;
@@ -43,11 +47,16 @@ StackDiagnostics DiagnoseStack(const LightStack& s, int max_texels) {
   const int n = s.num_images(), C = s.channels();
   if (n < 6) return d;
   const int64_t T = s.plane_size();
-  const int64_t stride = std::max<int64_t>(1, T / std::max(1, max_texels));
+  // A regular 2-D grid of about max_texels texels (a 1-D stride would pick a few columns).
+  const int step = std::max(1, int(std::sqrt(double(T) / std::max(1, max_texels))));
+  const bool clip = StackMayBeClipped(s);
   const std::vector<float> inv = InverseIntensities(s);
   std::vector<TexelSamples> texels;
   std::vector<std::pair<double, int>> v;
-  for (int64_t p = stride / 2; p < T; p += stride) {
+  for (int64_t p0 = 0; p0 < T; ++p0) {
+    const int x = int(p0 % s.width()), yy = int(p0 / s.width());
+    if (x % step != step / 2 || yy % step != step / 2) continue;
+    const int64_t p = p0;
     if (s.has_mask() && s.mask.data()[p] < 0.5f) continue;
     v.clear();
     for (int i = 0; i < n; ++i) {
@@ -55,7 +64,7 @@ StackDiagnostics DiagnoseStack(const LightStack& s, int max_texels) {
       bool good = s.lights()[i].direction.z > 0;
       for (int c = 0; c < C; ++c) {
         const float raw = s.Plane(i, c)[p];
-        good = good && std::isfinite(raw) && raw < kClipLevel;
+        good = good && std::isfinite(raw) && !(clip && raw >= kClipLevel);
         y += (C == 3 ? kLuma[c] : 1.0f) * raw * inv[size_t(i) * C + c];
       }
       if (good && y > 1e-3) v.push_back({y, i});
@@ -96,6 +105,7 @@ StackDiagnostics DiagnoseStack(const LightStack& s, int max_texels) {
   if (r < best_r) best = g, best_r = r;
   d.encoding_exponent = best;
   d.residual_best = best_r;
+  // Only an interior minimum is evidence (at the ends of [0.3, 3.3] the search is inconclusive).
   d.looks_gamma_encoded = best >= 1.6 && best <= 3.0 && best_r < 0.5 * d.residual_linear;
   if (d.looks_gamma_encoded) {
     char msg[320];

@@ -94,11 +94,19 @@ StatusOr<FitJobResult> RunFitJob(const FitJobOptions& o, const StageProgress& pr
     if (!sel.ok()) return sel.status();
     selection = std::move(*sel);
     model = selection->method;
-    if (selection->level > 0) {
-      auto small = DownsampleStack(*stack, 1 << selection->level);
+    // The same two steps as the selection scored: to the scene's level, then to the maps'.
+    for (int f : {1 << selection->scene_level, 1 << (selection->level - selection->scene_level)}) {
+      if (f == 1) continue;
+      auto small = DownsampleStack(*stack, f);
       if (!small.ok()) return small.status();
       *stack = std::move(*small);
     }
+    if (selection->level > 0)
+      selection->warnings.push_back(
+          "the pack is at mip " + std::to_string(selection->level) + " (1/" +
+          std::to_string(1 << selection->level) +
+          " of the dataset's resolution): its reconstruction and held-out figures are at that "
+          "resolution; truth maps and --report-only compare at the dataset's");
   }
   const auto method = MakeMethod(model);
   FitOptions fo = o.fit;

@@ -12,25 +12,27 @@ using FitFn = std::function<StatusOr<FitResult>(const LightStack&, const FitOpti
 class FunctionMethod : public FitMethod {
  public:
   FunctionMethod(std::string name, std::string description, int params, int bytes, int light_params,
-                 FitFn fn)
+                 int per_channel, FitFn fn)
       : name_(std::move(name)),
         description_(std::move(description)),
         params_(params),
         bytes_(bytes),
         light_params_(light_params),
+        per_channel_(per_channel),
         fn_(std::move(fn)) {}
   std::string name() const override { return name_; }
   std::string description() const override { return description_; }
   int parameters_per_texel() const override { return params_; }
   int bytes_per_texel() const override { return bytes_; }
   int light_parameters() const override { return light_params_; }
+  int parameters_per_channel() const override { return per_channel_; }
   StatusOr<FitResult> Fit(const LightStack& s, const FitOptions& o) const override {
     return fn_(s, o);
   }
 
  private:
   std::string name_, description_;
-  int params_, bytes_, light_params_;
+  int params_, bytes_, light_params_, per_channel_;
   FitFn fn_;
 };
 
@@ -46,44 +48,44 @@ std::unique_ptr<FitMethod> MakeMethod(const std::string& name) {
   // 16-bit normal scale (2), 8-bit specular colour (3); the exponent is one per material;
   // PTM coefficients as 16-bit half floats (18 × 2).
   if (name == "mean")
-    return std::make_unique<FunctionMethod>(name, "per-texel mean colour", 3, 3, 1, FitMean);
+    return std::make_unique<FunctionMethod>(name, "per-texel mean colour", 3, 3, 1, 1, FitMean);
   if (name == "lambert")
-    return std::make_unique<FunctionMethod>(name, "photometric stereo: normal + albedo", 5, 9, 3,
+    return std::make_unique<FunctionMethod>(name, "photometric stereo: normal + albedo", 5, 9, 3, 1,
                                             FitLambert);
   if (name == "lambert-robust")
     return std::make_unique<FunctionMethod>(
         name, "photometric stereo rejecting shadows, highlights, clipped and NaN samples per texel",
-        5, 9, 3, FitLambertRobust);
+        5, 9, 3, 1, FitLambertRobust);
   if (name == "heinrich")
     return std::make_unique<FunctionMethod>(
         name, "seed method A: mean texture, unnormalised normal, grey ambient, specular map", 12,
-        17, 5, FitHeinrich);
+        17, 5, 2, FitHeinrich);
   if (name == "hsh2" || name == "hsh3") {
     const int order = name == "hsh2" ? 2 : 3;
     return std::make_unique<FunctionMethod>(
         name,
         "hemispherical harmonics, " + std::to_string(order * order) + " coefficients per channel",
-        3 * order * order, 6 * order * order, order * order,
+        3 * order * order, 6 * order * order, order * order, order * order,
         [order](const LightStack& s, const FitOptions& o) { return FitHsh(s, o, order); });
   }
   if (name == "blinn-phong")
     return std::make_unique<FunctionMethod>(
-        name, "per-texel LM: normal, albedo, k_s (exponent shared per material)", 6, 10, 4,
+        name, "per-texel LM: normal, albedo, k_s (exponent shared per material)", 6, 10, 4, 1,
         FitBlinnPhong);
   if (name == "cook-torrance")
     return std::make_unique<FunctionMethod>(
-        name, "per-texel LM: normal, albedo, F0 (GGX roughness shared per material)", 6, 10, 4,
+        name, "per-texel LM: normal, albedo, F0 (GGX roughness shared per material)", 6, 10, 4, 1,
         FitCookTorrance);
   if (name == "lafortune1" || name == "lafortune2") {
     const int lobes = name == "lafortune1" ? 1 : 2;
     return std::make_unique<FunctionMethod>(
         name, std::to_string(lobes) + " isotropic Lafortune lobe(s): normal, albedo, amplitudes",
-        5 + lobes, 9 + 2 * lobes, 3 + lobes,
+        5 + lobes, 9 + 2 * lobes, 3 + lobes, 1,
         [lobes](const LightStack& s, const FitOptions& o) { return FitLafortune(s, o, lobes); });
   }
   if (name == "ptm")
     return std::make_unique<FunctionMethod>(
-        name, "polynomial texture map, 6 coefficients per channel", 18, 36, 6, FitPtm);
+        name, "polynomial texture map, 6 coefficients per channel", 18, 36, 6, 6, FitPtm);
   return nullptr;
 }
 

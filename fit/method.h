@@ -22,6 +22,9 @@ class FitMethod {
   // geometry: lambert 3 = normal 2 + albedo level): a texel needs this many usable lights + 3
   // before its residual can bound its error (fit/confidence.h).
   virtual int light_parameters() const = 0;
+  // Of parameters_per_texel (counted for RGB), those fitted once per colour channel (lambert: the
+  // albedo, 1): a grey stack fits parameters_per_texel − 2 · this.
+  virtual int parameters_per_channel() const = 0;
   virtual StatusOr<FitResult> Fit(const LightStack& stack, const FitOptions& options) const = 0;
 };
 

@@ -64,11 +64,13 @@ std::string MakeReportJson(const FitReportInputs& in) {
       std::nth_element(b.begin(), b.begin() + b.size() / 2, b.end());
       median = b[b.size() / 2];
     }
-    j["confidence"] = {{"pooled_sigma", Finite(c.pooled_sigma)},
-                       {"extrapolation", Finite(c.extrapolation)},
-                       {"supported_theta_deg", c.supported_theta_deg},
-                       {"bound_median", Finite(median)},
-                       {"unverifiable_texels", c.unverifiable}};
+    j["confidence"] = {
+        {"pooled_sigma", Finite(c.pooled_sigma)},
+        {"extrapolation", Finite(c.extrapolation)},
+        {"supported_theta_deg", c.supported_theta_deg},
+        {"supported_axis", {c.supported_axis.x, c.supported_axis.y, c.supported_axis.z}},
+        {"bound_median", Finite(median)},
+        {"unverifiable_texels", c.unverifiable}};
     const StackDiagnostics& d = in.assessment->diagnostics;
     j["diagnostics"] = {{"encoding_exponent", d.encoding_exponent},
                         {"looks_gamma_encoded", d.looks_gamma_encoded},

@@ -7,6 +7,8 @@
 
 #include "core/shading/evaluate.h"
 #include "core/stack_ops.h"
+#include "fit/assess.h"
+#include "fit/diagnostics.h"
 #include "fit/fit_common.h"
 #include "fit/method.h"
 #include "fit/metrics.h"
@@ -25,28 +27,36 @@ struct HeldOutSums {
   int64_t flagged = 0, scored = 0;
   double fit_seconds = 0;
   MaterialMaps last_maps;
+  int failed_folds = 0;
+  std::string fold_error;  // the first failed fold's message
   bool any = false;
 };
 
 // Folds over images (image i in fold i mod K). `coarse` is the level-(L+k) stack, `fine` the
-// level-L one; texel (x, y) of fine is predicted by texel (x >> k, y >> k) of coarse.
+// level-L one; texel (x, y) of fine is predicted by texel (x >> k, y >> k) of coarse. Each
+// fold's fit is assessed like a shipped fit (fit/assess.h): texels it cannot bound count as
+// flagged. Fine texels whose coarse parent lies outside the (coarser) mask are not scored.
 StatusOr<HeldOutSums> Score(const FitMethod& m, const LightStack& fine, const LightStack& coarse,
-                            int k, int folds) {
+                            int k, int folds, const FitOptions& options, bool environment) {
   const int n = fine.num_images(), C = fine.channels();
   const int64_t T = fine.plane_size();
   HeldOutSums h;
   h.sse.assign(size_t(n), 0), h.count.assign(size_t(n), 0);
-  h.env_err.assign(size_t(T) * C, 0), h.env_w.assign(size_t(T) * C, 0);
+  if (environment) h.env_err.assign(size_t(T) * C, 0), h.env_w.assign(size_t(T) * C, 0);
   const std::vector<float> inv = InverseIntensities(fine);
+  const bool clip = StackMayBeClipped(fine);
   const Vec3f v(fine.view_direction);
   for (int f = 0; f < folds; ++f) {
     std::vector<int> train, test;
     for (int i = 0; i < n; ++i) (i % folds == f ? test : train).push_back(i);
-    auto fit = m.Fit(SelectImages(coarse, train), {});
+    const LightStack train_stack = SelectImages(coarse, train);
+    auto fit = m.Fit(train_stack, options);
     if (!fit.ok()) {
       if (fit.status().code() == StatusCode::kCancelled) return fit.status();
-      continue;  // this fold leaves too few lights: counted as all-flagged below
+      if (h.failed_folds++ == 0) h.fold_error = fit.status().message();
+      continue;
     }
+    (void)AssessFit(train_stack, m, &*fit);
     if (f == 0) h.fit_seconds = fit->fit_seconds;
     h.any = true;
     for (int y = 0; y < fine.height(); ++y)
@@ -56,6 +66,7 @@ StatusOr<HeldOutSums> Score(const FitMethod& m, const LightStack& fine, const Li
         const int cx = std::min(coarse.width() - 1, x >> k),
                   cy = std::min(coarse.height() - 1, y >> k);
         const int64_t q = int64_t(cy) * coarse.width() + cx;
+        if (fit->status[q] == kTexelMasked) continue;  // the coarser mask leaves it out
         ++h.scored;
         if (fit->status[q] != kTexelOk) {
           ++h.flagged;
@@ -66,10 +77,10 @@ StatusOr<HeldOutSums> Score(const FitMethod& m, const LightStack& fine, const Li
           const double w = std::max(0.0f, l.z);
           for (int c = 0; c < C; ++c) {
             const float raw = fine.Plane(i, c)[p];
-            if (!std::isfinite(raw) || raw >= kClipLevel) continue;
+            if (!std::isfinite(raw) || (clip && raw >= kClipLevel)) continue;
             const double d = EvaluateTexel(fit->maps, q, c, l, v) - raw * inv[size_t(i) * C + c];
             h.sse[i] += d * d, ++h.count[i];
-            h.env_err[size_t(p) * C + c] += w * d, h.env_w[size_t(p) * C + c] += w;
+            if (environment) h.env_err[size_t(p) * C + c] += w * d, h.env_w[size_t(p) * C + c] += w;
           }
         }
       }
@@ -209,16 +220,29 @@ StatusOr<Selection> SelectModel(const LightStack& stack, const SceneSpec& scene,
                                 const SelectOptions& o) {
   std::string why;
   if (!scene.Check(&why)) return InvalidArgument(why);
-  if (o.folds < 2 || o.folds > stack.num_images())
-    return InvalidArgument("selection needs 2..images held-out folds, got " +
-                           std::to_string(o.folds));
+  if (o.folds < 2) return InvalidArgument("selection needs ≥ 2 held-out folds");
+  if (stack.num_images() < 3)
+    return InvalidArgument(
+        "--model auto scores candidates on held-out lights and needs ≥ 3 "
+        "images; the dataset has " +
+        std::to_string(stack.num_images()) + ": name a model instead");
+  const int folds = std::min(o.folds, stack.num_images());
   Selection sel;
-  const int L = std::max(0, int(std::floor(std::log2(1.0 / scene.texel_footprint_px) + 1e-9)));
-  int level = L;
-  while (level > 0 && (stack.width() >> level) < 4) --level;
+  // Scene level from the footprint (linear: texel width on screen in pixels), clamped so the
+  // shown stack keeps ≥ 4 texels per side.
+  const double want = std::floor(std::log2(1.0 / scene.texel_footprint_px) + 1e-9);
+  int level = int(std::clamp(want, 0.0, 30.0));
+  while (level > 0 && (std::min(stack.width(), stack.height()) >> level) < 4) --level;
+  if (level < want)
+    sel.warnings.push_back("the scene's footprint asks for mip " + std::to_string(int(want)) +
+                           "; the " + std::to_string(stack.width()) + "x" +
+                           std::to_string(stack.height()) + " dataset stops at mip " +
+                           std::to_string(level));
   sel.scene_level = level;
   auto fine = DownsampleStack(stack, 1 << level);
   if (!fine.ok()) return fine.status();
+  if (const StackDiagnostics d = DiagnoseStack(*fine); d.looks_gamma_encoded)
+    return InvalidArgument("model selection: " + d.warnings.front());
   std::vector<std::string> methods = o.methods.empty() ? MethodNames() : o.methods;
   std::vector<std::pair<std::unique_ptr<FitMethod>, int>> cands;  // method, k
   std::vector<Candidate> table;
@@ -227,7 +251,7 @@ StatusOr<Selection> SelectModel(const LightStack& stack, const SceneSpec& scene,
     if (!m) return InvalidArgument("selection: '" + name + "' is not a method");
     for (int k = 0; k <= o.max_coarser_levels; ++k) {
       const int w = fine->width() >> k, h = fine->height() >> k;
-      if (w < 4 || h < 4) break;
+      if (k > 0 && (w < 4 || h < 4)) break;
       Candidate c;
       c.method = name;
       c.level = level + k, c.width = w, c.height = h;
@@ -248,9 +272,17 @@ StatusOr<Selection> SelectModel(const LightStack& stack, const SceneSpec& scene,
   });
   std::vector<StatusOr<LightStack>> coarse;
   for (int k = 0; k <= o.max_coarser_levels; ++k) coarse.push_back(DownsampleStack(*fine, 1 << k));
+  const size_t warnings_before = sel.warnings.size();
   const std::vector<double> weights = LightWeights(*fine, scene, &sel.warnings);
-  int chosen = -1, best = -1;
+  const bool sun_fallback = sel.warnings.size() > warnings_before;
+  // The user's fit options, with cancellation forwarded (progress counts candidates).
+  FitOptions fit_options = o.fit;
   int64_t done = 0;
+  if (o.fit.progress)
+    fit_options.progress = [&](int64_t, int64_t) {
+      return o.fit.progress(done, int64_t(table.size()));
+    };
+  int chosen = -1, best = -1;
   for (size_t idx : order) {
     Candidate& c = table[idx];
     if (chosen >= 0) {
@@ -269,15 +301,16 @@ StatusOr<Selection> SelectModel(const LightStack& stack, const SceneSpec& scene,
       sel.candidates.push_back(c);
       continue;
     }
-    auto h = Score(*cands[idx].first, *fine, *coarse[k], k, o.folds);
+    auto h = Score(*cands[idx].first, *fine, *coarse[k], k, folds, fit_options, scene.environment);
     if (!h.ok()) return h.status();
     c.evaluated = true;
     c.fit_seconds = h->fit_seconds;
     c.flagged_fraction = h->scored ? double(h->flagged) / h->scored : 1;
     c.error = h->any ? SceneError(*h, weights, scene) : NAN;
     c.render_ns_per_pixel = h->any ? ShadingCost(h->last_maps) : 0;
-    if (!h->any)
-      c.note = "refused every fold (too few lights)";
+    if (h->failed_folds > 0)
+      c.note = std::to_string(h->failed_folds) + " of " + std::to_string(folds) +
+               " held-out folds could not be fitted: " + h->fold_error;
     else if (c.flagged_fraction > 0.01)
       c.note = "flags " + std::to_string(int(100 * c.flagged_fraction)) + " % of its texels";
     else if (!(c.error <= scene.error_budget))
@@ -285,7 +318,7 @@ StatusOr<Selection> SelectModel(const LightStack& stack, const SceneSpec& scene,
     else
       c.meets = true;
     if (c.meets) chosen = int(sel.candidates.size());
-    if (std::isfinite(c.error) && c.flagged_fraction <= 0.01 &&
+    if (std::isfinite(c.error) && c.flagged_fraction <= 0.01 && h->failed_folds == 0 &&
         (best < 0 || c.error < sel.candidates[best].error))
       best = int(sel.candidates.size());
     sel.candidates.push_back(c);
@@ -298,7 +331,12 @@ StatusOr<Selection> SelectModel(const LightStack& stack, const SceneSpec& scene,
     sel.budget_met = false;
     pick = best;
     if (pick < 0)
-      return InvalidArgument("model selection: no candidate could be fitted to this dataset");
+      return InvalidArgument(
+          std::string("model selection: no candidate could be scored (") +
+          (sel.candidates.empty() ? "the dataset is too small"
+           : done == 0            ? "every candidate is over the memory budget"
+                                  : "every candidate flags > 1 % of its texels or fails a fold") +
+          "); see the candidates in a fit with a named model, or relax the scene");
     sel.warnings.push_back("no candidate met the error budget " +
                            std::to_string(scene.error_budget) + "; using the most accurate one, " +
                            sel.candidates[pick].method);
@@ -307,15 +345,24 @@ StatusOr<Selection> SelectModel(const LightStack& stack, const SceneSpec& scene,
   sel.method = c.method;
   sel.level = c.level, sel.width = c.width, sel.height = c.height;
   sel.error = c.error;
-  char buf[400];
-  std::snprintf(
-      buf, sizeof buf,
-      "%s at %dx%d (mip %d; the scene shows mip %d): held-out %s error %.4g %s the "
-      "budget %.4g with %lld bytes of maps, the fewest among %d evaluated candidates",
-      c.method.c_str(), c.width, c.height, c.level, level,
-      scene.environment ? "environment-light" : (scene.static_light ? "sun-weighted" : "all-light"),
-      c.error, c.error <= scene.error_budget ? "meets" : "exceeds", scene.error_budget,
-      (long long)c.bytes, int(done));
+  const char* weighting = scene.environment                       ? "environment-light"
+                          : (scene.static_light && !sun_fallback) ? "sun-weighted"
+                                                                  : "all-light";
+  char buf[480];
+  if (sel.budget_met)
+    std::snprintf(buf, sizeof buf,
+                  "%s at %dx%d (mip %d; the scene shows mip %d): held-out %s error %.4g meets the "
+                  "budget %.4g with %lld bytes of maps, the fewest of the %d candidates evaluated "
+                  "(all smaller ones failed)",
+                  c.method.c_str(), c.width, c.height, c.level, level, weighting, c.error,
+                  scene.error_budget, (long long)c.bytes, int(done));
+  else
+    std::snprintf(buf, sizeof buf,
+                  "%s at %dx%d (mip %d; the scene shows mip %d): no candidate meets the budget "
+                  "%.4g; this is the most accurate of the %d evaluated, held-out %s error %.4g, "
+                  "%lld bytes of maps",
+                  c.method.c_str(), c.width, c.height, c.level, level, scene.error_budget,
+                  int(done), weighting, c.error, (long long)c.bytes);
   sel.reason = buf;
   return sel;
 }

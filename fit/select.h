@@ -1,21 +1,24 @@
 // Model selection, "no more model than the scene needs" (`matfit fit --model auto`).
 //
 // A scene (scene.json, schema "matfit.scene/1") says how the material will be seen:
-//   texel_footprint_px  screen pixels one texel covers at the viewing distance (1 = full
-//                       resolution; 0.25 = four texels per pixel → mip level 1)
+//   texel_footprint_px  width of one texel on screen in pixels at the viewing distance (1 = full
+//                       resolution; 0.25 = a quarter pixel, 4×4 texels per pixel → mip 2)
 //   lighting            "dynamic" (any direction) or "static"
 //   light               "directional" (a sun) or "environment" (light from the whole
 //                       hemisphere, cosine-weighted)
 //   sun_theta_deg, sun_phi_deg   static directional: the sun's direction
 //   memory_budget_bytes          0 = unlimited
 //   error_budget                 held-out RMSE allowed (linear radiance), > 0
-// Level L = max(0, floor(log2(1 / footprint))): the stack is box-downsampled by 2^L (what the
+// Level L = max(0, floor(log2(1 / footprint))), clamped so ≥ 4 texels per side remain: the
+// stack is box-downsampled by 2^L (what the
 // renderer shows), and candidates are (model, map resolution 2^-(L+k), k = 0..2). Each is
 // scored by k-fold held-out lights at level L — maps fitted at level L+k predict level-L texels
 // from their parent texel — weighted for the scene's light: all lights (dynamic), lights near
 // the sun (static directional, Gaussian of 15° in angle), or the error of the cosine-weighted
 // light average (environment). Candidates are tried from the fewest bytes up; the first that
-// meets the error budget (flagging ≤ 1 % of its texels) and the memory budget wins.
+// meets the error budget (flagging ≤ 1 % of its texels, every fold fitted, each fold's fit
+// assessed as in fit/assess.h) and the memory budget wins. Stacks that look gamma-encoded are
+// refused (no model would be right).
 #pragma once
 
 #include <optional>

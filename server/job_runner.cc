@@ -16,18 +16,24 @@ namespace fs = std::filesystem;
 using json = nlohmann::json;
 
 // Share of the whole job each stage takes (measured roughly on the fixtures), in order.
-const std::map<std::string, std::pair<double, double>>& StageSpans(bool leaf) {
+// model=auto adds the selection (several fits per candidate) before the final fit.
+const std::map<std::string, std::pair<double, double>>& StageSpans(bool leaf, bool select) {
   static const std::map<std::string, std::pair<double, double>> fit = {
       {"read", {0.0, 0.1}}, {"fit", {0.1, 0.6}}, {"heldout", {0.6, 0.95}}, {"write", {0.95, 1}}};
+  static const std::map<std::string, std::pair<double, double>> autofit = {{"read", {0.0, 0.05}},
+                                                                           {"select", {0.05, 0.8}},
+                                                                           {"fit", {0.8, 0.9}},
+                                                                           {"heldout", {0.9, 0.98}},
+                                                                           {"write", {0.98, 1}}};
   static const std::map<std::string, std::pair<double, double>> lf = {
       {"read", {0.0, 0.1}}, {"sheet", {0.1, 0.4}}, {"leaves", {0.4, 0.95}}, {"write", {0.95, 1}}};
-  return leaf ? lf : fit;
+  return leaf ? lf : (select ? autofit : fit);
 }
 
-bool Forward(const JobProgress& p, bool leaf, const std::string& stage, int64_t done,
+bool Forward(const JobProgress& p, bool leaf, bool select, const std::string& stage, int64_t done,
              int64_t total) {
   if (!p) return true;
-  const auto& spans = StageSpans(leaf);
+  const auto& spans = StageSpans(leaf, select);
   const auto it = spans.find(stage);
   const auto [a, b] = it == spans.end() ? std::pair<double, double>{0, 1} : it->second;
   const double f = total > 0 ? std::clamp(double(done) / double(total), 0.0, 1.0) : 0.0;
@@ -64,9 +70,9 @@ Status ValidateDataset(const JobSpec& spec, const std::string& dir) {
 
 StatusOr<std::string> RunJob(const JobSpec& spec, const std::string& dataset,
                              const std::string& out_dir, const JobProgress& progress) {
-  const bool leaf = spec.mode == "leaf";
+  const bool leaf = spec.mode == "leaf", select = spec.model == "auto";
   auto stage = [&](const std::string& s, int64_t d, int64_t t) {
-    return Forward(progress, leaf, s, d, t);
+    return Forward(progress, leaf, select, s, d, t);
   };
   if (leaf) {
     leaf::LeafJobOptions o;

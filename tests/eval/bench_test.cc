@@ -104,7 +104,7 @@ TEST(Bench, QuickSuiteScoresEveryMethodOnEveryCase) {
   const json j = json::parse(BenchJson(*r));
   EXPECT_EQ(j["schema"], "matfit.bench/1");
   EXPECT_EQ(Keys(j), (std::set<std::string>{"schema", "cases", "skipped", "points", "hl2_leaf",
-                                            "hl2", "seconds"}));
+                                            "hl2", "holdout", "threads", "seconds"}));
   EXPECT_EQ(Keys(j["points"][0]), (std::set<std::string>{"method",
                                                          "dataset",
                                                          "ok",
