@@ -158,12 +158,16 @@ StatusOr<FitResult> FitLobe(const LightStack& s, const FitOptions& o, const std:
     int used = 0;
     for (int i = 0; i < n; ++i) {
       double lum = 0, pred = 0;
+      bool finite = true;  // a NaN/Inf sample (dead pixel, decode hole) is dropped
       for (int c = 0; c < C; ++c) {
         obs[i * C + c] = double(s.Plane(i, c)[p]) * inv[i * C + c];
+        finite = finite && std::isfinite(obs[i * C + c]);
         lum += obs[i * C + c];
         pred += init->maps.albedo.Plane(C == 1 ? 0 : c)[p] * std::max(0.0, Dot(n0, dirs[i]));
       }
-      use[i] = !(pred > 0.02 * C && lum < 0.5 * pred);
+      if (!finite)
+        for (int c = 0; c < C; ++c) obs[i * C + c] = 0;
+      use[i] = finite && !(pred > 0.02 * C && lum < 0.5 * pred);
       used += use[i];
     }
     return used;

@@ -84,6 +84,19 @@ TEST(BadInput, NanPixelsAreFlaggedByTheLinearMethodsAndDroppedByTheRobustOne) {
   const Vec3 b(clean->maps.normal.Plane(0)[27], clean->maps.normal.Plane(1)[27],
                clean->maps.normal.Plane(2)[27]);
   EXPECT_LT(AngleBetweenDeg(a, b), 1.0);
+  // So do the nonlinear fits (they start from lambert-robust).
+  for (const char* name : {"blinn-phong", "cook-torrance", "lafortune1"}) {
+    auto nl = MakeMethod(name)->Fit(s, {});
+    auto nl_clean = MakeMethod(name)->Fit(data.stack, {});
+    ASSERT_TRUE(nl.ok() && nl_clean.ok()) << name;
+    EXPECT_EQ(nl->status[27], kTexelOk) << name;
+    const Vec3 c(nl->maps.normal.Plane(0)[27], nl->maps.normal.Plane(1)[27],
+                 nl->maps.normal.Plane(2)[27]);
+    const Vec3 d(nl_clean->maps.normal.Plane(0)[27], nl_clean->maps.normal.Plane(1)[27],
+                 nl_clean->maps.normal.Plane(2)[27]);
+    EXPECT_LT(AngleBetweenDeg(c, d), 1.0) << name;
+    EXPECT_TRUE(std::isfinite(nl->maps.specular.Plane(0)[27])) << name;
+  }
   // A texel left with fewer than 3 finite samples is flagged.
   LightStack holes = data.stack;
   for (int i = 0; i < holes.num_images() - 2; ++i) holes.At(i, 1, 3, 3) = std::nanf("");
