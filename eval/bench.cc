@@ -10,7 +10,6 @@
 #include "core/parallel.h"
 #include "core/shading/evaluate.h"
 #include "core/stack_ops.h"
-#include "core/synth/light_sets.h"
 #include "core/synth/synth.h"
 #include "fit/assess.h"
 #include "fit/holdout.h"
@@ -66,34 +65,6 @@ StatusOr<Loaded> LoadCase(const BenchCase& c) {
   return l;
 }
 
-std::vector<Vec3> Dome48() {
-  std::vector<Vec3> d;
-  const auto set = synth::MakeLightSet("dome:48", 1);
-  for (const auto& l : *set) d.push_back(l.direction);
-  return d;
-}
-
-// ns per texel × light (3 channels) of the shared CPU shading function on the fitted maps.
-double RenderCost(const MaterialMaps& maps) {
-  const int64_t T = int64_t(maps.width) * maps.height;
-  const Vec3f lights[4] = {Vec3f(0, 0, 1), Normalize(Vec3f(0.5f, 0.2f, 0.8f)),
-                           Normalize(Vec3f(-0.3f, 0.6f, 0.7f)),
-                           Normalize(Vec3f(0.7f, -0.6f, 0.4f))};
-  const Vec3f v(0, 0, 1);
-  std::vector<double> runs;
-  volatile float sink = 0;
-  for (int rep = 0; rep < 3; ++rep) {
-    const auto t0 = Clock::now();
-    float acc = 0;
-    for (const Vec3f& l : lights)
-      for (int64_t p = 0; p < T; ++p)
-        for (int c = 0; c < 3; ++c) acc += EvaluateTexel(maps, p, c, l, v);
-    sink = sink + acc;
-    runs.push_back(Since(t0) * 1e9 / (4.0 * std::max<int64_t>(1, T)));
-  }
-  return Median(runs);
-}
-
 BenchPoint RunPoint(const fit::FitMethod& method, const std::string& dataset, const Loaded& data,
                     const BenchOptions& o, int repeats) {
   BenchPoint pt;
@@ -127,7 +98,7 @@ BenchPoint RunPoint(const fit::FitMethod& method, const std::string& dataset, co
   for (float b : a.confidence.bound)
     if (std::isfinite(b)) bounds.push_back(b);
   pt.bound_median = Median(bounds);
-  pt.render_ns_per_pixel = RenderCost(fit->maps);
+  pt.render_ns_per_pixel = fit::ShadingCostNs(fit->maps);
   // --quick scores synthetic cases by their truth only (held-out lights cost k more fits).
   if (o.holdout >= 2 && !(o.quick && data.truth)) {
     auto h = fit::HeldOut(method, data.stack, o.holdout, {});
@@ -137,8 +108,8 @@ BenchPoint RunPoint(const fit::FitMethod& method, const std::string& dataset, co
     const auto t = fit::CompareToTruth(fit->maps, *data.truth, fitted);
     if (t.has_normal) pt.normal_mae_deg = t.normal_mae_deg;
     if (t.has_albedo) pt.albedo_rmse = t.albedo_rmse;
-    const auto err =
-        fit::RelightingError(fit->maps, *data.truth, Dome48(), data.stack.view_direction);
+    const auto err = fit::RelightingError(fit->maps, *data.truth, fit::DomeDirections(48, 75),
+                                          data.stack.view_direction);
     double s2 = 0;
     int64_t k = 0;
     for (size_t p = 0; p < err.size(); ++p)

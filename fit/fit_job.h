@@ -36,9 +36,8 @@ struct FitJobResult {
   ReconstructionMetrics reconstruction;
   std::optional<HeldOutMetrics> heldout;
   std::optional<TruthMetrics> truth;
-  FitAssessment assessment;
-  std::optional<Selection> selection;  // with model "auto"  // diagnostics + per-texel error bound
-                                       // (not with report_only)
+  FitAssessment assessment;            // diagnostics + per-texel error bound (not report_only)
+  std::optional<Selection> selection;  // with model "auto"
   std::string report_json;
 };
 

@@ -129,24 +129,6 @@ double SceneError(const HeldOutSums& h, const std::vector<double>& w, const Scen
   return den > 0 ? std::sqrt(num / den) : NAN;
 }
 
-double ShadingCost(const MaterialMaps& maps) {
-  const int64_t T = int64_t(maps.width) * maps.height;
-  if (T == 0) return 0;
-  const Vec3f l = Normalize(Vec3f(0.4f, 0.3f, 0.8f)), v(0, 0, 1);
-  double best = INFINITY;
-  volatile float sink = 0;
-  for (int rep = 0; rep < 3; ++rep) {
-    const auto t0 = std::chrono::steady_clock::now();
-    float acc = 0;
-    for (int64_t p = 0; p < T; ++p)
-      for (int c = 0; c < 3; ++c) acc += EvaluateTexel(maps, p, c, l, v);
-    sink = sink + acc;
-    best = std::min(best,
-                    std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count());
-  }
-  return best * 1e9 / double(T);
-}
-
 }  // namespace
 
 bool SceneSpec::Check(std::string* why) const {
@@ -307,7 +289,7 @@ StatusOr<Selection> SelectModel(const LightStack& stack, const SceneSpec& scene,
     c.fit_seconds = h->fit_seconds;
     c.flagged_fraction = h->scored ? double(h->flagged) / h->scored : 1;
     c.error = h->any ? SceneError(*h, weights, scene) : NAN;
-    c.render_ns_per_pixel = h->any ? ShadingCost(h->last_maps) : 0;
+    c.render_ns_per_pixel = h->any ? ShadingCostNs(h->last_maps) : 0;
     if (h->failed_folds > 0)
       c.note = std::to_string(h->failed_folds) + " of " + std::to_string(folds) +
                " held-out folds could not be fitted: " + h->fold_error;
