@@ -5,12 +5,7 @@
 set -u
 bin=$1; src=$2; shared=$3
 tmp=$(mktemp -d); trap 'rm -rf "$tmp"' EXIT
-pass=0; fail=0
-ok()   { pass=$((pass+1)); }
-bad()  { fail=$((fail+1)); echo "FAIL: $*"; }
-expect_contains() { # name, haystack, needle
-  if grep -qF -- "$3" <<<"$2"; then ok; else bad "$1: output lacks '$3'"; echo "$2" | head -20; fi
-}
+source "$(dirname "$0")/lib.sh"
 
 out=$("$bin" bench --quick --methods mean,lambert,lambert-robust --stability-size 12 \
       --shared-data "$shared" --out "$tmp/b" --quiet 2>&1) && ok || bad "bench: $out"
