@@ -127,3 +127,51 @@ TEST(Select, MemoryBudgetAndUnreachableBudgetAreReported) {
 
 }  // namespace
 }  // namespace matfit::fit
+
+namespace matfit::fit {
+namespace {
+
+TEST(Select, AFootprintBeyondTheDatasetIsClampedWithAWarning) {
+  const auto data = SynthData({.material = "plaster", .size = 32, .noise = 0.005});
+  SceneSpec scene;
+  scene.texel_footprint_px = 1e-12;
+  SelectOptions o;
+  o.methods = {"mean", "lambert"};
+  auto sel = SelectModel(data.stack, scene, o);
+  ASSERT_TRUE(sel.ok()) << sel.status().ToString();
+  EXPECT_EQ(sel->scene_level, 3);  // 32 >> 3 = 4 texels per side
+  ASSERT_FALSE(sel->warnings.empty());
+  EXPECT_NE(sel->warnings[0].find("stops at mip 3"), std::string::npos);
+}
+
+TEST(Select, ACandidateWhoseFoldCannotBeFittedIsNotEligible) {
+  // 13 lights, 3 folds: hsh3 (9 terms) trains on 8 lights in fold 0 and must fail there.
+  const auto data = SynthData({.material = "plaster", .lights = "dome:13", .size = 16});
+  SceneSpec scene;
+  scene.error_budget = 0.5;  // anything that can be scored meets it
+  SelectOptions o;
+  o.methods = {"hsh3"};
+  o.max_coarser_levels = 0;
+  auto sel = SelectModel(data.stack, scene, o);
+  EXPECT_FALSE(sel.ok());  // the only candidate is not eligible
+  o.methods = {"hsh3", "hsh2"};
+  sel = SelectModel(data.stack, scene, o);
+  ASSERT_TRUE(sel.ok()) << sel.status().ToString();
+  EXPECT_EQ(sel->method, "hsh2");
+  for (const auto& c : sel->candidates)
+    if (c.method == "hsh3" && c.evaluated) {
+      EXPECT_FALSE(c.meets);
+      EXPECT_NE(c.note.find("could not be fitted"), std::string::npos) << c.note;
+    }
+}
+
+TEST(Select, TooFewImagesIsAClearError) {
+  auto data = SynthData({.material = "plaster", .lights = "dome:6", .size = 8});
+  const LightStack two = SelectImages(data.stack, {0, 1});
+  auto sel = SelectModel(two, SceneSpec{}, {});
+  ASSERT_FALSE(sel.ok());
+  EXPECT_NE(sel.status().message().find("needs ≥ 3 images"), std::string::npos);
+}
+
+}  // namespace
+}  // namespace matfit::fit
