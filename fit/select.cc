@@ -334,8 +334,8 @@ StatusOr<Selection> SelectModel(const LightStack& stack, const SceneSpec& scene,
   if (sel.budget_met)
     std::snprintf(buf, sizeof buf,
                   "%s at %dx%d (mip %d; the scene shows mip %d): held-out %s error %.4g meets the "
-                  "budget %.4g with %lld bytes of maps, the fewest of the %d candidates evaluated "
-                  "(all smaller ones failed)",
+                  "budget %.4g with %lld bytes of maps; candidates are tried from the fewest bytes "
+                  "up and this was the first to meet it (%d evaluated)",
                   c.method.c_str(), c.width, c.height, c.level, level, weighting, c.error,
                   scene.error_budget, (long long)c.bytes, int(done));
   else
