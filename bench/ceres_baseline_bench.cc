@@ -55,6 +55,7 @@ struct SampleCost {
 void BM_CeresProblemPerTexel(benchmark::State& state) {
   const Data& d = Get(int(state.range(0)));
   const LightStack& s = d.stack;
+  double iterations = 0;
   ceres::Solver::Options opt;
   opt.linear_solver_type = ceres::DENSE_QR;
   const fit::FitOptions defaults;
@@ -66,6 +67,7 @@ void BM_CeresProblemPerTexel(benchmark::State& state) {
   SetNumThreads(1);
   for (auto _ : state) {
     double total_cost = 0;
+    iterations = 0;
     const fit::FitResult init = *fit::FitLambertRobust(s, {});
     for (int64_t p = 0; p < s.plane_size(); ++p) {
       const auto& n0 = init.maps.normal;
@@ -87,12 +89,14 @@ void BM_CeresProblemPerTexel(benchmark::State& state) {
       ceres::Solver::Summary summary;
       ceres::Solve(opt, &problem, &summary);
       total_cost += summary.final_cost;
+      iterations += double(summary.iterations.size() - 1);  // entry 0 is the start
     }
     benchmark::DoNotOptimize(total_cost);
   }
   SetNumThreads(0);
   state.counters["texels/s"] =
       benchmark::Counter(double(s.texels()), benchmark::Counter::kIsIterationInvariantRate);
+  state.counters["iterations/texel"] = iterations / double(s.texels());
 }
 
 void BM_TinyLmPerTexel(benchmark::State& state) {
@@ -100,13 +104,16 @@ void BM_TinyLmPerTexel(benchmark::State& state) {
   SetNumThreads(1);
   fit::FitOptions o;
   o.per_texel_lobe = true;  // stage 1 only: the same 7-parameter problem per texel
+  double iterations = 0;
   for (auto _ : state) {
     auto r = fit::FitBlinnPhong(d.stack, o);
     benchmark::DoNotOptimize(r);
+    iterations = r->parameters.at("mean_lm_iterations");
   }
   SetNumThreads(0);
   state.counters["texels/s"] =
       benchmark::Counter(double(d.stack.texels()), benchmark::Counter::kIsIterationInvariantRate);
+  state.counters["iterations/texel"] = iterations;
 }
 
 BENCHMARK(BM_CeresProblemPerTexel)

@@ -24,26 +24,29 @@ namespace {
 constexpr double kTrimDark = 0.2, kTrimBright = 0.1;
 constexpr int kRounds = 4;
 
-// Least squares g over the samples with keep[i] set; false when fewer than 3 or singular.
+// Least squares g over the samples with keep[i] set; false when fewer than 3 or singular
+// (smallest eigenvalue of Σ l lᵀ ≤ 1e-12). The sums run branch-free (keep as a 0/1 factor):
+// which samples are kept is data-dependent and would mispredict.
 bool SolveSubset(const std::vector<Vec3>& l, const double* y, const std::vector<char>& keep,
                  Vec3* g, double* conditioning) {
-  Eigen::Matrix3d m = Eigen::Matrix3d::Zero();
-  Eigen::Vector3d b = Eigen::Vector3d::Zero();
+  double m00 = 0, m01 = 0, m02 = 0, m11 = 0, m12 = 0, m22 = 0, b0 = 0, b1 = 0, b2 = 0;
   int count = 0;
   for (size_t i = 0; i < l.size(); ++i) {
-    if (!keep[i]) continue;
-    const Eigen::Vector3d d(l[i].x, l[i].y, l[i].z);
-    m += d * d.transpose();
-    b += d * y[i];
-    ++count;
+    const double k = keep[i] ? 1.0 : 0.0, kx = k * l[i].x, ky = k * l[i].y, kz = k * l[i].z;
+    m00 += kx * l[i].x, m01 += kx * l[i].y, m02 += kx * l[i].z;
+    m11 += ky * l[i].y, m12 += ky * l[i].z, m22 += kz * l[i].z;
+    b0 += kx * y[i], b1 += ky * y[i], b2 += kz * y[i];
+    count += keep[i] != 0;
   }
   if (count < 3) return false;
+  Eigen::Matrix3d m;
+  m << m00, m01, m02, m01, m11, m12, m02, m12, m22;
   Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> eig;
   eig.computeDirect(m, Eigen::EigenvaluesOnly);
   const auto ev = eig.eigenvalues();  // ascending
   *conditioning = ev[2] > 0 ? ev[0] / ev[2] : 0;
   if (!(ev[0] > 1e-12)) return false;
-  const Eigen::Vector3d x = m.ldlt().solve(b);
+  const Eigen::Vector3d x = m.ldlt().solve(Eigen::Vector3d(b0, b1, b2));
   *g = {x.x(), x.y(), x.z()};
   return true;
 }
@@ -105,11 +108,14 @@ StatusOr<FitResult> FitLambertRobust(const LightStack& s, const FitOptions& o) {
           r.status[p] = kTexelNonFinite;
           continue;
         }
-        // 1. Rank trimming (keep at least 3 of the middle ranks).
+        // 1. Rank trimming (keep at least 3 of the middle ranks): two selections put the
+        // ranks [lo, hi) in order[lo, hi) (a full sort is not needed).
         std::iota(order.begin(), order.end(), 0);
-        std::sort(order.begin(), order.end(), [&](int a, int b) { return y[a] < y[b]; });
         int lo = int(std::floor(kTrimDark * n)), hi = int(std::ceil((1 - kTrimBright) * n));
         if (hi - lo < 3) lo = std::max(0, std::min(lo, n - 3)), hi = std::min(n, lo + 3);
+        const auto by_y = [&](int a, int b) { return y[a] < y[b]; };
+        std::nth_element(order.begin(), order.begin() + lo, order.end(), by_y);
+        if (hi < n) std::nth_element(order.begin() + lo, order.begin() + hi, order.end(), by_y);
         std::fill(keep.begin(), keep.end(), 0);
         for (int q = lo; q < hi; ++q) keep[order[q]] = !clipped[order[q]];
         Vec3 g;
@@ -128,11 +134,10 @@ StatusOr<FitResult> FitLambertRobust(const LightStack& s, const FitOptions& o) {
             next[i] = !clipped[i] && Dot(nn, dirs[i]) > 0.05 && std::abs(y[i] - pred) <= 3 * sigma;
           }
           if (next == keep) break;
-          std::vector<char> tried = next;
           Vec3 g2;
           double c2 = 0;
-          if (!SolveSubset(dirs, y.data(), tried, &g2, &c2)) break;  // keep the last good subset
-          keep.swap(tried), g = g2, cond = c2;
+          if (!SolveSubset(dirs, y.data(), next, &g2, &c2)) break;  // keep the last good subset
+          keep.swap(next), g = g2, cond = c2;
         }
         const int inliers = int(std::count(keep.begin(), keep.end(), 1));
         if (!solved || inliers < 3) {

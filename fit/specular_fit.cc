@@ -20,118 +20,12 @@
 
 #include "core/shading/shading.h"
 #include "fit/fit_common.h"
+#include "fit/lobe_problem.h"
 #include "fit/methods.h"
 #include "fit/tiny_lm.h"
 
 namespace matfit::fit {
 namespace {
-
-// Lobe traits: amplitudes a[kAmps], shape parameters s[kShapes] (in fitting coordinates).
-struct BlinnPhongLobe {
-  static constexpr int kAmps = 1, kShapes = 1;  // k_s; ln e
-  static constexpr ShadingModel kModel = ShadingModel::kBlinnPhong;
-  template <typename T>
-  static void Prepare(const T* s, T* shape) {  // fitting coordinates → model parameters
-    using std::exp;
-    shape[0] = exp(s[0]);
-  }
-  template <typename T>
-  static T Eval(const T* a, const T* shape, const Vec3T<T>& n, const Vec3T<T>& l, const Vec3T<T>& v,
-                const Vec3T<T>& h) {
-    (void)v;
-    return shading::BlinnPhongSpecularHalf(a[0], shape[0], n, l, h);
-  }
-  static void Init(double* a, double* s) { a[0] = 0.2, s[0] = std::log(20.0); }
-  static void Project(double* a, double* s) {
-    a[0] = std::clamp(a[0], 0.0, 10.0);
-    if (s) s[0] = std::clamp(s[0], 0.0, std::log(2000.0));
-  }
-};
-
-struct CookTorranceLobe {
-  static constexpr int kAmps = 1, kShapes = 1;  // F0; roughness
-  static constexpr ShadingModel kModel = ShadingModel::kCookTorrance;
-  template <typename T>
-  static void Prepare(const T* s, T* shape) {
-    shape[0] = s[0];
-  }
-  template <typename T>
-  static T Eval(const T* a, const T* s, const Vec3T<T>& n, const Vec3T<T>& l, const Vec3T<T>& v,
-                const Vec3T<T>& h) {
-    return shading::CookTorranceSpecularHalf(a[0], s[0], n, l, v, h);
-  }
-  static void Init(double* a, double* s) { a[0] = 0.04, s[0] = 0.5; }
-  static void Project(double* a, double* s) {
-    a[0] = std::clamp(a[0], 0.0, 1.0);
-    if (s) s[0] = std::clamp(s[0], 0.05, 1.0);
-  }
-};
-
-template <int L>
-struct LafortuneLobes {
-  static constexpr int kAmps = L, kShapes = 2 * L;  // ρ_s,j; (C_xy,j, ln e_j)
-  static constexpr ShadingModel kModel = ShadingModel::kLafortune;
-  template <typename T>
-  static void Prepare(const T* s, T* shape) {
-    using std::exp;
-    for (int j = 0; j < L; ++j) shape[2 * j] = s[2 * j], shape[2 * j + 1] = exp(s[2 * j + 1]);
-  }
-  template <typename T>
-  static T Eval(const T* a, const T* shape, const Vec3T<T>& n, const Vec3T<T>& l, const Vec3T<T>& v,
-                const Vec3T<T>&) {
-    T r(0);
-    for (int j = 0; j < L; ++j)
-      r += shading::LafortuneLobe(a[j], shape[2 * j], shape[2 * j + 1], n, l, v);
-    return r;
-  }
-  static void Init(double* a, double* s) {
-    // Lobe 1: a mirror-like lobe; lobe 2: a broad retro-reflective one.
-    for (int j = 0; j < L; ++j)
-      a[j] = 0.1, s[2 * j] = j == 0 ? -1.0 : 0.5, s[2 * j + 1] = std::log(j == 0 ? 20.0 : 4.0);
-  }
-  static void Project(double* a, double* s) {
-    for (int j = 0; j < L; ++j) {
-      a[j] = std::clamp(a[j], 0.0, 10.0);
-      if (s)
-        s[2 * j] = std::clamp(s[2 * j], -3.0, 3.0),
-              s[2 * j + 1] = std::clamp(s[2 * j + 1], 0.0, std::log(2000.0));
-    }
-  }
-};
-
-// Texel problem: x = (p, q, ρ_r, ρ_g, ρ_b, amps…[, shapes…]); with kShared the shapes are fixed.
-template <typename Lobe, bool kShared>
-struct TexelProblem {
-  static constexpr int kParams = 5 + Lobe::kAmps + (kShared ? 0 : Lobe::kShapes);
-  int n = 0, channels = 3;
-  const Vec3* lights = nullptr;
-  const Vec3* halves = nullptr;  // normalize(l_i + v), precomputed
-  const double* obs = nullptr;   // [i * channels + c], intensity-normalised
-  const char* use = nullptr;     // per sample
-  Vec3 view{0, 0, 1};
-  const double* shape = nullptr;  // kShared: the fixed shape parameters
-
-  template <typename T, typename Add>
-  void Residuals(const T* x, Add&& add) const {
-    const Vec3T<T> nn = Normalize(Vec3T<T>(x[0], x[1], T(1)));
-    const Vec3T<T> v(T(view.x), T(view.y), T(view.z));
-    T fs[Lobe::kShapes], sh[Lobe::kShapes];  // shape in fitting coordinates, then model units
-    for (int k = 0; k < Lobe::kShapes; ++k) fs[k] = kShared ? T(shape[k]) : x[5 + Lobe::kAmps + k];
-    Lobe::Prepare(fs, sh);
-    for (int i = 0; i < n; ++i) {
-      if (!use[i]) continue;
-      const Vec3T<T> l(T(lights[i].x), T(lights[i].y), T(lights[i].z));
-      const Vec3T<T> h(T(halves[i].x), T(halves[i].y), T(halves[i].z));  // constant per sample
-      const T lobe = Lobe::Eval(x + 5, sh, nn, l, v, h);
-      const T d = shading::Lambert(T(1), nn, l);  // max(0, n·l): ρ_c·d is Lambert(ρ_c, n, l)
-      for (int c = 0; c < channels; ++c) add(x[2 + c] * d + lobe - T(obs[i * channels + c]));
-    }
-  }
-  void Project(double* x) const {
-    for (int c = 2; c < 5; ++c) x[c] = std::clamp(x[c], 0.0, 2.0);
-    Lobe::Project(x + 5, kShared ? nullptr : x + 5 + Lobe::kAmps);
-  }
-};
 
 template <typename Lobe>
 StatusOr<FitResult> FitLobe(const LightStack& s, const FitOptions& o, const std::string& name) {
@@ -174,7 +68,7 @@ StatusOr<FitResult> FitLobe(const LightStack& s, const FitOptions& o, const std:
   };
   auto stage = [&](auto shared_tag, const std::array<double, S>& shape) {
     constexpr bool kShared = decltype(shared_tag)::value;
-    using Problem = TexelProblem<Lobe, kShared>;
+    using Problem = lobe::TexelProblem<Lobe, kShared>;
     constexpr int P = Problem::kParams;
     return ForEachTile(s, o, [&](const Tile& t) {
       std::vector<double> obs(size_t(n) * C);
@@ -287,14 +181,14 @@ StatusOr<FitResult> FitLobe(const LightStack& s, const FitOptions& o, const std:
 }  // namespace
 
 StatusOr<FitResult> FitBlinnPhong(const LightStack& s, const FitOptions& o) {
-  return FitLobe<BlinnPhongLobe>(s, o, "blinn-phong");
+  return FitLobe<lobe::BlinnPhongLobe>(s, o, "blinn-phong");
 }
 StatusOr<FitResult> FitCookTorrance(const LightStack& s, const FitOptions& o) {
-  return FitLobe<CookTorranceLobe>(s, o, "cook-torrance");
+  return FitLobe<lobe::CookTorranceLobe>(s, o, "cook-torrance");
 }
 StatusOr<FitResult> FitLafortune(const LightStack& s, const FitOptions& o, int lobes) {
-  if (lobes == 1) return FitLobe<LafortuneLobes<1>>(s, o, "lafortune1");
-  if (lobes == 2) return FitLobe<LafortuneLobes<2>>(s, o, "lafortune2");
+  if (lobes == 1) return FitLobe<lobe::LafortuneLobes<1>>(s, o, "lafortune1");
+  if (lobes == 2) return FitLobe<lobe::LafortuneLobes<2>>(s, o, "lafortune2");
   return InvalidArgument("lafortune: 1 or 2 lobes, got " + std::to_string(lobes));
 }
 
