@@ -30,8 +30,10 @@ struct Vec3T {
 using Vec3 = Vec3T<double>;
 using Vec3f = Vec3T<float>;
 
-template <typename T>
-constexpr T Dot(const Vec3T<T>& a, const Vec3T<T>& b) {
+// Mixed scalar types are allowed (an autodiff vector against a constant one: the constant's
+// components stay plain numbers, which halves the derivative arithmetic).
+template <typename T, typename U>
+constexpr auto Dot(const Vec3T<T>& a, const Vec3T<U>& b) {
   return a.x * b.x + a.y * b.y + a.z * b.z;
 }
 template <typename T>

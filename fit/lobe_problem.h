@@ -26,8 +26,8 @@ struct BlinnPhongLobe {
     shape[0] = exp(s[0]);
   }
   template <typename T>
-  static T Eval(const T* a, const T* shape, const Vec3T<T>& n, const Vec3T<T>& l, const Vec3T<T>& v,
-                const Vec3T<T>& h) {
+  static T Eval(const T* a, const T* shape, const Vec3T<T>& n, const Vec3& l, const Vec3& v,
+                const Vec3& h) {
     (void)v;
     return shading::BlinnPhongSpecularHalf(a[0], shape[0], n, l, h);
   }
@@ -46,8 +46,8 @@ struct CookTorranceLobe {
     shape[0] = s[0];
   }
   template <typename T>
-  static T Eval(const T* a, const T* s, const Vec3T<T>& n, const Vec3T<T>& l, const Vec3T<T>& v,
-                const Vec3T<T>& h) {
+  static T Eval(const T* a, const T* s, const Vec3T<T>& n, const Vec3& l, const Vec3& v,
+                const Vec3& h) {
     return shading::CookTorranceSpecularHalf(a[0], s[0], n, l, v, h);
   }
   static void Init(double* a, double* s) { a[0] = 0.04, s[0] = 0.5; }
@@ -67,8 +67,8 @@ struct LafortuneLobes {
     for (int j = 0; j < L; ++j) shape[2 * j] = s[2 * j], shape[2 * j + 1] = exp(s[2 * j + 1]);
   }
   template <typename T>
-  static T Eval(const T* a, const T* shape, const Vec3T<T>& n, const Vec3T<T>& l, const Vec3T<T>& v,
-                const Vec3T<T>&) {
+  static T Eval(const T* a, const T* shape, const Vec3T<T>& n, const Vec3& l, const Vec3& v,
+                const Vec3&) {
     T r(0);
     for (int j = 0; j < L; ++j)
       r += shading::LafortuneLobe(a[j], shape[2 * j], shape[2 * j + 1], n, l, v);
@@ -106,15 +106,13 @@ struct TexelProblem {
   template <typename T, typename Add>
   void Residuals(const T* x, Add&& add) const {
     const Vec3T<T> nn = Normalize(Vec3T<T>(x[0], x[1], T(1)));
-    const Vec3T<T> v(T(view.x), T(view.y), T(view.z));
     T fs[Lobe::kShapes], sh[Lobe::kShapes];  // shape in fitting coordinates, then model units
     for (int k = 0; k < Lobe::kShapes; ++k) fs[k] = kShared ? T(shape[k]) : x[5 + Lobe::kAmps + k];
     Lobe::Prepare(fs, sh);
     for (int i = 0; i < n; ++i) {
       if (!use[i]) continue;
-      const Vec3T<T> l(T(lights[i].x), T(lights[i].y), T(lights[i].z));
-      const Vec3T<T> h(T(halves[i].x), T(halves[i].y), T(halves[i].z));  // constant per sample
-      const T lobe = Lobe::Eval(x + 5, sh, nn, l, v, h);
+      const Vec3& l = lights[i];  // l, v, h: constants (h = normalize(l + v), precomputed)
+      const T lobe = Lobe::Eval(x + 5, sh, nn, l, view, halves[i]);
       const T d = shading::Lambert(T(1), nn, l);  // max(0, n·l): ρ_c·d is Lambert(ρ_c, n, l)
       for (int c = 0; c < channels; ++c) add(x[2 + c] * d + lobe - T(obs[i * channels + c]));
     }
@@ -139,15 +137,13 @@ struct TexelProblem {
     for (int k = 0; k < Lobe::kShapes; ++k) fs[k] = kShared ? J(shape[k]) : g[2 + A + k];
     Lobe::Prepare(fs, sh);
     const Vec3T<J> nn = Normalize(Vec3T<J>(g[0], g[1], J(1)));
-    const Vec3T<J> v{J(view.x), J(view.y), J(view.z)};
     double agg[G][G] = {}, agr[3][G] = {}, arr[3] = {}, bg[G] = {}, br[3] = {};
     LmCost cost(s2);
     for (int i = 0; i < n; ++i) {
       if (!use[i]) continue;
-      const Vec3T<J> l{J(lights[i].x), J(lights[i].y), J(lights[i].z)};
-      const Vec3T<J> h{J(halves[i].x), J(halves[i].y), J(halves[i].z)};
-      const J lobe = Lobe::Eval(g + 2, sh, nn, l, v, h);
-      const J d = shading::Lambert(J(1), nn, l);
+      // l, v, h are constants: plain doubles, so only n carries derivatives into the dots.
+      const J lobe = Lobe::Eval(g + 2, sh, nn, lights[i], view, halves[i]);
+      const J d = shading::Lambert(J(1), nn, lights[i]);
       for (int c = 0; c < channels; ++c) {
         const double rho = x[2 + c];
         const double r = rho * d.a + lobe.a - obs[i * channels + c];

@@ -33,17 +33,19 @@ inline T PowPositive(const T& x, const T& e) {
 }
 
 // Lambert (METHODS.md §3): R = ρ · max(0, n·l).
-template <typename T>
-inline T Lambert(const T& albedo, const Vec3T<T>& n, const Vec3T<T>& l) {
+// The light (and below, view and half) vectors may have a plain scalar type V while the
+// parameters are autodiff T: they are constants of a fit.
+template <typename T, typename V>
+inline T Lambert(const T& albedo, const Vec3T<T>& n, const Vec3T<V>& l) {
   return albedo * Clamp0(Dot(n, l));
 }
 
 // Blinn–Phong specular lobe (METHODS.md §4), not energy-normalised, π folded into k_s:
 // R_s = k_s · max(0, n·h)^e · max(0, n·l), h = normalize(l + v).
 // The same with the half vector h given (fits precompute it: l and v are fixed per sample).
-template <typename T>
+template <typename T, typename V>
 inline T BlinnPhongSpecularHalf(const T& ks, const T& exponent, const Vec3T<T>& n,
-                                const Vec3T<T>& l, const Vec3T<T>& h) {
+                                const Vec3T<V>& l, const Vec3T<V>& h) {
   const T nl = Dot(n, l);
   if (!(nl > T(0))) return T(0);
   const T nh = Clamp0(Dot(n, h));
@@ -84,15 +86,15 @@ inline double F0FromIor(double eta) { return ((eta - 1) / (eta + 1)) * ((eta - 1
 // Cook–Torrance specular (METHODS.md §4), GGX D, Smith G, Schlick F:
 // R_s = π · D G F / (4 (n·l)(n·v)) · (n·l).
 // The same with the half vector h = normalize(l + v) given.
-template <typename T>
+template <typename T, typename V>
 inline T CookTorranceSpecularHalf(const T& f0, const T& roughness, const Vec3T<T>& n,
-                                  const Vec3T<T>& l, const Vec3T<T>& v, const Vec3T<T>& h) {
+                                  const Vec3T<V>& l, const Vec3T<V>& v, const Vec3T<V>& h) {
   const T nl = Dot(n, l), nv = Dot(n, v);
   if (!(nl > T(0)) || !(nv > T(0))) return T(0);
   const T nh = Clamp0(Dot(n, h));
   const T alpha = roughness * roughness;
   const T dgf =
-      GgxD(nh, alpha) * GgxG1(nl, alpha) * GgxG1(nv, alpha) * SchlickFresnel(f0, Dot(v, h));
+      GgxD(nh, alpha) * GgxG1(nl, alpha) * GgxG1(nv, alpha) * SchlickFresnel(f0, T(Dot(v, h)));
   return T(M_PI) * dgf / (T(4) * nv);
 }
 template <typename T>
@@ -105,12 +107,12 @@ inline T CookTorranceSpecular(const T& f0, const T& roughness, const Vec3T<T>& n
 // amplitude absorbs the overall scale): D = C_xy (l·v − (n·l)(n·v)) + (n·l)(n·v);
 // R_s = ρ_s · max(0, D)^e · max(0, n·l). C_xy = −1 is the classic mirror cosine lobe,
 // C_xy > 0 retro-reflection, C_xy ≈ 0 an off-specular lobe toward the normal.
-template <typename T>
+template <typename T, typename V>
 inline T LafortuneLobe(const T& rho_s, const T& c_xy, const T& exponent, const Vec3T<T>& n,
-                       const Vec3T<T>& l, const Vec3T<T>& v) {
+                       const Vec3T<V>& l, const Vec3T<V>& v) {
   const T nl = Dot(n, l), nv = Dot(n, v);
   if (!(nl > T(0)) || !(nv > T(0))) return T(0);
-  const T d = c_xy * (Dot(l, v) - nl * nv) + nl * nv;
+  const T d = c_xy * (T(Dot(l, v)) - nl * nv) + nl * nv;
   if (!(d > T(0))) return T(0);
   return rho_s * PowPositive(d, exponent) * nl;
 }
