@@ -51,7 +51,7 @@ void BM_Fit(benchmark::State& state) {
 void Args(benchmark::internal::Benchmark* b) {
   // {size, threads, tile}
   for (int size : {64, 128, 256, 512}) b->Args({size, 1, 64});
-  for (int tile : {16, 128, 256}) b->Args({256, 1, tile});
+  for (int tile : {16, 32, 128, 256}) b->Args({256, 1, tile});
   b->Args({256, 2, 64});
   b->Unit(benchmark::kMillisecond)->UseRealTime();
 }

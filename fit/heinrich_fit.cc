@@ -3,8 +3,11 @@
 // Per texel the 6-unknown normal equations share their structure across texels: with
 // t_c the mean texture, q_c = Σ_i p_ci l_i, S = Σ_i l_i, m = S/N, M = Σ_i l_i l_iᵀ,
 // eliminating the ambient gives a_c = 1 − m·n (grey) and
-//   (M − N m mᵀ) n = Σ_c t_c q_c / Σ_c t_c² − S,
-// so one 3 × 3 inverse serves every texel and a fit costs one pass over the planes.
+//   (M − N m mᵀ) n = Σ_c t_c q_c / Σ_c t_c² − S = Σ_c t_c q'_c / Σ_c t_c²,
+// with q'_c = Σ_i p_ci (l_i − m) = q_c − N m t_c, so one 3 × 3 inverse serves every texel and
+// a fit costs one pass over the planes. Accumulating the centred q'_c directly avoids the
+// cancellation against S, which is what lets the sums run in float (two-level, row_kernels.h)
+// and still agree with the double-precision reference to 1e-6.
 #include <Eigen/Dense>
 #include <algorithm>
 #include <chrono>
@@ -69,23 +72,24 @@ StatusOr<FitResult> FitHeinrich(const LightStack& s, const FitOptions& o) {
   // with the row kernel, then solve each texel of the strip.
   const bool ok = ForEachTile(s, o, [&](const Tile& t) {
     const int64_t first = int64_t(t.y0) * W, m = t.texels();
-    std::vector<double> acc(size_t(12) * m, 0.0);  // [c][t, qx, qy, qz][m]
+    std::vector<float> acc(size_t(12) * m, 0.0f);  // [c][t, qx, qy, qz][m]
     std::vector<float> peak(m, 0.0f);
     const float* src[kMaxRowPlanes];
-    double w[kMaxRowPlanes * 4];
+    float w[kMaxRowPlanes * 4];
     for (int c = 0; c < C; ++c) {
-      double* a = acc.data() + size_t(4 * c) * m;
-      double* ap[4] = {a, a + m, a + 2 * m, a + 3 * m};
+      float* a = acc.data() + size_t(4 * c) * m;
+      float* ap[4] = {a, a + m, a + 2 * m, a + 3 * m};
       for (int i0 = 0; i0 < n; i0 += kMaxRowPlanes) {
         const int planes = std::min(kMaxRowPlanes, n - i0);
         for (int q = 0; q < planes; ++q) {
           const int i = i0 + q;
           const double wi = inv[i * C + c];
           src[q] = s.Plane(i, c).data() + first;
-          w[q * 4] = wi, w[q * 4 + 1] = dirs[i].x * wi, w[q * 4 + 2] = dirs[i].y * wi;
-          w[q * 4 + 3] = dirs[i].z * wi;
+          w[q * 4] = float(wi), w[q * 4 + 1] = float((dirs[i].x - mean.x) * wi);
+          w[q * 4 + 2] = float((dirs[i].y - mean.y) * wi),
+                    w[q * 4 + 3] = float((dirs[i].z - mean.z) * wi);
         }
-        RowAccumulateDouble4(src, planes, m, w, ap, peak.data());
+        RowAccumulate(src, planes, m, 4, w, ap, peak.data());
       }
     }
     ApplyPeakStatus(peak.data(), first, m, clip, r.status.data());
@@ -97,12 +101,14 @@ StatusOr<FitResult> FitHeinrich(const LightStack& s, const FitOptions& o) {
     }
     float* scale = maps.normal_scale.Plane(0).data() + first;
     uint8_t* status = r.status.data() + first;
+    // Two divisions per texel (1/t2, 1/|n_raw|): the solve is about a third of the fit's time.
+    const double inv_n = 1.0 / n;
     for (int64_t k = 0; k < m; ++k) {
       if (status[k] != kTexelOk) continue;  // masked or flagged
       double tc[3] = {0, 0, 0}, t2 = 0, u[3] = {0, 0, 0};
       for (int c = 0; c < C; ++c) {
-        const double* a = acc.data() + size_t(4 * c) * m + k;
-        tc[c] = a[0] / n;
+        const float* a = acc.data() + size_t(4 * c) * m + k;
+        tc[c] = a[0] * inv_n;
         t2 += tc[c] * tc[c];
         for (int j = 0; j < 3; ++j) u[j] += a[(j + 1) * m] * tc[c];
       }
@@ -114,18 +120,19 @@ StatusOr<FitResult> FitHeinrich(const LightStack& s, const FitOptions& o) {
         status[k] = kTexelNoSignal;
         continue;
       }
-      for (int j = 0; j < 3; ++j) u[j] = u[j] / t2 - S[j];
+      const double inv_t2 = 1.0 / t2;
+      for (int j = 0; j < 3; ++j) u[j] *= inv_t2;
       double nr[3], len2 = 0;  // n_raw = K u
       for (int j = 0; j < 3; ++j) {
         nr[j] = k3(j, 0) * u[0] + k3(j, 1) * u[1] + k3(j, 2) * u[2];
         len2 += nr[j] * nr[j];
       }
       const double a = 1.0 - (mean.x * nr[0] + mean.y * nr[1] + mean.z * nr[2]);  // grey ambient
-      const double len = std::sqrt(len2);
+      const double len = std::sqrt(len2), inv_len = len > 0 ? 1.0 / len : 0.0;
       for (int c = 0; c < 3; ++c) {
         albedo[c][k] = float(tc[C == 1 ? 0 : c]);
         ambient[c][k] = float(a);
-        normal[c][k] = len > 0 ? float(nr[c] / len) : float(c == 2);
+        normal[c][k] = len > 0 ? float(nr[c] * inv_len) : float(c == 2);
       }
       scale[k] = float(len);
     }

@@ -3,8 +3,9 @@
 // accumulator is loaded and stored once per group rather than once per plane (the accumulators
 // of a strip live in L2; the planes stream from memory). Each kernel also folds the samples
 // into peak[x] = max(peak, src) (a NaN sample leaves peak unchanged), so a fitter needs no
-// separate pass to find black or clipped texels. Dispatched at run time to an AVX2+FMA build
-// when the CPU has it (MATFIT_KERNELS=generic forces the baseline build).
+// separate pass to find black or clipped texels. Dispatched at run time to the widest build the
+// CPU runs: AVX-512 (16 lanes), AVX2+FMA (8), or the baseline; MATFIT_KERNELS=avx2 or =generic
+// caps the choice.
 #pragma once
 
 #include <cstdint>
@@ -15,16 +16,13 @@ inline constexpr int kMaxRowTerms = 16;
 inline constexpr int kMaxRowPlanes = 8;
 
 // acc[j][x] += Σ_p w[p·k + j] · src[p][x] over planes p < planes (≤ kMaxRowPlanes), terms
-// j < k (≤ kMaxRowTerms), texels x < m; peak update.
+// j < k (≤ kMaxRowTerms), texels x < m; peak update. Float; the group's products are summed
+// from zero before they are added to acc, so over G groups of P planes the rounding grows with
+// P + G, not P·G.
 void RowAccumulate(const float* const* src, int planes, int64_t m, int k, const float* w,
                    float* const* acc, float* peak);
 
-// The same for k = 4 with double accumulators (heinrich, whose fast form must agree with the
-// literal double-precision solve to 1e-6).
-void RowAccumulateDouble4(const float* const* src, int planes, int64_t m, const double* w,
-                          double* const* acc, float* peak);
-
-// Which build the dispatcher chose ("avx2+fma" or "generic"), for benchmark output.
+// Which build the dispatcher chose ("avx512f", "avx2+fma" or "generic"), for benchmark output.
 const char* RowKernelIsa();
 
 }  // namespace matfit::fit

@@ -1,8 +1,9 @@
 // Bodies of the row kernels (row_kernels.h). Included once per instruction-set build, each
 // inside its own namespace MATFIT_ROW_KERNELS_NS, so no inline symbol is shared between the
 // builds (an AVX2 copy must never be picked for the generic path by the linker). GCC vector
-// extensions, no std templates (those would be such shared symbols). 8 floats per step; the
-// generic build lowers each step to two SSE operations.
+// extensions, no std templates (those would be such shared symbols). MATFIT_ROW_LANES floats
+// per step (default 8; the AVX-512 build takes 16); the generic build lowers each 8-float step
+// to two SSE operations.
 #include <cstdint>
 
 #include "fit/row_kernels.h"
@@ -11,47 +12,45 @@
 #error "define MATFIT_ROW_KERNELS_NS before including row_kernels_impl.h"
 #endif
 
-// The 32-byte vector helpers have internal linkage, so the ABI note GCC gives for them in the
-// baseline build (no AVX) does not apply (GCC reports it at the end of the unit, so the pragma
+// The 32- and 64-byte vector helpers have internal linkage, so the ABI note GCC gives for them in
+// the baseline build (no AVX) does not apply (GCC reports it at the end of the unit, so the pragma
 // stays on: this header is the whole of the units that include it).
 #pragma GCC diagnostic ignored "-Wpsabi"
+
+#ifndef MATFIT_ROW_LANES
+#define MATFIT_ROW_LANES 8
+#endif
 
 namespace matfit::fit::MATFIT_ROW_KERNELS_NS {
 namespace {
 
-typedef float V8f __attribute__((vector_size(32)));
-typedef double V4d __attribute__((vector_size(32)));
-typedef float V4f __attribute__((vector_size(16)));
+constexpr int kLanes = MATFIT_ROW_LANES;
+typedef float VF __attribute__((vector_size(4 * MATFIT_ROW_LANES)));  // kLanes floats
 
-inline V8f Load(const float* p) {
-  V8f v;
+inline VF Load(const float* p) {
+  VF v;
   __builtin_memcpy(&v, p, sizeof v);
   return v;
 }
-inline void Store(float* p, V8f v) { __builtin_memcpy(p, &v, sizeof v); }
-inline V4d LoadD(const double* p) {
-  V4d v;
-  __builtin_memcpy(&v, p, sizeof v);
-  return v;
-}
-inline void StoreD(double* p, V4d v) { __builtin_memcpy(p, &v, sizeof v); }
-inline V8f Max(V8f a, V8f b) { return a > b ? a : b; }  // b when a is NaN: NaN never wins
+inline void Store(float* p, VF v) { __builtin_memcpy(p, &v, sizeof v); }
+inline VF Max(VF a, VF b) { return a > b ? a : b; }  // b when a is NaN: NaN never wins
 inline float MaxS(float a, float b) { return a > b ? a : b; }
 
 template <int K>
 void AccumulateK(const float* const* src, int planes, int64_t m, const float* w, float* const* acc,
                  float* peak) {
   int64_t x = 0;
-  for (; x + 8 <= m; x += 8) {
-    V8f a[K];
-    for (int j = 0; j < K; ++j) a[j] = Load(acc[j] + x);
-    V8f pk = Load(peak + x);
+  for (; x + kLanes <= m; x += kLanes) {
+    // The group's products are summed from zero, then added to the accumulator: a two-level
+    // sum, whose rounding grows with planes-per-group + groups rather than with all planes.
+    VF a[K] = {};
+    VF pk = Load(peak + x);
     for (int p = 0; p < planes; ++p) {
-      const V8f v = Load(src[p] + x);
+      const VF v = Load(src[p] + x);
       for (int j = 0; j < K; ++j) a[j] += w[p * K + j] * v;
       pk = Max(v, pk);
     }
-    for (int j = 0; j < K; ++j) Store(acc[j] + x, a[j]);
+    for (int j = 0; j < K; ++j) Store(acc[j] + x, Load(acc[j] + x) + a[j]);
     Store(peak + x, pk);
   }
   for (; x < m; ++x)
@@ -69,11 +68,11 @@ void AccumulateAny(const float* const* src, int planes, int64_t m, int k, const 
       const float wj = w[p * k + j];
       float* a = acc[j];
       int64_t x = 0;
-      for (; x + 8 <= m; x += 8) Store(a + x, Load(a + x) + wj * Load(src[p] + x));
+      for (; x + kLanes <= m; x += kLanes) Store(a + x, Load(a + x) + wj * Load(src[p] + x));
       for (; x < m; ++x) a[x] += wj * src[p][x];
     }
     int64_t x = 0;
-    for (; x + 8 <= m; x += 8) Store(peak + x, Max(Load(src[p] + x), Load(peak + x)));
+    for (; x + kLanes <= m; x += kLanes) Store(peak + x, Max(Load(src[p] + x), Load(peak + x)));
     for (; x < m; ++x) peak[x] = MaxS(src[p][x], peak[x]);
   }
 }
@@ -90,37 +89,6 @@ void RowAccumulate(const float* const* src, int planes, int64_t m, int k, const 
     case 9: return AccumulateK<9>(src, planes, m, w, acc, peak);
     default: return AccumulateAny(src, planes, m, k, w, acc, peak);
   }
-}
-
-void RowAccumulateDouble4(const float* const* src, int planes, int64_t m, const double* w,
-                          double* const* acc, float* peak) {
-  // Mixed precision: the ≤ kMaxRowPlanes products of one group are summed in float registers
-  // (relative error ≤ 8·2⁻²⁴ of the group's partial sum), then added to the double accumulators.
-  float wf[kMaxRowPlanes * 4];
-  for (int q = 0; q < planes * 4; ++q) wf[q] = float(w[q]);
-  int64_t x = 0;
-  for (; x + 8 <= m; x += 8) {
-    V8f a[4] = {};
-    V8f pk = Load(peak + x);
-    for (int p = 0; p < planes; ++p) {
-      const V8f v = Load(src[p] + x);
-      for (int j = 0; j < 4; ++j) a[j] += wf[p * 4 + j] * v;
-      pk = Max(v, pk);
-    }
-    for (int j = 0; j < 4; ++j) {
-      const V4f lo = {a[j][0], a[j][1], a[j][2], a[j][3]},
-                hi = {a[j][4], a[j][5], a[j][6], a[j][7]};
-      StoreD(acc[j] + x, LoadD(acc[j] + x) + __builtin_convertvector(lo, V4d));
-      StoreD(acc[j] + x + 4, LoadD(acc[j] + x + 4) + __builtin_convertvector(hi, V4d));
-    }
-    Store(peak + x, pk);
-  }
-  for (; x < m; ++x)
-    for (int p = 0; p < planes; ++p) {
-      const float v = src[p][x];
-      for (int j = 0; j < 4; ++j) acc[j][x] += w[p * 4 + j] * double(v);
-      peak[x] = MaxS(v, peak[x]);
-    }
 }
 
 }  // namespace matfit::fit::MATFIT_ROW_KERNELS_NS

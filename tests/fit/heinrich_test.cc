@@ -1,6 +1,8 @@
 // Seed method A (METHODS.md §2): the identities the seed's equations imply.
 #include <gtest/gtest.h>
 
+#include <cstdio>
+
 #include <cmath>
 
 #include "core/synth/light_sets.h"
@@ -19,17 +21,30 @@ LightStack Bonn(const std::string& material, int size, bool* ok) {
 }
 
 TEST(Heinrich, FastAgreesWithTheLiteralGaussJordanReference) {
-  bool ok = false;
-  const LightStack s = Bonn("wool", 32, &ok);
-  ASSERT_TRUE(ok);
-  FitOptions o;
-  o.heinrich_specular = false;
-  auto fast = FitHeinrich(s, o), ref = FitHeinrichReference(s, o);
-  ASSERT_TRUE(fast.ok() && ref.ok());
-  EXPECT_LT(MaxAbsDiff(fast->maps.normal, ref->maps.normal), 1e-6);
-  EXPECT_LT(MaxAbsDiff(fast->maps.normal_scale, ref->maps.normal_scale), 1e-6);
-  EXPECT_LT(MaxAbsDiff(fast->maps.ambient, ref->maps.ambient), 1e-6);
-  EXPECT_LT(MaxAbsDiff(fast->maps.albedo, ref->maps.albedo), 1e-6);
+  // The fast form sums in float (two-level: groups of 8 planes, then the groups), with the
+  // light directions centred on their mean so nothing cancels; the reference is double.
+  for (const char* material : {"wool", "plastic", "granite", "plaster", "corduroy"}) {
+    bool ok = false;
+    const LightStack s = Bonn(material, 64, &ok);
+    ASSERT_TRUE(ok);
+    FitOptions o;
+    o.heinrich_specular = false;
+    auto fast = FitHeinrich(s, o), ref = FitHeinrichReference(s, o);
+    ASSERT_TRUE(fast.ok() && ref.ok());
+    const double dn = MaxAbsDiff(fast->maps.normal, ref->maps.normal),
+                 ds = MaxAbsDiff(fast->maps.normal_scale, ref->maps.normal_scale),
+                 da = MaxAbsDiff(fast->maps.ambient, ref->maps.ambient),
+                 dr = MaxAbsDiff(fast->maps.albedo, ref->maps.albedo);
+    std::printf(
+        "%s 64²: max |fast − reference| normal %.2g, normal_scale %.2g, ambient %.2g, "
+        "albedo %.2g\n",
+        material, dn, ds, da, dr);
+    EXPECT_LT(dn, 1e-6) << material;
+    EXPECT_LT(ds, 1e-6) << material;
+    EXPECT_LT(da, 1e-6) << material;
+    EXPECT_LT(dr, 1e-6) << material;
+    EXPECT_EQ(fast->status, ref->status) << material;
+  }
 }
 
 TEST(Heinrich, FlatLambertianTexelGivesTheSeedNormalAndZeroAmbient) {
