@@ -69,13 +69,13 @@ StatusOr<FitResult> FitLambert(const LightStack& s, const FitOptions& o) {
         r.status[p] = kTexelNoSignal;
         continue;
       }
-      const Vec3 u = lum / len;
+      const Vec3 u = lum * (1.0 / len);
       const Vec3 Mu(M[0] * u.x + M[1] * u.y + M[2] * u.z, M[3] * u.x + M[4] * u.y + M[5] * u.z,
                     M[6] * u.x + M[7] * u.y + M[8] * u.z);
-      const double den = Dot(u, Mu);  // Σ_i (n·l_i)² > 0 for non-coplanar lights
+      const double inv_den = 1.0 / Dot(u, Mu);  // Σ_i (n·l_i)² > 0 for non-coplanar lights
       for (int c = 0; c < 3; ++c) {
         r.maps.normal.Plane(c)[p] = float(u[c]);
-        r.maps.albedo.Plane(c)[p] = float(Dot(Mu, gch[C == 1 ? 0 : c]) / den);
+        r.maps.albedo.Plane(c)[p] = float(Dot(Mu, gch[C == 1 ? 0 : c]) * inv_den);
       }
     }
   });

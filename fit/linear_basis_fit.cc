@@ -58,15 +58,18 @@ StatusOr<FitResult> FitLinearBasis(const LightStack& s, const FitOptions& o,
   basis(Vec3(0, 0, 1), front);
 
   const bool clip = StackMayBeClipped(s);
-  // Per strip: coefficients_c = B⁺ · p_c, one row-kernel call per plane segment.
+  // Per strip: coefficients_c = B⁺ · p_c, one row-kernel call per plane segment, accumulated
+  // straight into the (zero-initialised) coefficient planes; the per-texel work after it runs
+  // plane by plane over the strip, contiguously.
   const bool ok = ForEachTile(s, o, [&](const Tile& t) {
     const int64_t first = int64_t(t.y0) * W, m = t.texels();
-    std::vector<float> acc(size_t(K) * C * m, 0.0f), peak(m, 0.0f);  // [c][j][m]
+    std::vector<float> peak(m, 0.0f);
     float* ap[kMaxRowTerms];
     const float* src[kMaxRowPlanes];
     float w[kMaxRowPlanes * kMaxRowTerms];
+    auto coef = [&](int q) { return r.maps.coefficients.Plane(q).data() + first; };
     for (int c = 0; c < C; ++c) {
-      for (int j = 0; j < K; ++j) ap[j] = acc.data() + (size_t(c) * K + j) * m;
+      for (int j = 0; j < K; ++j) ap[j] = coef(c * K + j);
       for (int i0 = 0; i0 < n; i0 += kMaxRowPlanes) {
         const int planes = std::min(kMaxRowPlanes, n - i0);
         for (int q = 0; q < planes; ++q) {
@@ -77,25 +80,38 @@ StatusOr<FitResult> FitLinearBasis(const LightStack& s, const FitOptions& o,
         RowAccumulate(src, planes, m, K, w, ap, peak.data());
       }
     }
+    uint8_t* status = r.status.data() + first;
     ApplyPeakStatus(peak.data(), first, m, clip, r.status.data());
-    for (int q = 0; q < K * C; ++q)
-      std::copy_n(acc.data() + size_t(q) * m, m, r.maps.coefficients.Plane(q).data() + first);
-    for (int64_t k = 0; k < m; ++k) {
-      const int64_t p = first + k;
-      if (r.status[p] != kTexelOk) {  // masked or clipped: no coefficients
-        for (int q = 0; q < K * C; ++q) r.maps.coefficients.Plane(q)[p] = 0.0f;
-        continue;
+    // Texels masked or flagged so far get no coefficients; the others are flagged when a
+    // coefficient is not finite (Σ 0·c is 0 only when every c is finite) but keep their maps.
+    // The preview albedo is the frontal-light value Σ_j front_j c_j. Contiguous float loops.
+    std::vector<float> check(m, 0.0f), value(size_t(C) * m, 0.0f);
+    for (int c = 0; c < C; ++c)
+      for (int j = 0; j < K; ++j) {
+        const float* cq = coef(c * K + j);
+        const float fj = float(front[j]);
+        float* v = value.data() + size_t(c) * m;
+        for (int64_t k = 0; k < m; ++k) check[k] += 0.0f * cq[k], v[k] += fj * cq[k];
       }
-      bool finite = true;
-      for (int q = 0; q < K * C; ++q) finite &= std::isfinite(r.maps.coefficients.Plane(q)[p]);
-      if (!finite) r.status[p] = kTexelNonFinite;
-      for (int c = 0; c < 3; ++c) {
-        double v = 0;
-        for (int j = 0; j < K; ++j)
-          v += front[j] * r.maps.coefficients.Plane((C == 1 ? 0 : c) * K + j)[p];
-        r.maps.albedo.Plane(c)[p] = float(v);
+    bool all_fitted = true;
+    for (int64_t k = 0; k < m; ++k) all_fitted &= status[k] == kTexelOk;
+    std::vector<uint8_t> fitted(m, 1);
+    if (!all_fitted) {
+      for (int64_t k = 0; k < m; ++k) fitted[k] = status[k] == kTexelOk;
+      for (int q = 0; q < K * C; ++q) {
+        float* cq = coef(q);
+        for (int64_t k = 0; k < m; ++k)
+          if (!fitted[k]) cq[k] = 0.0f;
       }
-      r.maps.normal.Plane(2)[p] = 1.0f;
+    }
+    for (int64_t k = 0; k < m; ++k)
+      if (fitted[k] && check[k] != 0.0f) status[k] = kTexelNonFinite;  // NaN compares unequal
+    float* nz = r.maps.normal.Plane(2).data() + first;
+    for (int c = 0; c < 3; ++c) {
+      const float* v = value.data() + size_t(C == 1 ? 0 : c) * m;
+      float* albedo = r.maps.albedo.Plane(c).data() + first;
+      for (int64_t k = 0; k < m; ++k)
+        if (fitted[k]) albedo[k] = v[k], nz[k] = 1.0f;
     }
   });
   return FinishFit(ok, t0, std::move(r));
