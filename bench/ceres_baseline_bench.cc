@@ -89,7 +89,8 @@ void BM_CeresProblemPerTexel(benchmark::State& state) {
       ceres::Solver::Summary summary;
       ceres::Solve(opt, &problem, &summary);
       total_cost += summary.final_cost;
-      iterations += double(summary.iterations.size() - 1);  // entry 0 is the start
+      if (!summary.iterations.empty())  // entry 0 is the start
+        iterations += double(summary.iterations.size() - 1);
     }
     benchmark::DoNotOptimize(total_cost);
   }

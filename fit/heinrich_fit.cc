@@ -68,11 +68,11 @@ StatusOr<FitResult> FitHeinrich(const LightStack& s, const FitOptions& o) {
   const Eigen::Matrix3d k3 = *K;
 
   const bool clip = StackMayBeClipped(s);
-  // Per strip (one contiguous segment of every plane): accumulate t_c and q_c image by image
+  // Per strip (one contiguous segment of every plane): accumulate t_c and q′_c image by image
   // with the row kernel, then solve each texel of the strip.
   const bool ok = ForEachTile(s, o, [&](const Tile& t) {
     const int64_t first = int64_t(t.y0) * W, m = t.texels();
-    std::vector<float> acc(size_t(12) * m, 0.0f);  // [c][t, qx, qy, qz][m]
+    std::vector<float> acc(size_t(12) * m, 0.0f);  // [c][t, q′x, q′y, q′z][m]
     std::vector<float> peak(m, 0.0f);
     const float* src[kMaxRowPlanes];
     float w[kMaxRowPlanes * 4];

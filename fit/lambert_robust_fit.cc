@@ -113,7 +113,8 @@ StatusOr<FitResult> FitLambertRobust(const LightStack& s, const FitOptions& o) {
         std::iota(order.begin(), order.end(), 0);
         int lo = int(std::floor(kTrimDark * n)), hi = int(std::ceil((1 - kTrimBright) * n));
         if (hi - lo < 3) lo = std::max(0, std::min(lo, n - 3)), hi = std::min(n, lo + 3);
-        const auto by_y = [&](int a, int b) { return y[a] < y[b]; };
+        // Ties (shadow zeros, 8-bit codes) break by index, so the kept set is deterministic.
+        const auto by_y = [&](int a, int b) { return y[a] < y[b] || (y[a] == y[b] && a < b); };
         std::nth_element(order.begin(), order.begin() + lo, order.end(), by_y);
         if (hi < n) std::nth_element(order.begin() + lo, order.begin() + hi, order.end(), by_y);
         std::fill(keep.begin(), keep.end(), 0);

@@ -36,44 +36,34 @@ inline void Store(float* p, VF v) { __builtin_memcpy(p, &v, sizeof v); }
 inline VF Max(VF a, VF b) { return a > b ? a : b; }  // b when a is NaN: NaN never wins
 inline float MaxS(float a, float b) { return a > b ? a : b; }
 
+// acc[j] += Σ_p w[p·k + j] src[p] with k = K at compile time, or (K = 0) k at run time. Each
+// group's products are summed from zero, then added to the accumulator: a two-level sum, whose
+// rounding grows with planes-per-group + groups rather than with all planes (tails included).
 template <int K>
-void AccumulateK(const float* const* src, int planes, int64_t m, const float* w, float* const* acc,
-                 float* peak) {
+void AccumulateK(const float* const* src, int planes, int64_t m, int k_run, const float* w,
+                 float* const* acc, float* peak) {
+  const int k = K > 0 ? K : k_run;
+  constexpr int kMax = K > 0 ? K : kMaxRowTerms;
   int64_t x = 0;
   for (; x + kLanes <= m; x += kLanes) {
-    // The group's products are summed from zero, then added to the accumulator: a two-level
-    // sum, whose rounding grows with planes-per-group + groups rather than with all planes.
-    VF a[K] = {};
+    VF a[kMax] = {};
     VF pk = Load(peak + x);
     for (int p = 0; p < planes; ++p) {
       const VF v = Load(src[p] + x);
-      for (int j = 0; j < K; ++j) a[j] += w[p * K + j] * v;
+      for (int j = 0; j < k; ++j) a[j] += w[p * k + j] * v;
       pk = Max(v, pk);
     }
-    for (int j = 0; j < K; ++j) Store(acc[j] + x, Load(acc[j] + x) + a[j]);
+    for (int j = 0; j < k; ++j) Store(acc[j] + x, Load(acc[j] + x) + a[j]);
     Store(peak + x, pk);
   }
-  for (; x < m; ++x)
+  for (; x < m; ++x) {
+    float a[kMax] = {};
     for (int p = 0; p < planes; ++p) {
       const float v = src[p][x];
-      for (int j = 0; j < K; ++j) acc[j][x] += w[p * K + j] * v;
+      for (int j = 0; j < k; ++j) a[j] += w[p * k + j] * v;
       peak[x] = MaxS(v, peak[x]);
     }
-}
-
-void AccumulateAny(const float* const* src, int planes, int64_t m, int k, const float* w,
-                   float* const* acc, float* peak) {
-  for (int p = 0; p < planes; ++p) {
-    for (int j = 0; j < k; ++j) {
-      const float wj = w[p * k + j];
-      float* a = acc[j];
-      int64_t x = 0;
-      for (; x + kLanes <= m; x += kLanes) Store(a + x, Load(a + x) + wj * Load(src[p] + x));
-      for (; x < m; ++x) a[x] += wj * src[p][x];
-    }
-    int64_t x = 0;
-    for (; x + kLanes <= m; x += kLanes) Store(peak + x, Max(Load(src[p] + x), Load(peak + x)));
-    for (; x < m; ++x) peak[x] = MaxS(src[p][x], peak[x]);
+    for (int j = 0; j < k; ++j) acc[j][x] += a[j];
   }
 }
 
@@ -82,12 +72,12 @@ void AccumulateAny(const float* const* src, int planes, int64_t m, int k, const 
 void RowAccumulate(const float* const* src, int planes, int64_t m, int k, const float* w,
                    float* const* acc, float* peak) {
   switch (k) {
-    case 1: return AccumulateK<1>(src, planes, m, w, acc, peak);
-    case 3: return AccumulateK<3>(src, planes, m, w, acc, peak);
-    case 4: return AccumulateK<4>(src, planes, m, w, acc, peak);
-    case 6: return AccumulateK<6>(src, planes, m, w, acc, peak);
-    case 9: return AccumulateK<9>(src, planes, m, w, acc, peak);
-    default: return AccumulateAny(src, planes, m, k, w, acc, peak);
+    case 1: return AccumulateK<1>(src, planes, m, k, w, acc, peak);
+    case 3: return AccumulateK<3>(src, planes, m, k, w, acc, peak);
+    case 4: return AccumulateK<4>(src, planes, m, k, w, acc, peak);
+    case 6: return AccumulateK<6>(src, planes, m, k, w, acc, peak);
+    case 9: return AccumulateK<9>(src, planes, m, k, w, acc, peak);
+    default: return AccumulateK<0>(src, planes, m, k, w, acc, peak);
   }
 }
 

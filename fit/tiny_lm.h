@@ -30,10 +30,11 @@ struct LmOptions {
 };
 
 // The cost Σ ½ r² (σ² = 0) or Σ ½ σ² ln(1 + r²/σ²), and the IRLS weight of each residual,
-// 1/(1 + r²/σ²) (1 without the loss). The Cauchy sum of logs is the log of a running product,
-// folded into the sum before it can overflow (every factor is ≥ 1): one log per many
-// residuals instead of a log1p each. Rounding ~1e-16 relative per factor, far below the
-// tolerances the cost is compared at. NaN/Inf residuals give a NaN/Inf cost.
+// 1/(1 + r²/σ²) (1 without the loss). The Cauchy sum of logs is ln Π (1 + e_i), e_i = r_i²/σ²,
+// kept as q = Π (1 + e_i) − 1 (q ← q + e + q·e), so a residual far below σ is not lost to the
+// rounding of 1 + e; q is folded into the sum (log1p) before it can overflow. One log per many
+// residuals instead of a log1p each, with a relative error of a few 1e-16 per term at any
+// residual size. NaN/Inf residuals give a NaN/Inf cost.
 class LmCost {
  public:
   explicit LmCost(double s2) : cauchy_(s2 > 0), s2_(s2), inv_s2_(s2 > 0 ? 1 / s2 : 0) {}
@@ -43,16 +44,16 @@ class LmCost {
       sum_ += 0.5 * r2;
       return 1;
     }
-    const double t = 1 + r2 * inv_s2_;
-    product_ *= t;
-    if (!(product_ < 1e100)) sum_ += std::log(product_), product_ = 1;
-    return 1 / t;
+    const double e = r2 * inv_s2_;
+    q_ += e + q_ * e;
+    if (!(q_ < 1e100)) sum_ += std::log1p(q_), q_ = 0;
+    return 1 / (1 + e);
   }
-  double Value() const { return cauchy_ ? 0.5 * s2_ * (sum_ + std::log(product_)) : sum_; }
+  double Value() const { return cauchy_ ? 0.5 * s2_ * (sum_ + std::log1p(q_)) : sum_; }
 
  private:
   bool cauchy_;
-  double s2_, inv_s2_, sum_ = 0, product_ = 1;
+  double s2_, inv_s2_, sum_ = 0, q_ = 0;
 };
 
 // Weighted normal equations by autodiff: JᵀWJ (lower triangle and mirrored) and JᵀWr, with

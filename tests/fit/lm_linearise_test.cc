@@ -102,6 +102,18 @@ TEST(LmLinearise, CauchyCostAsALogOfProductsMatchesTheSumOfLogs) {
     direct += 0.5 * s2 * std::log1p(r * r / s2);
   }
   EXPECT_NEAR(cost.Value(), direct, 1e-12 * direct);
+  // Near a perfect fit every residual is far below σ: 1 + r²/σ² would round to 1, and the
+  // cost must still be exact to the last digits (LM compares such costs at 1e-8).
+  for (double scale : {1e-3, 1e-5, 1e-9}) {
+    LmCost tiny(s2);
+    double want = 0;
+    for (int i = 0; i < 243; ++i) {
+      const double r = 0.05 * scale * (u(rng) - 0.5);
+      tiny.Add(r * r);
+      want += 0.5 * s2 * std::log1p(r * r / s2);
+    }
+    EXPECT_NEAR(tiny.Value(), want, 1e-13 * want) << "|r|/σ ≈ " << scale;
+  }
   LmCost bad(s2);
   bad.Add(1.0);
   bad.Add(std::nan(""));
@@ -139,6 +151,9 @@ TEST(LmLinearise, SolverReachesTheSameMinimumEitherWay) {
       smp.obs[i * 3 + c] = shading::Lambert(rho[c], n_true, smp.lights[i]) + lobe;
   }
   Problem prob;
+  // SolveTinyLm must find the structured path (else both solves below would be autodiff).
+  static_assert(requires(const Problem& p, const double* x, Eigen::Matrix<double, P, P>* a,
+                         Eigen::Matrix<double, P, 1>* b) { p.Linearise(x, 0.0, a, b); });
   prob.n = 81, prob.lights = smp.lights.data(), prob.halves = smp.halves.data();
   prob.obs = smp.obs.data(), prob.use = smp.use.data();
   Eigen::Matrix<double, P, 1> x0;

@@ -73,19 +73,22 @@ TEST(RowKernels, MatchPlainLoopsIncludingTailsAndNaN) {
         if (m > 5) data[p][5] = nan;
         src[p] = data[p].data();
       }
-      for (int k : {1, 3, 4, 6, 9, 16}) {
+      for (int k : {1, 2, 3, 4, 6, 9, 16}) {  // 2 and 16: the run-time-k kernel
         std::vector<float> w(size_t(planes) * k);
         for (size_t q = 0; q < w.size(); ++q) w[q] = float(synth::HashUniform(4, k, q) - 0.5);
         std::vector<std::vector<float>> acc(k, std::vector<float>(m, 0.5f)), want = acc;
         std::vector<float*> ap(k);
         for (int j = 0; j < k; ++j) ap[j] = acc[j].data();
         std::vector<float> peak(m, 0.25f), want_peak(m, 0.25f);
-        RowAccumulate(src.data(), planes, m, k, w.data(), ap.data(), peak.data());
-        for (int64_t x = 0; x < m; ++x)
-          for (int p = 0; p < planes; ++p) {
-            for (int j = 0; j < k; ++j) want[j][x] += w[p * k + j] * data[p][x];
-            if (data[p][x] > want_peak[x]) want_peak[x] = data[p][x];
-          }
+        // Three calls: three groups of planes summed into the same accumulators.
+        for (int call = 0; call < 3; ++call)
+          RowAccumulate(src.data(), planes, m, k, w.data(), ap.data(), peak.data());
+        for (int call = 0; call < 3; ++call)
+          for (int64_t x = 0; x < m; ++x)
+            for (int p = 0; p < planes; ++p) {
+              for (int j = 0; j < k; ++j) want[j][x] += w[p * k + j] * data[p][x];
+              if (data[p][x] > want_peak[x]) want_peak[x] = data[p][x];
+            }
         for (int64_t x = 0; x < m; ++x) {
           ASSERT_EQ(peak[x], want_peak[x]) << m << " " << planes << " " << k << " x=" << x;
           for (int j = 0; j < k; ++j) {
