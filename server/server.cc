@@ -197,10 +197,18 @@ void Server::Impl::RegisterRoutes() {
     else
       SendError(res, res.status, "request failed");
   });
-  http.set_logger([this](const httplib::Request& req, const httplib::Response& res) {
+  // Metrics are counted before the response goes out (the post-routing handler runs just
+  // before httplib writes it): a client that has its answer then sees it counted in /metrics,
+  // whichever connection it asks on. Their latency is the time to the first response byte; the
+  // log line, written after the response, has the whole time.
+  http.set_post_routing_handler([this](const httplib::Request& req, httplib::Response& res) {
     const double s =
         std::chrono::duration<double>(std::chrono::steady_clock::now() - t_request_start).count();
     metrics.ObserveRequest(RouteOf(req.path), req.method, res.status, s);
+  });
+  http.set_logger([this](const httplib::Request& req, const httplib::Response& res) {
+    const double s =
+        std::chrono::duration<double>(std::chrono::steady_clock::now() - t_request_start).count();
     LogEvent("info", "request",
              {{"method", req.method},
               {"path", req.path},
