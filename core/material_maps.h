@@ -8,7 +8,8 @@
 
 namespace matfit {
 
-// Forward models of the CPU shading code (core/shading/shading.h).
+// Forward models of the CPU shading code (core/shading/shading.h); each is described by its
+// ModelDescriptor (core/model/model.h), registered in this order in core/model/registry.cc.
 // kMean predicts the per-texel mean colour (albedo plane) under every light.
 enum class ShadingModel {
   kMean,

@@ -7,8 +7,14 @@
 #include <limits>
 #include <mutex>
 
+#include "core/model/model.h"
 #include "core/parallel.h"
-#include "core/shading/evaluate.h"
+
+#if defined(__x86_64__) && defined(__GNUC__) && !defined(__clang__) && defined(__linux__)
+#define MATFIT_CONFIDENCE_CLONES __attribute__((target_clones("arch=haswell", "default")))
+#else
+#define MATFIT_CONFIDENCE_CLONES
+#endif
 #include "fit/fit_common.h"
 #include "fit/fit_types.h"
 
@@ -86,8 +92,30 @@ double SupportedThetaDeg(const std::vector<LightSample>& lights, const Vec3& axi
   return std::min(75.0, t + 15.0);
 }
 
+namespace {
+
+// One light and channel of a run: q = raw / I, r = q − pred for the samples that are finite and
+// below the clip level; Σ r², Σ |q|, the sample count, and whether the light was used.
+MATFIT_CONFIDENCE_CLONES
+void ResidualSums(const float* __restrict raw, const float* __restrict pred, float inv,
+                  float clip_level, int n, double* __restrict acc, double* __restrict sum,
+                  int* __restrict k, int* __restrict used) {
+  for (int t = 0; t < n; ++t) {
+    const double q = double(raw[t]) * inv;
+    const double r = q - double(pred[t]);
+    const bool valid = std::isfinite(raw[t]) && raw[t] < clip_level && std::isfinite(r);
+    acc[t] += valid ? r * r : 0.0;
+    sum[t] += valid ? std::abs(q) : 0.0;
+    k[t] += valid;
+    used[t] |= valid;
+  }
+}
+
+}  // namespace
+
 Confidence ComputeConfidence(const LightStack& s, const MaterialMaps& maps, ModelSize size,
-                             std::vector<uint8_t>* status, const ConfidenceOptions& o) {
+                             std::vector<uint8_t>* status, const ConfidenceOptions& o,
+                             const ProgressFn& progress) {
   const int64_t T = s.plane_size();
   const int n = s.num_images(), C = s.channels();
   // Grey stacks fit the per-channel parameters once instead of three times.
@@ -119,34 +147,55 @@ Confidence ComputeConfidence(const LightStack& s, const MaterialMaps& maps, Mode
   }
   if (out.extrapolation > o.max_extrapolation) out.extrapolation = inf;
 
-  // Pass 1: per-texel residual sums (Σ r², n_x), usable lights m_x and mean level μ_x.
+  // Pass 1: per-texel residual sums (Σ r², n_x), usable lights m_x and mean level μ_x, batched:
+  // runs of kEvalRun texels, each light's constants once, the texel sums in SoA arrays.
   std::vector<double> rss(size_t(T), 0.0), level(size_t(T), 0.0);
   std::vector<int> samples(size_t(T), 0), used_lights(size_t(T), 0);
-  const Vec3f v(s.view_direction);
-  std::vector<float> inv = InverseIntensities(s);
-  ParallelFor(0, s.height(), [&](int64_t y0, int64_t y1) {
-    for (int64_t p = y0 * s.width(); p < y1 * s.width(); ++p) {
-      if (!ok(p)) continue;
-      double acc = 0, sum = 0;
-      int k = 0, m = 0;
-      for (int i = 0; i < n; ++i) {
-        const Vec3f l(s.lights()[i].direction);
-        bool used = false;
-        for (int c = 0; c < C; ++c) {
-          const float raw = s.Plane(i, c)[p];
-          if (!std::isfinite(raw) || (clip && raw >= kClipLevel)) continue;
-          const double q = double(raw) * inv[size_t(i) * C + c];
-          const double r = q - EvaluateTexel(maps, p, c, l, v);
-          if (!std::isfinite(r)) continue;
-          acc += r * r, sum += std::abs(q);
-          ++k;
-          used = true;
+  std::vector<Vec3f> dirs;
+  for (const auto& l : s.lights()) dirs.emplace_back(l.direction);
+  const BatchEvaluator eval(maps, dirs, Vec3f(s.view_direction));
+  const std::vector<float> inv = InverseIntensities(s);
+  const float clip_level = clip ? kClipLevel : std::numeric_limits<float>::infinity();
+  const int64_t runs = (T + kEvalRun - 1) / kEvalRun;
+  std::atomic<int64_t> done{0};
+  std::mutex progress_mutex;
+  ParallelFor(
+      0, runs,
+      [&](int64_t r0, int64_t r1) {
+        std::vector<float> pred(size_t(3) * kEvalRun), scratch(kEvalRun);
+        std::vector<double> acc(kEvalRun), sum(kEvalRun);
+        std::vector<int> k(kEvalRun), m(kEvalRun), used(kEvalRun);
+        for (int64_t r = r0; r < r1; ++r) {
+          const int64_t p0 = r * kEvalRun;
+          const int len = int(std::min<int64_t>(kEvalRun, T - p0));
+          bool any = false;
+          for (int t = 0; t < len && !any; ++t) any = ok(p0 + t);
+          if (!any) continue;
+          std::fill_n(acc.begin(), len, 0.0), std::fill_n(sum.begin(), len, 0.0);
+          std::fill_n(k.begin(), len, 0), std::fill_n(m.begin(), len, 0);
+          for (int i = 0; i < n; ++i) {
+            eval.Evaluate(i, p0, len, C, pred.data());
+            std::fill_n(used.begin(), len, 0);
+            for (int c = 0; c < C; ++c)
+              ResidualSums(s.Texels(i, c, p0, len, scratch.data()), pred.data() + size_t(c) * len,
+                           inv[size_t(i) * C + c], clip_level, len, acc.data(), sum.data(),
+                           k.data(), used.data());
+            for (int t = 0; t < len; ++t) m[size_t(t)] += used[size_t(t)];
+          }
+          for (int t = 0; t < len; ++t) {
+            const int64_t p = p0 + t;
+            if (!ok(p)) continue;
+            rss[p] = acc[t], samples[p] = k[t], used_lights[p] = m[t];
+            level[p] = k[t] ? sum[t] / k[t] : 0;
+          }
         }
-        m += used;
-      }
-      rss[p] = acc, samples[p] = k, used_lights[p] = m, level[p] = k ? sum / k : 0;
-    }
-  });
+        const int64_t d = done += r1 - r0;
+        if (progress) {
+          std::lock_guard<std::mutex> lock(progress_mutex);
+          progress(d, runs);
+        }
+      },
+      4);
   // Pooled noise over texels with residual degrees of freedom.
   double pooled_rss = 0, pooled_dof = 0;
   for (int64_t p = 0; p < T; ++p)

@@ -28,6 +28,7 @@
 
 #include "core/light_stack.h"
 #include "core/material_maps.h"
+#include "core/progress.h"
 #include "core/vec3.h"
 
 namespace matfit::fit {
@@ -59,9 +60,10 @@ struct Confidence {
 };
 
 // status: the fit's status plane (may be empty = all ok); texels found unverifiable are marked
-// kTexelUnverifiable in it.
+// kTexelUnverifiable in it. Batched over runs of texels; `progress` gets runs done / total.
 Confidence ComputeConfidence(const LightStack& stack, const MaterialMaps& maps, ModelSize size,
-                             std::vector<uint8_t>* status, const ConfidenceOptions& options = {});
+                             std::vector<uint8_t>* status, const ConfidenceOptions& options = {},
+                             const ProgressFn& progress = {});
 
 // The lights' mean direction (upper hemisphere; +z when there is none).
 Vec3 LightAxis(const std::vector<LightSample>& lights);

@@ -5,6 +5,7 @@
 #include <map>
 #include <mutex>
 
+#include "core/model/model.h"
 #include "core/parallel.h"
 
 namespace matfit::fit {
@@ -54,19 +55,22 @@ std::vector<float> InverseIntensities(const LightStack& s) {
   return inv;
 }
 
-void InitResult(const LightStack& s, ShadingModel model, const std::string& method, FitResult* r) {
+void InitHeinrichResult(const LightStack& s, const std::string& method, FitResult* r) {
+  InitResult(s, "heinrich", method, r);
+  r->maps.ambient = Image(s.width(), s.height(), 3);
+  r->maps.normal_scale = Image(s.width(), s.height(), 1);
+}
+
+void InitResult(const LightStack& s, std::string_view model, const std::string& method,
+                FitResult* r) {
   r->method = method;
   r->maps = {};
   r->maps.width = s.width();
   r->maps.height = s.height();
-  r->maps.model = model;
+  r->maps.model = ModelId(model);
   r->maps.normal = Image(s.width(), s.height(), 3);
   r->maps.albedo = Image(s.width(), s.height(), 3);
   r->maps.mask = Image(s.width(), s.height(), 1, 1.0f);
-  if (model == ShadingModel::kHeinrich) {
-    r->maps.ambient = Image(s.width(), s.height(), 3);
-    r->maps.normal_scale = Image(s.width(), s.height(), 1);
-  }
   r->status.assign(size_t(s.plane_size()), kTexelOk);
   if (s.has_mask())
     for (int64_t p = 0; p < s.plane_size(); ++p)

@@ -14,10 +14,13 @@ namespace matfit::fit {
 // 1 / I_{i,c}, index i * C + c: every method divides samples by the light's intensity.
 std::vector<float> InverseIntensities(const LightStack& stack);
 
-// Allocates result.maps (normal 3, albedo 3; heinrich also ambient 3, normal_scale 1) and the
-// status plane with masked texels marked.
-void InitResult(const LightStack& stack, ShadingModel model, const std::string& method,
+// Allocates result.maps of the model named `model` (core/model registry; normal 3, albedo 3,
+// mask) and the status plane with masked texels marked.
+void InitResult(const LightStack& stack, std::string_view model, const std::string& method,
                 FitResult* result);
+
+// InitResult for seed method A: also ambient (3 planes) and normal_scale (1).
+void InitHeinrichResult(const LightStack& stack, const std::string& method, FitResult* result);
 
 // Samples at or above this linear value sit at the maximum code of an integer file.
 inline constexpr float kClipLevel = 0.9999f;

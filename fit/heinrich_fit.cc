@@ -58,7 +58,7 @@ StatusOr<FitResult> FitHeinrich(const LightStack& s, const FitOptions& o) {
   if (!K.ok()) return K.status();
   const auto t0 = std::chrono::steady_clock::now();
   FitResult r;
-  InitResult(s, ShadingModel::kHeinrich, "heinrich", &r);
+  InitHeinrichResult(s, "heinrich", &r);
   MaterialMaps& maps = r.maps;
   const std::vector<float> inv = InverseIntensities(s);
   const int n = s.num_images(), C = s.channels(), W = s.width();

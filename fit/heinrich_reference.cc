@@ -15,7 +15,7 @@ StatusOr<FitResult> FitHeinrichReference(const LightStack& s, const FitOptions& 
   if (!o.Check(&why)) return InvalidArgument(why);
   const auto t0 = std::chrono::steady_clock::now();
   FitResult r;
-  InitResult(s, ShadingModel::kHeinrich, "heinrich-reference", &r);
+  InitHeinrichResult(s, "heinrich-reference", &r);
   MarkUnfittableTexels(s, /*flag_clipped=*/true, &r);
   MaterialMaps& maps = r.maps;
   const std::vector<float> inv = InverseIntensities(s);

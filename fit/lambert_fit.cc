@@ -23,7 +23,7 @@ StatusOr<FitResult> FitLambert(const LightStack& s, const FitOptions& o) {
   if (!lm.ok()) return Status(lm.status().code(), "lambert: " + lm.status().message());
   const auto t0 = std::chrono::steady_clock::now();
   FitResult r;
-  InitResult(s, ShadingModel::kLambert, "lambert", &r);
+  InitResult(s, "lambert", "lambert", &r);
   r.parameters["light_condition_number"] = lm->condition;
   const std::vector<float> inv = InverseIntensities(s);
   const int n = s.num_images(), C = s.channels(), W = s.width();

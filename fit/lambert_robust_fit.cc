@@ -63,7 +63,7 @@ StatusOr<FitResult> FitLambertRobust(const LightStack& s, const FitOptions& o) {
         " light(s); at least 3 non-coplanar lights are needed (more for rejection)");
   const auto t0 = std::chrono::steady_clock::now();
   FitResult r;
-  InitResult(s, ShadingModel::kLambert, "lambert-robust", &r);
+  InitResult(s, "lambert", "lambert-robust", &r);
   MarkUnfittableTexels(s, /*flag_clipped=*/false, &r);  // clipped samples are dropped per sample
   const std::vector<float> inv = InverseIntensities(s);
   std::vector<Vec3> dirs(n);

@@ -19,7 +19,7 @@ namespace {
 using BasisFn = std::function<void(const Vec3&, double*)>;
 
 StatusOr<FitResult> FitLinearBasis(const LightStack& s, const FitOptions& o,
-                                   const std::string& name, ShadingModel model, int K,
+                                   const std::string& name, std::string_view model, int K,
                                    const BasisFn& basis) {
   std::string why;
   if (!o.Check(&why)) return InvalidArgument(why);
@@ -120,14 +120,14 @@ StatusOr<FitResult> FitLinearBasis(const LightStack& s, const FitOptions& o,
 }  // namespace
 
 StatusOr<FitResult> FitPtm(const LightStack& s, const FitOptions& o) {
-  return FitLinearBasis(s, o, "ptm", ShadingModel::kPtm, shading::kPtmTerms,
+  return FitLinearBasis(s, o, "ptm", "ptm", shading::kPtmTerms,
                         [](const Vec3& l, double* b) { shading::PtmBasis(l, b); });
 }
 
 StatusOr<FitResult> FitHsh(const LightStack& s, const FitOptions& o, int order) {
   if (order < 1 || order > 4)
     return InvalidArgument("hsh order must be 1 to 4, got " + std::to_string(order));
-  return FitLinearBasis(s, o, "hsh" + std::to_string(order), ShadingModel::kHsh, order * order,
+  return FitLinearBasis(s, o, "hsh" + std::to_string(order), "hsh", order * order,
                         [order](const Vec3& l, double* b) { shading::HshBasis(order, l, b); });
 }
 

@@ -22,7 +22,7 @@ StatusOr<FitResult> FitLambertReference(const LightStack& s, const FitOptions& o
                            std::to_string(s.num_images()));
   const auto t0 = std::chrono::steady_clock::now();
   FitResult r;
-  InitResult(s, ShadingModel::kLambert, "lambert-reference", &r);
+  InitResult(s, "lambert", "lambert-reference", &r);
   MarkUnfittableTexels(s, /*flag_clipped=*/true, &r);
   const std::vector<float> inv = InverseIntensities(s);
   const int n = s.num_images(), C = s.channels(), W = s.width();
@@ -121,7 +121,7 @@ void SolveBasisTexels(const LightStack& s, const std::vector<double>& rows,
 }
 
 StatusOr<FitResult> FitBasisReference(const LightStack& s, const FitOptions& o,
-                                      const std::string& name, ShadingModel model, int K,
+                                      const std::string& name, std::string_view model, int K,
                                       void (*basis)(int, const Vec3&, double*), int order) {
   std::string why;
   if (!o.Check(&why)) return InvalidArgument(why);
@@ -163,15 +163,14 @@ void HshBasisOf(int order, const Vec3& l, double* b) { shading::HshBasis(order, 
 }  // namespace
 
 StatusOr<FitResult> FitPtmReference(const LightStack& s, const FitOptions& o) {
-  return FitBasisReference(s, o, "ptm-reference", ShadingModel::kPtm, shading::kPtmTerms,
-                           PtmBasisOf, 0);
+  return FitBasisReference(s, o, "ptm-reference", "ptm", shading::kPtmTerms, PtmBasisOf, 0);
 }
 
 StatusOr<FitResult> FitHshReference(const LightStack& s, const FitOptions& o, int order) {
   if (order < 1 || order > 4)
     return InvalidArgument("hsh order must be 1 to 4, got " + std::to_string(order));
-  return FitBasisReference(s, o, "hsh" + std::to_string(order) + "-reference", ShadingModel::kHsh,
-                           order * order, HshBasisOf, order);
+  return FitBasisReference(s, o, "hsh" + std::to_string(order) + "-reference", "hsh", order * order,
+                           HshBasisOf, order);
 }
 
 }  // namespace matfit::fit

@@ -9,6 +9,8 @@
 #include <Eigen/Core>
 #include <algorithm>
 #include <cmath>
+#include <map>
+#include <string>
 
 #include "core/material_maps.h"
 #include "core/shading/shading.h"
@@ -16,10 +18,18 @@
 
 namespace matfit::fit::lobe {
 
+using FitParameters = std::map<std::string, double>;
+
 // Lobe traits: amplitudes a[kAmps], shape parameters s[kShapes] (in fitting coordinates).
 struct BlinnPhongLobe {
   static constexpr int kAmps = 1, kShapes = 1;  // k_s; ln e
-  static constexpr ShadingModel kModel = ShadingModel::kBlinnPhong;
+  static constexpr const char* kModel = "blinn-phong";
+  // Fitted shape planes (ln e) → maps; the shared value as a model parameter.
+  static void StoreShape(Image shape, FitParameters* params, MaterialMaps* m) {
+    for (float& v : shape.data()) v = std::exp(v);
+    m->exponent = std::move(shape);
+    if (params->count("lobe_shape_0")) (*params)["exponent"] = std::exp((*params)["lobe_shape_0"]);
+  }
   template <typename T>
   static void Prepare(const T* s, T* shape) {  // fitting coordinates → model parameters
     using std::exp;
@@ -40,7 +50,11 @@ struct BlinnPhongLobe {
 
 struct CookTorranceLobe {
   static constexpr int kAmps = 1, kShapes = 1;  // F0; roughness
-  static constexpr ShadingModel kModel = ShadingModel::kCookTorrance;
+  static constexpr const char* kModel = "cook-torrance";
+  static void StoreShape(Image shape, FitParameters* params, MaterialMaps* m) {
+    m->roughness = std::move(shape);
+    if (params->count("lobe_shape_0")) (*params)["roughness"] = (*params)["lobe_shape_0"];
+  }
   template <typename T>
   static void Prepare(const T* s, T* shape) {
     shape[0] = s[0];
@@ -60,7 +74,12 @@ struct CookTorranceLobe {
 template <int L>
 struct LafortuneLobes {
   static constexpr int kAmps = L, kShapes = 2 * L;  // ρ_s,j; (C_xy,j, ln e_j)
-  static constexpr ShadingModel kModel = ShadingModel::kLafortune;
+  static constexpr const char* kModel = "lafortune";
+  static void StoreShape(Image shape, FitParameters*, MaterialMaps* m) {
+    for (int j = 0; j < L; ++j)
+      for (float& v : shape.Plane(2 * j + 1)) v = std::exp(v);
+    m->lobe_shape = std::move(shape);
+  }
   template <typename T>
   static void Prepare(const T* s, T* shape) {
     using std::exp;

@@ -15,7 +15,7 @@ StatusOr<FitResult> FitMean(const LightStack& s, const FitOptions& o) {
   if (!o.Check(&why)) return InvalidArgument(why);
   const auto t0 = std::chrono::steady_clock::now();
   FitResult r;
-  InitResult(s, ShadingModel::kMean, "mean", &r);
+  InitResult(s, "mean", "mean", &r);
   const std::vector<float> inv = InverseIntensities(s);
   const int n = s.num_images(), C = s.channels(), W = s.width();
   // One pass over each strip: t_c = Σ_i p_ci / (I_ic · N), streaming whole plane segments.

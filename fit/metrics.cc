@@ -1,47 +1,106 @@
 #include "fit/metrics.h"
 
 #include <algorithm>
+#include <atomic>
 #include <chrono>
 #include <cmath>
 #include <mutex>
 
+#include "core/model/model.h"
 #include "core/parallel.h"
-#include "core/shading/evaluate.h"
+
+#if defined(__x86_64__) && defined(__GNUC__) && !defined(__clang__) && defined(__linux__)
+#define MATFIT_METRIC_CLONES __attribute__((target_clones("arch=haswell", "default")))
+#else
+#define MATFIT_METRIC_CLONES
+#endif
 
 namespace matfit::fit {
 
-ReconstructionMetrics Reconstruction(const LightStack& s, const MaterialMaps& maps,
-                                     const std::vector<uint8_t>& status) {
-  const int n = s.num_images(), C = s.channels();
-  const Vec3f v(s.view_direction);
-  std::vector<double> sum(n, 0.0);
-  std::vector<int64_t> count(n, 0);
-  ParallelFor(0, n, [&](int64_t b, int64_t e) {
-    for (int64_t i = b; i < e; ++i) {
-      const Vec3f l(s.lights()[i].direction);
-      double acc = 0;
-      int64_t k = 0;
-      for (int64_t p = 0; p < s.plane_size(); ++p) {
-        if (!status.empty() && status[p] != 0) continue;
-        for (int c = 0; c < C; ++c) {
-          const double pred =
-              s.lights()[i].intensity[C == 1 ? 0 : c] * EvaluateTexel(maps, p, c, l, v);
-          const double d = s.Plane(int(i), c)[p] - pred;
-          acc += d * d;
-          ++k;
-        }
-      }
-      sum[i] = acc, count[i] = k;
+namespace {
+
+int64_t Runs(int64_t texels) { return (texels + kEvalRun - 1) / kEvalRun; }
+
+// Σ_t [ok_t] (obs_t − I · pred_t)² over a run, in double with 8 independent lanes (the
+// compiler keeps one lane per vector element; a single accumulator would serialise the adds).
+MATFIT_METRIC_CLONES
+double SumSquaredDiff(const float* __restrict obs, const float* __restrict pred, double intensity,
+                      const uint8_t* __restrict ok, int n) {
+  double lane[8] = {};
+  int t = 0;
+  for (; t + 8 <= n; t += 8)
+    for (int k = 0; k < 8; ++k) {
+      const double d = double(obs[t + k]) - intensity * double(pred[t + k]);
+      lane[k] += ok[t + k] ? d * d : 0.0;
     }
-  });
+  for (; t < n; ++t) {
+    const double d = double(obs[t]) - intensity * double(pred[t]);
+    lane[0] += ok[t] ? d * d : 0.0;
+  }
+  return ((lane[0] + lane[4]) + (lane[1] + lane[5])) + ((lane[2] + lane[6]) + (lane[3] + lane[7]));
+}
+
+std::vector<Vec3f> LightDirections(const LightStack& s) {
+  std::vector<Vec3f> d;
+  for (const auto& l : s.lights()) d.emplace_back(l.direction);
+  return d;
+}
+
+}  // namespace
+
+ReconstructionMetrics Reconstruction(const LightStack& s, const MaterialMaps& maps,
+                                     const std::vector<uint8_t>& status,
+                                     const ProgressFn& progress) {
+  const int n = s.num_images(), C = s.channels();
+  const int64_t T = s.plane_size(), runs = Runs(T);
+  const BatchEvaluator eval(maps, LightDirections(s), Vec3f(s.view_direction));
+  // Per run and light: Σ d² and the sample count, reduced below in run order.
+  std::vector<double> run_sum(size_t(runs * n), 0.0);
+  std::vector<int64_t> run_count(size_t(runs * n), 0);
+  std::atomic<int64_t> done{0};
+  std::mutex progress_mutex;
+  ParallelFor(
+      0, runs,
+      [&](int64_t r0, int64_t r1) {
+        std::vector<float> pred(size_t(3) * kEvalRun), scratch(kEvalRun);
+        uint8_t ok[kEvalRun];
+        for (int64_t r = r0; r < r1; ++r) {
+          const int64_t p0 = r * kEvalRun;
+          const int len = int(std::min<int64_t>(kEvalRun, T - p0));
+          int ok_count = 0;
+          for (int t = 0; t < len; ++t)
+            ok_count += ok[t] = status.empty() || status[size_t(p0 + t)] == 0;
+          if (ok_count == 0) continue;
+          for (int i = 0; i < n; ++i) {
+            eval.Evaluate(i, p0, len, C, pred.data());
+            double acc = 0;
+            for (int c = 0; c < C; ++c)
+              acc += SumSquaredDiff(s.Texels(i, c, p0, len, scratch.data()),
+                                    pred.data() + size_t(c) * len,
+                                    s.lights()[i].intensity[C == 1 ? 0 : c], ok, len);
+            run_sum[size_t(r * n + i)] = acc;
+            run_count[size_t(r * n + i)] = int64_t(ok_count) * C;
+          }
+        }
+        const int64_t d = done += r1 - r0;
+        if (progress) {
+          std::lock_guard<std::mutex> lock(progress_mutex);
+          progress(d, runs);
+        }
+      },
+      4);
   ReconstructionMetrics m;
   std::map<int, std::pair<double, int64_t>> groups;
   double total = 0;
   for (int i = 0; i < n; ++i) {
-    total += sum[i];
-    m.samples += count[i];
+    double sum = 0;
+    int64_t count = 0;
+    for (int64_t r = 0; r < runs; ++r)
+      sum += run_sum[size_t(r * n + i)], count += run_count[size_t(r * n + i)];
+    total += sum;
+    m.samples += count;
     auto& g = groups[int(std::lround(s.lights()[i].theta_deg / 15.0)) * 15];
-    g.first += sum[i], g.second += count[i];
+    g.first += sum, g.second += count;
   }
   const double mse = m.samples ? total / m.samples : 0;
   m.deviation_percent = 100 * mse;
@@ -56,18 +115,28 @@ std::vector<float> RelightingError(const MaterialMaps& f, const MaterialMaps& t,
                                    const std::vector<Vec3>& lights, const Vec3& view) {
   const int64_t T = int64_t(t.width) * t.height;
   std::vector<float> err(size_t(T), NAN);
-  const Vec3f v(view);
-  ParallelFor(0, t.height, [&](int64_t y0, int64_t y1) {
-    for (int64_t p = y0 * t.width; p < y1 * t.width; ++p) {
-      if (!t.mask.empty() && t.mask.data()[p] < 0.5f) continue;
-      double acc = 0;
-      for (const Vec3& l : lights)
-        for (int c = 0; c < 3; ++c) {
-          const double d =
-              EvaluateTexel(f, p, c, Vec3f(l), v) - EvaluateTexel(t, p, c, Vec3f(l), v);
-          acc += d * d;
-        }
-      err[p] = float(std::sqrt(acc / (3.0 * std::max<size_t>(1, lights.size()))));
+  std::vector<Vec3f> dirs(lights.begin(), lights.end());
+  const BatchEvaluator fe(f, dirs, Vec3f(view)), te(t, dirs, Vec3f(view));
+  ParallelFor(0, Runs(T), [&](int64_t r0, int64_t r1) {
+    std::vector<float> a(size_t(3) * kEvalRun), b(size_t(3) * kEvalRun);
+    std::vector<double> acc(kEvalRun);
+    for (int64_t r = r0; r < r1; ++r) {
+      const int64_t p0 = r * kEvalRun;
+      const int n = int(std::min<int64_t>(kEvalRun, T - p0));
+      std::fill_n(acc.begin(), n, 0.0);
+      for (int i = 0; i < int(dirs.size()); ++i) {
+        fe.Evaluate(i, p0, n, 3, a.data());
+        te.Evaluate(i, p0, n, 3, b.data());
+        for (int c = 0; c < 3; ++c)
+          for (int k = 0; k < n; ++k) {
+            const double d = double(a[size_t(c * n + k)]) - double(b[size_t(c * n + k)]);
+            acc[size_t(k)] += d * d;
+          }
+      }
+      const double norm = 3.0 * std::max<size_t>(1, lights.size());
+      for (int k = 0; k < n; ++k)
+        if (t.mask.empty() || t.mask.data()[size_t(p0 + k)] >= 0.5f)
+          err[size_t(p0 + k)] = float(std::sqrt(acc[size_t(k)] / norm));
     }
   });
   return err;
@@ -76,18 +145,22 @@ std::vector<float> RelightingError(const MaterialMaps& f, const MaterialMaps& t,
 double ShadingCostNs(const MaterialMaps& maps) {
   const int64_t T = int64_t(maps.width) * maps.height;
   if (T == 0) return 0;
-  const Vec3f lights[4] = {Vec3f(0, 0, 1), Normalize(Vec3f(0.5f, 0.2f, 0.8f)),
-                           Normalize(Vec3f(-0.3f, 0.6f, 0.7f)),
-                           Normalize(Vec3f(0.7f, -0.6f, 0.4f))};
-  const Vec3f v(0, 0, 1);
+  const std::vector<Vec3f> lights = {Vec3f(0, 0, 1), Normalize(Vec3f(0.5f, 0.2f, 0.8f)),
+                                     Normalize(Vec3f(-0.3f, 0.6f, 0.7f)),
+                                     Normalize(Vec3f(0.7f, -0.6f, 0.4f))};
   double runs[3];
   volatile float sink = 0;
+  std::vector<float> out(size_t(3) * kEvalRun);
   for (double& run : runs) {
     const auto t0 = std::chrono::steady_clock::now();
+    const BatchEvaluator eval(maps, lights, Vec3f(0, 0, 1));
     float acc = 0;
-    for (const Vec3f& l : lights)
-      for (int64_t p = 0; p < T; ++p)
-        for (int c = 0; c < 3; ++c) acc += EvaluateTexel(maps, p, c, l, v);
+    for (int i = 0; i < eval.lights(); ++i)
+      for (int64_t p0 = 0; p0 < T; p0 += kEvalRun) {
+        const int n = int(std::min<int64_t>(kEvalRun, T - p0));
+        eval.Evaluate(i, p0, n, 3, out.data());
+        acc += out[0] + out[size_t(3 * n - 1)];
+      }
     sink = sink + acc;
     run = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count() * 1e9 /
           (4.0 * double(T));
@@ -99,10 +172,9 @@ double ShadingCostNs(const MaterialMaps& maps) {
 TruthMetrics CompareToTruth(const MaterialMaps& f, const MaterialMaps& t,
                             const std::vector<uint8_t>& status) {
   TruthMetrics m;
-  const ShadingModel fm = f.model;
-  const bool relighting_basis = fm == ShadingModel::kPtm || fm == ShadingModel::kHsh;
-  m.has_normal = fm != ShadingModel::kMean && !relighting_basis;
-  m.has_albedo = m.has_normal && fm != ShadingModel::kHeinrich;
+  const ModelDescriptor& model = Model(f.model);
+  m.has_normal = model.has_truth_normal();
+  m.has_albedo = m.has_normal && model.has_truth_albedo();
   std::vector<double> angles;
   double a2 = 0;
   int64_t ac = 0;

@@ -9,6 +9,7 @@
 
 #include "core/light_stack.h"
 #include "core/material_maps.h"
+#include "core/progress.h"
 
 namespace matfit::fit {
 
@@ -22,9 +23,12 @@ struct ReconstructionMetrics {
 };
 
 // Compares the stack with the maps' forward evaluation at the stack's own lights, over texels
-// whose status is 0 (status may be empty: all texels).
+// whose status is 0 (status may be empty: all texels). Batched: each light's constants once,
+// runs of kEvalRun texels in parallel, sums in run order (the same for any thread count).
+// `progress` is called with texel runs done / total.
 ReconstructionMetrics Reconstruction(const LightStack& stack, const MaterialMaps& maps,
-                                     const std::vector<uint8_t>& status);
+                                     const std::vector<uint8_t>& status,
+                                     const ProgressFn& progress = {});
 
 struct TruthMetrics {
   // A model without a fitted normal (mean, ptm, hsh) or whose albedo map is not a diffuse albedo
@@ -44,8 +48,9 @@ struct TruthMetrics {
 std::vector<float> RelightingError(const MaterialMaps& fitted, const MaterialMaps& truth,
                                    const std::vector<Vec3>& lights, const Vec3& view);
 
-// Cost of the shared CPU shading function on these maps: ns per texel × light (3 channels),
-// median of 3 timed passes over 4 light directions. A measurement, not a model.
+// Cost of the model's batched CPU evaluation on these maps (the renderer's and the metrics'
+// path): ns per texel × light (3 channels), median of 3 timed passes over 4 light directions.
+// A measurement, not a model.
 double ShadingCostNs(const MaterialMaps& maps);
 
 // Over texels with status 0 inside the truth mask.

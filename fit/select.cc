@@ -5,7 +5,7 @@
 #include <cmath>
 #include <nlohmann/json.hpp>
 
-#include "core/shading/evaluate.h"
+#include "core/model/model.h"
 #include "core/stack_ops.h"
 #include "fit/assess.h"
 #include "fit/diagnostics.h"
@@ -59,31 +59,53 @@ StatusOr<HeldOutSums> Score(const FitMethod& m, const LightStack& fine, const Li
     (void)AssessFit(train_stack, m, &*fit);
     if (f == 0) h.fit_seconds = fit->fit_seconds;
     h.any = true;
-    for (int y = 0; y < fine.height(); ++y)
-      for (int x = 0; x < fine.width(); ++x) {
-        const int64_t p = int64_t(y) * fine.width() + x;
-        if (fine.has_mask() && !fine.mask[p]) continue;
-        const int cx = std::min(coarse.width() - 1, x >> k),
-                  cy = std::min(coarse.height() - 1, y >> k);
-        const int64_t q = int64_t(cy) * coarse.width() + cx;
-        if (fit->status[q] == kTexelMasked) continue;  // the coarser mask leaves it out
-        ++h.scored;
-        if (fit->status[q] != kTexelOk) {
-          ++h.flagged;
-          continue;
+    // Batched: every test light's prediction of one coarse row, then the fine rows under it.
+    std::vector<Vec3f> test_dirs;
+    for (int i : test) test_dirs.emplace_back(fine.lights()[i].direction);
+    const BatchEvaluator eval(fit->maps, test_dirs, v);
+    const int W = fine.width(), CW = coarse.width(), CH = coarse.height();
+    std::vector<float> pred(test.size() * size_t(C) * CW), scratch(static_cast<size_t>(W));
+    std::vector<uint8_t> scored(static_cast<size_t>(W));
+    for (int cy = 0; cy < CH; ++cy) {
+      for (size_t ti = 0; ti < test.size(); ++ti)
+        eval.Evaluate(int(ti), int64_t(cy) * CW, CW, C, pred.data() + ti * C * CW);
+      const int y_end = cy == CH - 1 ? fine.height() : std::min(fine.height(), (cy + 1) << k);
+      for (int y = cy << k; y < y_end; ++y) {
+        for (int x = 0; x < W; ++x) {
+          const int64_t p = int64_t(y) * W + x;
+          scored[size_t(x)] = 0;
+          if (fine.has_mask() && !fine.mask[p]) continue;
+          const int64_t q = int64_t(cy) * CW + std::min(CW - 1, x >> k);
+          if (fit->status[q] == kTexelMasked) continue;  // the coarser mask leaves it out
+          ++h.scored;
+          if (fit->status[q] != kTexelOk) {
+            ++h.flagged;
+            continue;
+          }
+          scored[size_t(x)] = 1;
         }
-        for (int i : test) {
-          const Vec3f l(fine.lights()[i].direction);
-          const double w = std::max(0.0f, l.z);
+        for (size_t ti = 0; ti < test.size(); ++ti) {
+          const int i = test[ti];
+          const double w = std::max(0.0f, test_dirs[ti].z);
           for (int c = 0; c < C; ++c) {
-            const float raw = fine.Plane(i, c)[p];
-            if (!std::isfinite(raw) || (clip && raw >= kClipLevel)) continue;
-            const double d = EvaluateTexel(fit->maps, q, c, l, v) - raw * inv[size_t(i) * C + c];
-            h.sse[i] += d * d, ++h.count[i];
-            if (environment) h.env_err[size_t(p) * C + c] += w * d, h.env_w[size_t(p) * C + c] += w;
+            const float* row = fine.Row(i, c, y, 0, W, scratch.data());
+            const float* pr = pred.data() + (ti * C + size_t(c)) * CW;
+            const float s = inv[size_t(i) * C + c];
+            for (int x = 0; x < W; ++x) {
+              const float raw = row[x];
+              if (!scored[size_t(x)] || !std::isfinite(raw) || (clip && raw >= kClipLevel))
+                continue;
+              const double d = pr[std::min(CW - 1, x >> k)] - raw * s;
+              h.sse[size_t(i)] += d * d, ++h.count[size_t(i)];
+              if (environment) {
+                const size_t e = size_t(int64_t(y) * W + x) * C + c;
+                h.env_err[e] += w * d, h.env_w[e] += w;
+              }
+            }
           }
         }
       }
+    }
     h.last_maps = std::move(fit->maps);
   }
   return h;

@@ -157,20 +157,7 @@ StatusOr<FitResult> FitLobe(const LightStack& s, const FitOptions& o, const std:
     for (int k = 0; k < A; ++k) m.specular.Plane(k)[p] = xs.Plane(5 + k)[p];
     for (int k = 0; k < S; ++k) shape_maps.Plane(k)[p] = xs.Plane(5 + A + k)[p];
   }
-  if constexpr (Lobe::kModel == ShadingModel::kBlinnPhong) {
-    for (float& v : shape_maps.data()) v = std::exp(v);
-    m.exponent = std::move(shape_maps);
-    if (r.parameters.count("lobe_shape_0"))
-      r.parameters["exponent"] = std::exp(r.parameters["lobe_shape_0"]);
-  } else if constexpr (Lobe::kModel == ShadingModel::kCookTorrance) {
-    m.roughness = std::move(shape_maps);
-    if (r.parameters.count("lobe_shape_0"))
-      r.parameters["roughness"] = r.parameters["lobe_shape_0"];
-  } else {
-    for (int j = 0; j < A; ++j)
-      for (float& v : shape_maps.Plane(2 * j + 1)) v = std::exp(v);
-    m.lobe_shape = std::move(shape_maps);
-  }
+  Lobe::StoreShape(std::move(shape_maps), &r.parameters, &m);
   double it_sum = 0, count = 0;
   for (size_t p = 0; p < iterations.size(); ++p)
     if (r.status[p] == kTexelOk) it_sum += iterations[p], count += 1;

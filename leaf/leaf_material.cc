@@ -6,6 +6,7 @@
 #include <numbers>
 #include <opencv2/imgproc.hpp>
 
+#include "core/model/model.h"
 #include "core/shading/shading.h"
 #include "fit/method.h"
 #include "leaf/horizon.h"
@@ -80,7 +81,7 @@ StatusOr<LeafMaterial> MakeLeafMaterial(const LeafScan& scan, const SheetAnalysi
       mask[int64_t(y) * w + x] =
           sheet.segmentation.labels[size_t(y0 + y) * sheet.width + x0 + x] == leaf.label;
   MaterialMaps& m = L.maps;
-  m.width = w, m.height = h, m.model = ShadingModel::kCookTorrance;
+  m.width = w, m.height = h, m.model = ModelId("cook-torrance");
   m.mask = Image(w, h, 1);
   for (int64_t i = 0; i < n; ++i) m.mask.Plane(0)[i] = mask[i];
   L.status.assign(n, 0);

@@ -5,6 +5,7 @@
 #include <numbers>
 
 #include "core/color.h"
+#include "core/model/model.h"
 #include "core/synth/materials.h"
 
 namespace matfit::leaf {
@@ -51,7 +52,7 @@ SyntheticScan MakeSyntheticScan(const SyntheticScanOptions& o) {
   s.leaf_x0 = (W - N) / 2, s.leaf_y0 = (H - N) / 2;
   // Sheet-sized truth: leaf inside its square, bare sheet elsewhere.
   MaterialMaps& t = s.truth;
-  t.width = W, t.height = H, t.model = ShadingModel::kLambert;
+  t.width = W, t.height = H, t.model = ModelId("lambert");
   t.albedo = Image(W, H, 3, 1.0f), t.normal = Image(W, H, 3), t.translucency = Image(W, H, 3, 1.0f);
   t.thickness = Image(W, H, 1), t.mask = Image(W, H, 1);
   for (int64_t i = 0; i < np; ++i) t.normal.Plane(2)[i] = 1;

@@ -1,5 +1,6 @@
 #include "render/cpu_renderer.h"
 
+#include "core/model/model.h"
 #include "core/pack/shader_params.h"
 #include "core/parallel.h"
 #include "core/shading/evaluate.h"
@@ -18,25 +19,48 @@ StatusOr<Image> RenderCpu(const MaterialMaps& m, const RenderOptions& o) {
   const Vec3f light(o.LightDirection()), v = cam.v;
   const Vec3f radiance = Vec3f(o.light_color) * float(o.intensity);
   const float ambient = float(o.ambient);
+  const ModelDescriptor& model = Model(m.model);
+  const bool leaf = !m.translucency.empty();  // two-sided: light from behind transmits
   ParallelFor(0, S, [&](int64_t y0, int64_t y1) {
-    for (int64_t py = y0; py < y1; ++py)
+    // One row's hits, then one scattered evaluation of the row (no per-sample dispatch).
+    std::vector<int64_t> texel(static_cast<size_t>(S)), pixel(static_cast<size_t>(S));
+    std::vector<Vec3f> lts(static_cast<size_t>(S)), vts(static_cast<size_t>(S));
+    std::vector<float> f(size_t(3) * S);
+    for (int64_t py = y0; py < y1; ++py) {
+      int k = 0;
       for (int px = 0; px < S; ++px) {
         const SceneHit h = HitScene(o.scene, cam, S, px, int(py), m.width, m.height);
         const int64_t p = int64_t(h.ty) * m.width + h.tx, q = py * S + px;
         if (!h.hit || (!m.mask.empty() && m.mask.Plane(0)[p] < 0.5f)) continue;  // background
-        const Vec3f lt(Dot(light, h.t), Dot(light, h.b), Dot(light, h.n));
-        const Vec3f vt(Dot(v, h.t), Dot(v, h.b), Dot(v, h.n));
-        const bool leaf = !m.translucency.empty();  // two-sided: light from behind transmits
         const bool lit = leaf || Dot(light, h.n) > 0.0f;
-        for (int c = 0; c < 3; ++c) {
-          const float f = !lit   ? 0.0f
-                          : leaf ? EvaluateLeafTexel(m, p, c, lt, vt)
-                                 : EvaluateTexel(m, p, c, lt, vt);
-          const float color = radiance[c] * f + ambient * m.albedo.Plane(c)[p];
-          out.Plane(c)[q] = o.display ? DisplayEncode(color, o) : color;
-        }
         out.Plane(3)[q] = 1.0f;
+        if (!lit) {
+          for (int c = 0; c < 3; ++c) {
+            const float color = ambient * m.albedo.Plane(c)[p];
+            out.Plane(c)[q] = o.display ? DisplayEncode(color, o) : color;
+          }
+          continue;
+        }
+        texel[size_t(k)] = p, pixel[size_t(k)] = q;
+        lts[size_t(k)] = Vec3f(Dot(light, h.t), Dot(light, h.b), Dot(light, h.n));
+        vts[size_t(k)] = Vec3f(Dot(v, h.t), Dot(v, h.b), Dot(v, h.n));
+        ++k;
       }
+      if (leaf) {
+        for (int j = 0; j < k; ++j)
+          for (int c = 0; c < 3; ++c)
+            f[size_t(c * k + j)] =
+                EvaluateLeafTexel(m, texel[size_t(j)], c, lts[size_t(j)], vts[size_t(j)]);
+      } else {
+        model.EvaluateSamples(m, texel.data(), lts.data(), vts.data(), k, f.data());
+      }
+      for (int j = 0; j < k; ++j)
+        for (int c = 0; c < 3; ++c) {
+          const int64_t p = texel[size_t(j)];
+          const float color = radiance[c] * f[size_t(c * k + j)] + ambient * m.albedo.Plane(c)[p];
+          out.Plane(c)[pixel[size_t(j)]] = o.display ? DisplayEncode(color, o) : color;
+        }
+    }
   });
   return out;
 }

@@ -6,6 +6,7 @@
 #include <set>
 
 #include "capture/convert.h"
+#include "core/model/model.h"
 #include "core/synth/light_sets.h"
 #include "core/synth/materials.h"
 #include "core/synth/render_stack.h"
@@ -246,7 +247,7 @@ StatusOr<std::unique_ptr<Camera>> OpenSimCamera(const std::string& uri) {
   StatusOr<MaterialMaps> m = InvalidArgument("");
   if (material == "flat") {  // a uniform white diffuser: the flat-field target
     MaterialMaps f;
-    f.model = ShadingModel::kLambert;
+    f.model = ModelId("lambert");
     f.width = f.height = size;
     f.albedo = Image(size, size, 3);
     for (auto& v : f.albedo.data()) v = 0.9f;

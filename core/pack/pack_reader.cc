@@ -7,20 +7,13 @@
 #include <nlohmann/json.hpp>
 
 #include "core/image_io.h"
+#include "core/model/model.h"
 
 namespace matfit {
 namespace {
 
 namespace fs = std::filesystem;
 using nlohmann::json;
-
-bool ModelFromName(const std::string& name, ShadingModel* out) {
-  for (ShadingModel m : {ShadingModel::kMean, ShadingModel::kLambert, ShadingModel::kBlinnPhong,
-                         ShadingModel::kCookTorrance, ShadingModel::kHeinrich, ShadingModel::kPtm,
-                         ShadingModel::kHsh, ShadingModel::kLafortune})
-    if (name == ShadingModelName(m)) return *out = m, true;
-  return false;
-}
 
 }  // namespace
 
@@ -34,8 +27,9 @@ StatusOr<PackContents> ReadPack(const std::string& dir) {
     return DataError("'" + mj + "': field 'schema' must be \"matfit.material/1\"");
   PackContents pc;
   const std::string model = j.contains("model") ? j["model"].value("name", "") : "";
-  if (!ModelFromName(model, &pc.maps.model))
-    return DataError("'" + mj + "': unknown model.name '" + model + "'");
+  const ModelDescriptor* descriptor = FindModel(model);
+  if (!descriptor) return DataError("'" + mj + "': unknown model.name '" + model + "'");
+  pc.maps.model = descriptor->id();
   pc.method = j["model"].value("method", model);
   if (!j.contains("maps") || !j["maps"].is_array())
     return DataError("'" + mj + "': field 'maps' must be a list");
@@ -70,32 +64,22 @@ StatusOr<PackContents> ReadPack(const std::string& dir) {
     m.normal = Image(m.albedo.width(), m.albedo.height(), 3);
     for (float& v : m.normal.Plane(2)) v = 1.0f;
   }
-  MATFIT_RETURN_IF_ERROR(load("ambient", &m.ambient));
-  MATFIT_RETURN_IF_ERROR(load("normal_scale", &m.normal_scale));
-  MATFIT_RETURN_IF_ERROR(load("coefficients", &m.coefficients));
-  MATFIT_RETURN_IF_ERROR(load("exponent", &m.exponent));
-  MATFIT_RETURN_IF_ERROR(load("roughness", &m.roughness));
-  MATFIT_RETURN_IF_ERROR(load("lobe_shape", &m.lobe_shape));
   MATFIT_RETURN_IF_ERROR(load("mask", &m.mask));
   MATFIT_RETURN_IF_ERROR(load("thickness", &m.thickness));
   MATFIT_RETURN_IF_ERROR(load("translucency", &m.translucency));
   MATFIT_RETURN_IF_ERROR(load("albedo_back", &m.albedo_back));
   MATFIT_RETURN_IF_ERROR(load("hl2", &m.hl2));
-  if (m.model == ShadingModel::kHeinrich) {
-    MATFIT_RETURN_IF_ERROR(load("specular_exact", &m.specular_color));
-  } else {
-    MATFIT_RETURN_IF_ERROR(load("specular", &m.specular));
-  }
   m.width = m.albedo.width();
   m.height = m.albedo.height();
-  const json params = j["model"].value("parameters", json::object());
-  m.basis_terms = params.value("basis_terms", 0);
-  m.specular_flat_normal = params.value("specular_flat_normal", 0) != 0;
-  if (m.model == ShadingModel::kHeinrich && !m.specular_color.empty())
-    m.exponent = Image(m.width, m.height, 1, float(params.value("exponent", 1.0)));
-  if ((m.model == ShadingModel::kPtm || m.model == ShadingModel::kHsh) && m.basis_terms <= 0)
-    return DataError("'" + mj + "': model.parameters.basis_terms is missing for a " + model +
-                     " pack");
+  std::map<std::string, double> params;
+  const json jp = j["model"].value("parameters", json::object());
+  if (jp.is_object())
+    for (const auto& [k, v] : jp.items())
+      if (v.is_number()) params[k] = v.get<double>();
+  if (Status st = descriptor->ReadPackMaps(
+          [&](const char* name, Image* out) { return load(name, out); }, params, &m);
+      !st.ok())
+    return Status(st.code(), "'" + mj + "': " + st.message());
   Image status;
   MATFIT_RETURN_IF_ERROR(load("status", &status));
   pc.status.assign(size_t(m.width) * m.height, 0);

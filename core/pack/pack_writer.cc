@@ -10,10 +10,11 @@
 
 #include "core/atomic_file.h"
 #include "core/image_io.h"
+#include "core/model/model.h"
 #include "core/pack/gltf.h"
 #include "core/pack/pack.h"
 #include "core/pack/shader_params.h"
-#include "core/shading/evaluate.h"
+#include "core/parallel.h"
 #include "core/version.h"
 
 namespace matfit {
@@ -32,10 +33,19 @@ std::string NowIso8601() {
 // Relit view of the maps under one light (θ = 35°, φ = 45°: up and to the right), sRGB PNG.
 Image Preview(const MaterialMaps& m, const std::vector<uint8_t>& status) {
   Image img(m.width, m.height, 3);
-  const Vec3f l(DirectionFromAnglesDeg(35, 45)), v(0, 0, 1);
-  for (int64_t p = 0; p < int64_t(m.width) * m.height; ++p)
-    if (status[p] == 0)
-      for (int c = 0; c < 3; ++c) img.Plane(c)[p] = EvaluateTexel(m, p, c, l, v);
+  const BatchEvaluator eval(m, {Vec3f(DirectionFromAnglesDeg(35, 45))}, Vec3f(0, 0, 1));
+  const int64_t T = int64_t(m.width) * m.height;
+  ParallelFor(0, (T + kEvalRun - 1) / kEvalRun, [&](int64_t r0, int64_t r1) {
+    float out[3 * kEvalRun];
+    for (int64_t r = r0; r < r1; ++r) {
+      const int64_t p0 = r * kEvalRun;
+      const int n = int(std::min<int64_t>(kEvalRun, T - p0));
+      eval.Evaluate(0, p0, n, 3, out);
+      for (int c = 0; c < 3; ++c)
+        for (int t = 0; t < n; ++t)
+          if (status[size_t(p0 + t)] == 0) img.Plane(c)[p0 + t] = out[c * n + t];
+    }
+  });
   return img;
 }
 
@@ -109,11 +119,9 @@ Status WritePack(const MaterialMaps& m, const std::vector<uint8_t>& status, cons
   const ImageWriteOptions lin8{PixelFormat::kUint8, TransferFunction::kLinear};
   const ImageWriteOptions lin16{PixelFormat::kUint16, TransferFunction::kLinear};
   const ImageWriteOptions exr{PixelFormat::kFloat, TransferFunction::kLinear};
-  const bool has_normal = m.model != ShadingModel::kMean && m.model != ShadingModel::kPtm;
-  const bool heinrich = m.model == ShadingModel::kHeinrich;
-  MATFIT_RETURN_IF_ERROR(
-      put("albedo", "albedo.png", m.albedo, srgb8,
-          heinrich ? "mean texture t (seed diffuse texture)" : "diffuse albedo"));
+  const ModelDescriptor& model = Model(m.model);
+  const bool has_normal = model.writes_normal_map();
+  MATFIT_RETURN_IF_ERROR(put("albedo", "albedo.png", m.albedo, srgb8, model.albedo_semantic()));
   MATFIT_RETURN_IF_ERROR(
       put("albedo_exact", "albedo.exr", m.albedo, exr, "the same, linear float"));
   if (has_normal) {
@@ -122,41 +130,13 @@ Status WritePack(const MaterialMaps& m, const std::vector<uint8_t>& status, cons
     MATFIT_RETURN_IF_ERROR(
         put("normal_exact", "normal.exr", m.normal, exr, "unit normal xyz (float)"));
   }
-  if (heinrich) {
-    MATFIT_RETURN_IF_ERROR(put("ambient", "ambient.exr", m.ambient, exr, "ambient factor a_c"));
-    MATFIT_RETURN_IF_ERROR(put("normal_scale", "normal_scale.exr", m.normal_scale, exr,
-                               "|n| of the unnormalised fitted normal"));
-    MATFIT_RETURN_IF_ERROR(put("specular_exact", "specular.exr", m.specular_color, exr,
-                               "L_spec residual of sample #1 (may be negative)"));
-    MATFIT_RETURN_IF_ERROR(put("specular", "specular.png", m.specular_color, lin8,
-                               "L_spec clamped to [0,1] (glTF specular colour)"));
-  }
-  const bool ct = m.model == ShadingModel::kCookTorrance, laf = m.model == ShadingModel::kLafortune;
-  const bool lobe = m.model == ShadingModel::kBlinnPhong || ct || laf;
-  if (lobe) {
-    MATFIT_RETURN_IF_ERROR(put("specular", "specular.exr", m.specular, exr,
-                               ct    ? "Cook-Torrance F0"
-                               : laf ? "Lafortune lobe amplitudes rho_s,j"
-                                     : "Blinn-Phong k_s"));
-    MATFIT_RETURN_IF_ERROR(put("roughness", "roughness.exr", m.roughness, exr,
-                               "GGX perceptual roughness r (alpha = r^2)"));
-    MATFIT_RETURN_IF_ERROR(
-        put("exponent", "exponent.exr", m.exponent, exr, "Blinn-Phong exponent e"));
-    MATFIT_RETURN_IF_ERROR(put("lobe_shape", "lobe_shape.exr", m.lobe_shape, exr,
-                               "Lafortune lobe j: C_xy (2j), exponent (2j+1)"));
-    // glTF metallic-roughness texture: G = roughness (from the exponent of Blinn-Phong or of the
-    // first Lafortune lobe), B = metallic = 0.
-    Image mr(m.width, m.height, 3);
-    for (int64_t p = 0; p < int64_t(m.width) * m.height; ++p) {
-      mr.Plane(0)[p] = 1.0f;
-      const double e = laf ? m.lobe_shape.Plane(1)[p] : ct ? 0.0 : m.exponent.Plane(0)[p];
-      mr.Plane(1)[p] = float(ct ? m.roughness.Plane(0)[p] : RoughnessFromBlinnPhongExponent(e));
-    }
-    MATFIT_RETURN_IF_ERROR(put("metallic_roughness", "metallic_roughness.png", mr, lin8,
-                               "glTF: G = roughness, B = metallic (0)"));
-  }
-  MATFIT_RETURN_IF_ERROR(put("coefficients", "coefficients.exr", m.coefficients, exr,
-                             "relighting coefficients, channel c*k + j"));
+  MATFIT_RETURN_IF_ERROR(model.WritePackMaps(m, [&](const PackMap& pm) {
+    const ImageWriteOptions wo = pm.encoding == MapEncoding::kSrgb8      ? srgb8
+                                 : pm.encoding == MapEncoding::kLinear8  ? lin8
+                                 : pm.encoding == MapEncoding::kLinear16 ? lin16
+                                                                         : exr;
+    return put(pm.name, pm.file, *pm.image, wo, pm.semantic);
+  }));
   Image status_img(m.width, m.height, 1);
   for (size_t p = 0; p < status.size(); ++p) status_img.data()[p] = status[p] / 255.0f;
   MATFIT_RETURN_IF_ERROR(
@@ -244,27 +224,7 @@ Status WritePack(const MaterialMaps& m, const std::vector<uint8_t>& status, cons
   }
   if (has_normal) g.normal_uri = "maps/normal.png";
   g.specular_factor = 0.0;
-  if (heinrich && !m.specular_color.empty()) {
-    g.specular_color_uri = "maps/specular.png";
-    g.specular_factor = 1.0;
-    auto e = info.model_parameters.find("exponent");
-    if (e != info.model_parameters.end()) g.roughness = RoughnessFromBlinnPhongExponent(e->second);
-  }
-  if (lobe) {
-    g.metallic_roughness_uri = "maps/metallic_roughness.png";
-    g.specular_factor = 1.0;
-    if (m.model == ShadingModel::kCookTorrance) {
-      // Median F0 → index of refraction: η = (1 + √F0) / (1 − √F0).
-      std::vector<float> f0;
-      for (size_t p = 0; p < status.size(); ++p)
-        if (status[p] == 0) f0.push_back(m.specular.data()[p]);
-      if (!f0.empty()) {
-        std::nth_element(f0.begin(), f0.begin() + f0.size() / 2, f0.end());
-        const double r0 = std::sqrt(std::clamp(double(f0[f0.size() / 2]), 0.0, 0.81));
-        g.ior = (1 + r0) / (1 - r0);
-      }
-    }
-  }
+  model.Gltf(m, status, info.model_parameters, &g);
   const double mm = info.mm_per_texel > 0 ? info.mm_per_texel : 0.5;  // unknown: 0.5 mm/texel
   g.width_m = m.width * mm / 1000, g.height_m = m.height * mm / 1000;
   std::vector<uint8_t> bin;
@@ -275,8 +235,9 @@ Status WritePack(const MaterialMaps& m, const std::vector<uint8_t>& status, cons
 
   json params = json::object();
   for (const auto& [k, v] : info.model_parameters) params[k] = v;
-  if (m.basis_terms > 0) params["basis_terms"] = m.basis_terms;
-  if (heinrich) params["specular_flat_normal"] = m.specular_flat_normal ? 1 : 0;
+  std::map<std::string, double> model_params;
+  model.PackParameters(m, &model_params);
+  for (const auto& [k, v] : model_params) params[k] = int64_t(v);  // counts and flags
   json report_summary = json::object();
   if (!info.report_json.empty()) {
     const json r = json::parse(info.report_json, nullptr, false);

@@ -3,21 +3,34 @@
 #include <algorithm>
 #include <string>
 
+#include "core/model/model.h"
+
 namespace matfit {
 
 namespace {
 
-// Appends the first `count` planes of `img`; false (naming the map) when it is absent or the
-// wrong size.
-bool AddPlanes(const Image& img, int count, int w, int h, std::vector<const float*>* planes,
-               std::string* missing, const char* name) {
-  if (img.width() != w || img.height() != h || img.channels() < count) {
-    *missing = name;
-    return false;
+// Appends the first `count` planes of a map; remembers the first one absent or the wrong size.
+class PlaneCollector final : public ShaderPlaneSink {
+ public:
+  PlaneCollector(int w, int h, const float* ones, std::vector<const float*>* planes)
+      : w_(w), h_(h), ones_(ones), planes_(planes) {}
+  bool Add(const Image& img, int count, const char* name) override {
+    if (img.width() != w_ || img.height() != h_ || img.channels() < count) {
+      if (missing.empty()) missing = name;
+      return false;
+    }
+    for (int c = 0; c < count; ++c) planes_->push_back(img.Plane(c).data());
+    return true;
   }
-  for (int c = 0; c < count; ++c) planes->push_back(img.Plane(c).data());
-  return true;
-}
+  void AddOnes() override { planes_->push_back(ones_); }
+  void AddZeros(const float* zeros) { planes_->push_back(zeros); }
+  std::string missing;
+
+ private:
+  int w_, h_;
+  const float* ones_;
+  std::vector<const float*>* planes_;
+};
 
 // Fills g's metadata and the plane list in layout order; `ones` / `zeros` stand in for absent
 // optional maps (they may be null when the planes are only checked, never read).
@@ -29,67 +42,31 @@ Status CollectPlanes(const MaterialMaps& m, const float* ones, const float* zero
   g.model = int(m.model);
   const int w = m.width, h = m.height;
   if (w <= 0 || h <= 0) return InvalidArgument("material has no texels");
-  std::string missing;
+  PlaneCollector sink(w, h, ones, &planes);
   bool ok = true;
   if (m.normal.empty()) {  // mean/ptm/hsh packs may omit it: flat
-    planes.insert(planes.end(), {zeros, zeros, ones});
+    sink.AddZeros(zeros), sink.AddZeros(zeros), sink.AddOnes();
   } else {
-    ok = ok && AddPlanes(m.normal, 3, w, h, &planes, &missing, "normal");
+    ok = ok && sink.Add(m.normal, 3, "normal");
   }
-  ok = ok && AddPlanes(m.albedo, 3, w, h, &planes, &missing, "albedo");
+  ok = ok && sink.Add(m.albedo, 3, "albedo");
   if (ok && m.mask.empty())
-    planes.push_back(ones);
+    sink.AddOnes();
   else
-    ok = ok && AddPlanes(m.mask, 1, w, h, &planes, &missing, "mask");
-  switch (m.model) {
-    case ShadingModel::kBlinnPhong:
-      ok = ok && AddPlanes(m.specular, 1, w, h, &planes, &missing, "specular");
-      ok = ok && AddPlanes(m.exponent, 1, w, h, &planes, &missing, "exponent");
-      break;
-    case ShadingModel::kCookTorrance:
-      ok = ok && AddPlanes(m.specular, 1, w, h, &planes, &missing, "specular (F0)");
-      ok = ok && AddPlanes(m.roughness, 1, w, h, &planes, &missing, "roughness");
-      break;
-    case ShadingModel::kLafortune:
-      g.terms = m.specular.channels();
-      ok = ok && g.terms >= 1 && g.terms <= 4;
-      ok = ok && AddPlanes(m.specular, g.terms, w, h, &planes, &missing, "specular (ρ_s)");
-      ok = ok && AddPlanes(m.lobe_shape, 2 * g.terms, w, h, &planes, &missing, "lobe_shape");
-      break;
-    case ShadingModel::kHeinrich:
-      ok = ok && AddPlanes(m.ambient, 3, w, h, &planes, &missing, "ambient");
-      if (ok && m.normal_scale.empty())
-        planes.push_back(ones);
-      else
-        ok = ok && AddPlanes(m.normal_scale, 1, w, h, &planes, &missing, "normal_scale");
-      g.heinrich_specular = !m.specular_color.empty();
-      g.flat_normal = m.specular_flat_normal;
-      if (ok && g.heinrich_specular) {
-        ok = ok && AddPlanes(m.specular_color, 3, w, h, &planes, &missing, "specular_color");
-        ok = ok && AddPlanes(m.exponent, 1, w, h, &planes, &missing, "exponent");
-      }
-      break;
-    case ShadingModel::kPtm:
-    case ShadingModel::kHsh:
-      g.terms = m.basis_terms;
-      g.coef_channels = g.terms > 0 ? m.coefficients.channels() / g.terms : 0;
-      ok = ok && g.terms >= 1 && g.terms <= 16 && (g.coef_channels == 1 || g.coef_channels == 3);
-      ok = ok && AddPlanes(m.coefficients, g.terms * g.coef_channels, w, h, &planes, &missing,
-                           "coefficients");
-      break;
-    default: break;
-  }
+    ok = ok && sink.Add(m.mask, 1, "mask");
+  ok = ok && Model(m.model).AddShaderPlanes(m, &sink);
+  g.terms = sink.terms, g.coef_channels = sink.coef_channels;
+  g.heinrich_specular = sink.heinrich_specular, g.flat_normal = sink.flat_normal;
   if (ok && !m.translucency.empty()) {
     g.leaf_base = int(planes.size());
-    ok = ok && AddPlanes(m.translucency, 3, w, h, &planes, &missing, "translucency");
-    ok = ok && AddPlanes(m.albedo_back.empty() ? m.albedo : m.albedo_back, 3, w, h, &planes,
-                         &missing, "albedo_back");
+    ok = ok && sink.Add(m.translucency, 3, "translucency");
+    ok = ok && sink.Add(m.albedo_back.empty() ? m.albedo : m.albedo_back, 3, "albedo_back");
     g.leaf_hl2 = !m.hl2.empty();
-    if (g.leaf_hl2) ok = ok && AddPlanes(m.hl2, 3, w, h, &planes, &missing, "hl2");
+    if (g.leaf_hl2) ok = ok && sink.Add(m.hl2, 3, "hl2");
   }
   if (!ok)
     return InvalidArgument(std::string("material (") + ShadingModelName(m.model) + "): map '" +
-                           (missing.empty() ? "lobe/basis terms" : missing) +
+                           (sink.missing.empty() ? "lobe/basis terms" : sink.missing) +
                            "' is missing or not " + std::to_string(w) + " × " + std::to_string(h));
   g.layers = int((planes.size() + 3) / 4);
   return Status::Ok();

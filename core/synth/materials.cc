@@ -5,6 +5,7 @@
 #include <functional>
 #include <numbers>
 
+#include "core/model/model.h"
 #include "core/parallel.h"
 #include "core/shading/shading.h"
 #include "core/synth/random.h"
@@ -193,29 +194,29 @@ StatusOr<MaterialMaps> MakeMaterial(const std::string& name, int size, uint64_t 
   TexelFn fn;
   MaterialMaps m;
   m.width = m.height = size;
+  const char* model = "blinn-phong";
   if (name == "plaster")
-    fn = Plaster(seed), m.model = ShadingModel::kLambert;
+    fn = Plaster(seed), model = "lambert";
   else if (name == "plastic")
-    fn = Plastic(seed, false), m.model = ShadingModel::kBlinnPhong;
+    fn = Plastic(seed, false);
   else if (name == "plastic-ct")
-    fn = Plastic(seed, true), m.model = ShadingModel::kCookTorrance;
+    fn = Plastic(seed, true), model = "cook-torrance";
   else if (name == "wool")
-    fn = Wool(seed), m.model = ShadingModel::kBlinnPhong;
+    fn = Wool(seed);
   else if (name == "corduroy")
-    fn = Corduroy(seed), m.model = ShadingModel::kBlinnPhong;
+    fn = Corduroy(seed);
   else if (name == "granite")
-    fn = Granite(seed), m.model = ShadingModel::kBlinnPhong;
+    fn = Granite(seed);
   else
-    fn = Leaf(seed), m.model = ShadingModel::kCookTorrance;
+    fn = Leaf(seed), model = "cook-torrance";
+  m.model = ModelId(model);
+  const ModelDescriptor& truth_model = Model(m.model);
   const bool leaf = name == "leaf";
-  const bool bp = m.model == ShadingModel::kBlinnPhong, ct = m.model == ShadingModel::kCookTorrance;
 
   m.albedo = Image(size, size, 3);
   m.height_map = Image(size, size, 1);
   m.mask = Image(size, size, 1, 1.0f);
-  if (bp || ct) m.specular = Image(size, size, 1);
-  if (bp) m.exponent = Image(size, size, 1);
-  if (ct) m.roughness = Image(size, size, 1);
+  truth_model.InitTruthMaps(size, size, &m);
   if (leaf) m.thickness = Image(size, size, 1), m.translucency = Image(size, size, 3);
   ParallelFor(0, size, [&](int64_t y0, int64_t y1) {
     for (int y = int(y0); y < int(y1); ++y)
@@ -225,9 +226,7 @@ StatusOr<MaterialMaps> MakeMaterial(const std::string& name, int size, uint64_t 
         m.height_map.At(0, y, x) = float(t.height * size);  // sample widths → texels
         for (int c = 0; c < 3; ++c) m.albedo.At(c, y, x) = float(t.albedo[c]);
         m.mask.At(0, y, x) = float(t.mask);
-        if (bp || ct) m.specular.At(0, y, x) = float(t.specular);
-        if (bp) m.exponent.At(0, y, x) = float(t.exponent);
-        if (ct) m.roughness.At(0, y, x) = float(t.roughness);
+        truth_model.SetTruthTexel(x, y, {t.specular, t.exponent, t.roughness}, &m);
         if (leaf) {
           m.thickness.At(0, y, x) = float(t.thickness);
           for (int c = 0; c < 3; ++c) m.translucency.At(c, y, x) = float(t.translucency[c]);

@@ -3,8 +3,8 @@
 #include <algorithm>
 #include <cmath>
 
+#include "core/model/model.h"
 #include "core/parallel.h"
-#include "core/shading/evaluate.h"
 
 namespace matfit::synth {
 namespace {
@@ -62,18 +62,25 @@ LightStack RenderStack(const MaterialMaps& m, const std::vector<LightSample>& li
   AnglesDegFromDirection(options.view, &stack.view_theta_deg, &stack.view_phi_deg);
   const Vec3f v(Normalize(options.view));
   const int64_t texels = int64_t(m.width) * m.height;
+  std::vector<Vec3f> dirs;
+  for (const LightSample& ls : lights) dirs.emplace_back(ls.direction);
+  const BatchEvaluator eval(m, dirs, v);
   ParallelFor(0, n, [&](int64_t b, int64_t e) {
+    std::vector<float> run(size_t(3) * kEvalRun);
     for (int64_t i = b; i < e; ++i) {
       const LightSample& ls = lights[i];
-      const Vec3f l(ls.direction);
       Image vis;
       if (options.cast_shadows) vis = CastShadowVisibility(m.height_map, ls.direction);
-      for (int c = 0; c < 3; ++c) {
-        float* out = stack.Plane(int(i), c).data();
-        const float intensity = float(ls.intensity[c]);
-        for (int64_t p = 0; p < texels; ++p) {
-          const float visible = options.cast_shadows ? vis.data()[p] : 1.0f;
-          out[p] = visible > 0 ? intensity * EvaluateTexel(m, p, c, l, v) : 0.0f;
+      for (int64_t p0 = 0; p0 < texels; p0 += kEvalRun) {
+        const int len = int(std::min<int64_t>(kEvalRun, texels - p0));
+        eval.Evaluate(int(i), p0, len, 3, run.data());
+        for (int c = 0; c < 3; ++c) {
+          float* out = stack.Plane(int(i), c).data() + p0;
+          const float intensity = float(ls.intensity[c]);
+          for (int t = 0; t < len; ++t) {
+            const float visible = options.cast_shadows ? vis.data()[p0 + t] : 1.0f;
+            out[t] = visible > 0 ? intensity * run[size_t(c * len + t)] : 0.0f;
+          }
         }
       }
     }

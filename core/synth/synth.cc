@@ -6,6 +6,7 @@
 #include "core/atomic_file.h"
 #include "core/dataset/writer.h"
 #include "core/image_io.h"
+#include "core/model/model.h"
 #include "core/synth/light_sets.h"
 #include "core/synth/materials.h"
 #include "core/synth/render_stack.h"
@@ -29,19 +30,15 @@ json LightsJson(const std::vector<LightSample>& lights) {
 
 std::string ParamsJson(const SynthOptions& o, const SynthResult& r) {
   const MaterialInfo* info = FindMaterial(o.material);
-  json model = {{"name", ShadingModelName(r.truth.model)},
+  const ModelDescriptor& truth_model = Model(r.truth.model);
+  json model = {{"name", truth_model.name()},
                 {"reflectance_units", "R = pi * f_r * max(0, n.l); pixel = intensity * R"}};
-  if (r.truth.model == ShadingModel::kBlinnPhong)
-    model["specular"] = "k_s * max(0, n.h)^e * max(0, n.l), not energy-normalised";
-  if (r.truth.model == ShadingModel::kCookTorrance)
-    model["specular"] = "pi * D_GGX * G_Smith * F_Schlick / (4 n.l n.v) * n.l, alpha = roughness^2";
+  if (*truth_model.truth_formula()) model["specular"] = truth_model.truth_formula();
   json maps = {{"normal", "normal.exr (xyz, +Y up) / normal.png (16-bit, n*0.5+0.5)"},
                {"albedo", "albedo.exr (linear) / albedo.png (sRGB)"},
                {"height", "height.exr (texel units)"},
                {"mask", "mask.png"}};
-  if (!r.truth.specular.empty())
-    maps["specular"] =
-        r.truth.model == ShadingModel::kBlinnPhong ? "specular.exr (k_s)" : "specular.exr (F0)";
+  if (!r.truth.specular.empty()) maps["specular"] = truth_model.truth_specular_semantic();
   if (!r.truth.exponent.empty()) maps["exponent"] = "exponent.exr";
   if (!r.truth.roughness.empty()) maps["roughness"] = "roughness.exr (perceptual, alpha = r^2)";
   if (!r.truth.thickness.empty()) maps["thickness"] = "thickness.exr (mm)";
@@ -71,10 +68,9 @@ std::string ParamsJson(const SynthOptions& o, const SynthResult& r) {
         {"shift_y_px", r.perturb.shift_y}}},
       {"lights", LightsJson(r.stack.lights())},
   };
-  if (r.truth.model == ShadingModel::kBlinnPhong && !r.truth.exponent.empty())
-    j["model"]["exponent"] = r.truth.exponent.data()[0];
-  if (r.truth.model == ShadingModel::kCookTorrance && !r.truth.roughness.empty())
-    j["model"]["roughness"] = r.truth.roughness.data()[0];
+  std::map<std::string, double> truth_params;
+  truth_model.TruthParameters(r.truth, &truth_params);
+  for (const auto& [k, v] : truth_params) j["model"][k] = float(v);
   return j.dump(2) + "\n";
 }
 

@@ -5,6 +5,7 @@
 #include <nlohmann/json.hpp>
 
 #include "core/image_io.h"
+#include "core/model/model.h"
 
 namespace matfit::synth {
 namespace {
@@ -47,9 +48,7 @@ StatusOr<MaterialMaps> ReadTruth(const std::string& dir) {
   const nlohmann::json params = nlohmann::json::parse(pj, nullptr, false);
   if (params.is_object() && params.contains("model") && params["model"].is_object()) {
     const std::string name = params["model"].value("name", "");
-    for (ShadingModel sm :
-         {ShadingModel::kLambert, ShadingModel::kBlinnPhong, ShadingModel::kCookTorrance})
-      if (name == ShadingModelName(sm)) m.model = sm;
+    if (const ModelDescriptor* d = FindModel(name); d && d->synthesizable()) m.model = d->id();
   }
   m.width = m.normal.width();
   m.height = m.normal.height();

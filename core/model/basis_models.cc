@@ -1,0 +1,106 @@
+// Relighting bases (METHODS.md §4): R_c = Σ_j a_{c,j} B_j(l), PTM (6 terms) and HSH (order²
+// terms). Maps: coefficients, plane c·k + j (or j alone for grey stacks), k = basis_terms.
+// The basis values are computed once per light (Prepare); a run is k axpys per channel.
+#include <cmath>
+
+#include "core/model/model_impl.h"
+#include "core/shading/relight_basis.h"
+
+namespace matfit::model_impl {
+namespace {
+
+MATFIT_MODEL_CLONES
+void BasisKernel(const float* const* coef, const float* basis, int k, int64_t p0, int n,
+                 float* __restrict out) {
+  for (int t = 0; t < n; ++t) out[t] = 0.0f;
+  for (int j = 0; j < k; ++j) {
+    const float b = basis[j];
+    const float* __restrict a = coef[j] + p0;
+    for (int t = 0; t < n; ++t) out[t] += b * a[t];
+  }
+}
+
+template <bool kPtm>
+class BasisModel final : public ModelBase<BasisModel<kPtm>> {
+ public:
+  ShadingModel id() const override { return kPtm ? ShadingModel::kPtm : ShadingModel::kHsh; }
+  const char* name() const override { return kPtm ? "ptm" : "hsh"; }
+  std::vector<std::pair<const char*, const Image*>> ParameterMaps(
+      const MaterialMaps& m) const override {
+    return {{"coefficients", &m.coefficients}};
+  }
+  bool writes_normal_map() const override { return !kPtm; }
+  bool has_truth_normal() const override { return false; }
+  bool has_truth_albedo() const override { return false; }
+  static void Basis(const MaterialMaps& m, const Vec3f& l, double* b) {
+    if (kPtm)
+      shading::PtmBasis(Vec3(l), b);
+    else
+      shading::HshBasis(int(std::lround(std::sqrt(double(m.basis_terms)))), Vec3(l), b);
+  }
+  float Evaluate(const MaterialMaps& m, int64_t i, int c, const Vec3f& l,
+                 const Vec3f&) const override {
+    double b[shading::kMaxHshTerms];
+    Basis(m, l, b);
+    const int k = m.basis_terms;
+    const int base = (m.coefficients.channels() == k ? 0 : c) * k;
+    double r = 0;
+    for (int j = 0; j < k; ++j) r += b[j] * m.coefficients.Plane(base + j)[i];
+    return float(r);
+  }
+  void Prepare(const MaterialMaps& m, const Vec3f& l, const Vec3f& v,
+               ModelLight* out) const override {
+    ModelDescriptor::Prepare(m, l, v, out);
+    double b[shading::kMaxHshTerms];
+    Basis(m, l, b);
+    for (int j = 0; j < m.basis_terms && j < ModelLight::kMaxBasis; ++j)
+      out->basis[j] = float(b[j]);
+  }
+  void EvaluateBatch(const MaterialMaps& m, const ModelLight& light, int64_t p0, int n,
+                     int channels, float* out) const override {
+    const int k = m.basis_terms;
+    const float* planes[ModelLight::kMaxBasis];
+    for (int c = 0; c < channels; ++c) {
+      const int base = (m.coefficients.channels() == k ? 0 : c) * k;
+      for (int j = 0; j < k; ++j) planes[j] = m.coefficients.Plane(base + j).data();
+      BasisKernel(planes, light.basis, k, p0, n, out + c * n);
+    }
+  }
+  Status WritePackMaps(const MaterialMaps& m, const PutPackMapFn& put) const override {
+    return put({"coefficients", "coefficients.exr", &m.coefficients, MapEncoding::kFloat,
+                "relighting coefficients, channel c*k + j"});
+  }
+  void PackParameters(const MaterialMaps& m, std::map<std::string, double>* out) const override {
+    if (m.basis_terms > 0) (*out)["basis_terms"] = m.basis_terms;
+  }
+  Status ReadPackMaps(const LoadPackMapFn& load, const std::map<std::string, double>& params,
+                      MaterialMaps* m) const override {
+    MATFIT_RETURN_IF_ERROR(load("coefficients", &m->coefficients));
+    auto k = params.find("basis_terms");
+    m->basis_terms = k == params.end() ? 0 : int(k->second);
+    if (m->basis_terms <= 0 || m->basis_terms > ModelLight::kMaxBasis)
+      return DataError(std::string("model.parameters.basis_terms is missing for a ") + name() +
+                       " pack");
+    return Status::Ok();
+  }
+  bool AddShaderPlanes(const MaterialMaps& m, ShaderPlaneSink* s) const override {
+    s->terms = m.basis_terms;
+    s->coef_channels = s->terms > 0 ? m.coefficients.channels() / s->terms : 0;
+    if (s->terms < 1 || s->terms > 16 || (s->coef_channels != 1 && s->coef_channels != 3))
+      return false;
+    return s->Add(m.coefficients, s->terms * s->coef_channels, "coefficients");
+  }
+};
+
+}  // namespace
+
+const ModelDescriptor& PtmDescriptor() {
+  static const BasisModel<true> model;
+  return model;
+}
+const ModelDescriptor& HshDescriptor() {
+  static const BasisModel<false> model;
+  return model;
+}
+
+}  // namespace matfit::model_impl

@@ -1,0 +1,124 @@
+// Seed method A (METHODS.md §2): R_c = t_c a_c + t_c (n_raw·l) [+ L_spec,c max(0, n_s·h)^e].
+// Maps: albedo = mean texture t, normal (unit) with normal_scale = |n_raw|, ambient a_c,
+// specular_color L_spec,c and a uniform exponent plane (one exponent per material).
+#include "core/model/model_impl.h"
+#include "core/pack/gltf.h"
+#include "core/pack/pack.h"
+
+namespace matfit::model_impl {
+namespace {
+
+MATFIT_MODEL_CLONES
+void HeinrichDiffuseKernel(const float* __restrict nx, const float* __restrict ny,
+                           const float* __restrict nz, const float* __restrict scale,
+                           const float* __restrict t, const float* __restrict a, float lx, float ly,
+                           float lz, int n, float* __restrict out) {
+  const Vec3f l(lx, ly, lz);
+  for (int k = 0; k < n; ++k) {
+    const float s = scale ? scale[k] : 1.0f;
+    out[k] = shading::HeinrichDiffuse(t[k], a[k], Vec3f(nx[k], ny[k], nz[k]) * s, l);
+  }
+}
+
+class HeinrichModel final : public ModelBase<HeinrichModel> {
+ public:
+  ShadingModel id() const override { return ShadingModel::kHeinrich; }
+  const char* name() const override { return "heinrich"; }
+  const char* albedo_semantic() const override { return "mean texture t (seed diffuse texture)"; }
+  std::vector<std::pair<const char*, const Image*>> ParameterMaps(
+      const MaterialMaps& m) const override {
+    return {{"ambient", &m.ambient},
+            {"normal_scale", &m.normal_scale},
+            {"specular_color", &m.specular_color}};
+  }
+  bool has_truth_albedo() const override { return false; }
+  float Evaluate(const MaterialMaps& m, int64_t i, int c, const Vec3f& l,
+                 const Vec3f& v) const override {
+    const Vec3f n = NormalAt(m, i);
+    const float scale = m.normal_scale.empty() ? 1.0f : m.normal_scale.Plane(0)[i];
+    float r = shading::HeinrichDiffuse(m.albedo.Plane(c)[i], m.ambient.Plane(c)[i], n * scale, l);
+    if (!m.specular_color.empty()) {
+      const Vec3f ns = m.specular_flat_normal ? Vec3f(0, 0, 1) : n;
+      r +=
+          shading::HeinrichSpecular(m.specular_color.Plane(c)[i], m.exponent.Plane(0)[i], ns, l, v);
+    }
+    return r;
+  }
+  void EvaluateBatch(const MaterialMaps& m, const ModelLight& light, int64_t p0, int n,
+                     int channels, float* out) const override {
+    const DiffusePlanes d(m, p0);
+    const float* scale = m.normal_scale.empty() ? nullptr : m.normal_scale.Plane(0).data() + p0;
+    for (int c = 0; c < channels; ++c)
+      HeinrichDiffuseKernel(d.nx, d.ny, d.nz, scale, d.albedo[c], m.ambient.Plane(c).data() + p0,
+                            light.l.x, light.l.y, light.l.z, n, out + c * n);
+    if (m.specular_color.empty()) return;
+    const float* e = m.exponent.Plane(0).data() + p0;
+    for (int c = 0; c < channels; ++c) {
+      const float* ls = m.specular_color.Plane(c).data() + p0;
+      for (int t = 0; t < n; ++t) {
+        const Vec3f ns = m.specular_flat_normal ? Vec3f(0, 0, 1) : Vec3f(d.nx[t], d.ny[t], d.nz[t]);
+        out[c * n + t] += shading::HeinrichSpecular(ls[t], e[t], ns, light.l, light.v);
+      }
+    }
+  }
+  Status WritePackMaps(const MaterialMaps& m, const PutPackMapFn& put) const override {
+    const PackMap maps[] = {
+        {"ambient", "ambient.exr", &m.ambient, MapEncoding::kFloat, "ambient factor a_c"},
+        {"normal_scale", "normal_scale.exr", &m.normal_scale, MapEncoding::kFloat,
+         "|n| of the unnormalised fitted normal"},
+        {"specular_exact", "specular.exr", &m.specular_color, MapEncoding::kFloat,
+         "L_spec residual of sample #1 (may be negative)"},
+        {"specular", "specular.png", &m.specular_color, MapEncoding::kLinear8,
+         "L_spec clamped to [0,1] (glTF specular colour)"}};
+    for (const PackMap& pm : maps) MATFIT_RETURN_IF_ERROR(put(pm));
+    return Status::Ok();
+  }
+  void PackParameters(const MaterialMaps& m, std::map<std::string, double>* out) const override {
+    (*out)["specular_flat_normal"] = m.specular_flat_normal ? 1 : 0;
+  }
+  Status ReadPackMaps(const LoadPackMapFn& load, const std::map<std::string, double>& params,
+                      MaterialMaps* m) const override {
+    MATFIT_RETURN_IF_ERROR(load("ambient", &m->ambient));
+    MATFIT_RETURN_IF_ERROR(load("normal_scale", &m->normal_scale));
+    MATFIT_RETURN_IF_ERROR(load("specular_exact", &m->specular_color));
+    auto flat = params.find("specular_flat_normal");
+    m->specular_flat_normal = flat != params.end() && flat->second != 0;
+    if (!m->specular_color.empty()) {
+      auto e = params.find("exponent");
+      m->exponent = Image(m->albedo.width(), m->albedo.height(), 1,
+                          float(e == params.end() ? 1.0 : e->second));
+    }
+    return Status::Ok();
+  }
+  // glTF cannot express the ambient term or |n_raw|: base colour = t, specular colour L_spec
+  // with the roughness of the shared exponent.
+  void Gltf(const MaterialMaps& m, const std::vector<uint8_t>&,
+            const std::map<std::string, double>& fit_parameters,
+            GltfMaterialDesc* g) const override {
+    if (m.specular_color.empty()) return;
+    g->specular_color_uri = "maps/specular.png";
+    g->specular_factor = 1.0;
+    auto e = fit_parameters.find("exponent");
+    if (e != fit_parameters.end()) g->roughness = RoughnessFromBlinnPhongExponent(e->second);
+  }
+  bool AddShaderPlanes(const MaterialMaps& m, ShaderPlaneSink* s) const override {
+    if (!s->Add(m.ambient, 3, "ambient")) return false;
+    if (m.normal_scale.empty())
+      s->AddOnes();
+    else if (!s->Add(m.normal_scale, 1, "normal_scale"))
+      return false;
+    s->heinrich_specular = !m.specular_color.empty();
+    s->flat_normal = m.specular_flat_normal;
+    if (!s->heinrich_specular) return true;
+    return s->Add(m.specular_color, 3, "specular_color") && s->Add(m.exponent, 1, "exponent");
+  }
+};
+
+}  // namespace
+
+const ModelDescriptor& HeinrichDescriptor() {
+  static const HeinrichModel model;
+  return model;
+}
+
+}  // namespace matfit::model_impl

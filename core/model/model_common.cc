@@ -1,0 +1,83 @@
+// The descriptor's shared parts: default light preparation, the batched evaluator, the
+// vectorised Lambert run and the lobe models' pack maps.
+#include <cmath>
+
+#include "core/check.h"
+#include "core/model/model_impl.h"
+#include "core/pack/gltf.h"
+#include "core/pack/pack.h"
+
+namespace matfit {
+
+int ModelDescriptor::ParameterPlanes(const MaterialMaps& m) const {
+  int planes = (writes_normal_map() ? 3 : 0) + 3;
+  for (const auto& [name, img] : ParameterMaps(m)) planes += img->empty() ? 0 : img->channels();
+  return planes;
+}
+
+void ModelDescriptor::Prepare(const MaterialMaps& m, const Vec3f& l, const Vec3f& v,
+                              ModelLight* out) const {
+  (void)m;
+  out->l = l, out->v = v, out->h = Normalize(l + v);
+}
+
+BatchEvaluator::BatchEvaluator(const MaterialMaps& maps, const std::vector<Vec3f>& lights,
+                               const Vec3f& view)
+    : maps_(&maps), model_(&Model(maps.model)), prepared_(lights.size()) {
+  for (size_t i = 0; i < lights.size(); ++i) model_->Prepare(maps, lights[i], view, &prepared_[i]);
+}
+
+namespace model_impl {
+
+MATFIT_MODEL_CLONES
+static void LambertKernel(const float* __restrict nx, const float* __restrict ny,
+                          const float* __restrict nz, const float* __restrict a, float lx, float ly,
+                          float lz, int n, float* __restrict out) {
+  const Vec3f l(lx, ly, lz);
+  for (int t = 0; t < n; ++t) out[t] = shading::Lambert(a[t], Vec3f(nx[t], ny[t], nz[t]), l);
+}
+
+void LambertRun(const DiffusePlanes& d, const Vec3f& l, int n, int channels, float* out) {
+  for (int c = 0; c < channels; ++c)
+    LambertKernel(d.nx, d.ny, d.nz, d.albedo[c], l.x, l.y, l.z, n, out + c * n);
+}
+
+Image MetallicRoughness(const MaterialMaps& m,
+                        float (*roughness_at)(const MaterialMaps&, int64_t)) {
+  Image mr(m.width, m.height, 3);
+  for (int64_t p = 0; p < int64_t(m.width) * m.height; ++p) {
+    mr.Plane(0)[p] = 1.0f;
+    mr.Plane(1)[p] = roughness_at(m, p);
+  }
+  return mr;
+}
+
+Status PutLobeMaps(const MaterialMaps& m, const PutPackMapFn& put, const char* specular_semantic,
+                   const Image& metallic_roughness) {
+  const PackMap maps[] = {
+      {"specular", "specular.exr", &m.specular, MapEncoding::kFloat, specular_semantic},
+      {"roughness", "roughness.exr", &m.roughness, MapEncoding::kFloat,
+       "GGX perceptual roughness r (alpha = r^2)"},
+      {"exponent", "exponent.exr", &m.exponent, MapEncoding::kFloat, "Blinn-Phong exponent e"},
+      {"lobe_shape", "lobe_shape.exr", &m.lobe_shape, MapEncoding::kFloat,
+       "Lafortune lobe j: C_xy (2j), exponent (2j+1)"},
+      {"metallic_roughness", "metallic_roughness.png", &metallic_roughness, MapEncoding::kLinear8,
+       "glTF: G = roughness, B = metallic (0)"}};
+  for (const PackMap& pm : maps) MATFIT_RETURN_IF_ERROR(put(pm));
+  return Status::Ok();
+}
+
+Status LoadLobeMaps(const LoadPackMapFn& load, MaterialMaps* m) {
+  MATFIT_RETURN_IF_ERROR(load("specular", &m->specular));
+  MATFIT_RETURN_IF_ERROR(load("exponent", &m->exponent));
+  MATFIT_RETURN_IF_ERROR(load("roughness", &m->roughness));
+  return load("lobe_shape", &m->lobe_shape);
+}
+
+void LobeGltf(GltfMaterialDesc* g) {
+  g->metallic_roughness_uri = "maps/metallic_roughness.png";
+  g->specular_factor = 1.0;
+}
+
+}  // namespace model_impl
+}  // namespace matfit

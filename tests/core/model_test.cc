@@ -1,0 +1,151 @@
+// Model descriptors: the registry, batched and scattered evaluation against the per-sample
+// definition, pack round trips and shader planes, for every registered model.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <set>
+
+#include "core/model/model.h"
+#include "core/pack/pack.h"
+#include "core/pack/pack_reader.h"
+#include "core/pack/shader_params.h"
+#include "core/shading/evaluate.h"
+#include "tests/core/model_maps.h"
+#include "tests/core/test_util.h"
+
+namespace matfit {
+namespace {
+
+using testing::RandomModelMaps;
+
+// Directions over the whole sphere, upper hemisphere denser, grazing and below-horizon ones too.
+std::vector<Vec3f> TestLights() {
+  std::vector<Vec3f> d;
+  for (int k = 0; k < 24; ++k) {
+    const double z = 1.0 - (k + 0.5) / 24 * 1.3, r = std::sqrt(std::max(0.0, 1 - z * z));
+    d.push_back(
+        Normalize(Vec3f(float(r * std::cos(2.4 * k)), float(r * std::sin(2.4 * k)), float(z))));
+  }
+  d.push_back(Vec3f(0, 0, 1));
+  d.push_back(Normalize(Vec3f(1, 0, 0.001f)));
+  return d;
+}
+
+TEST(ModelRegistry, IdsNamesAndLookupsAgree) {
+  std::set<std::string> names;
+  for (size_t i = 0; i < AllModels().size(); ++i) {
+    const ModelDescriptor* m = AllModels()[i];
+    EXPECT_EQ(int(m->id()), int(i));
+    EXPECT_TRUE(names.insert(m->name()).second) << m->name();
+    EXPECT_EQ(FindModel(m->name()), m);
+    EXPECT_EQ(ModelId(m->name()), m->id());
+    EXPECT_EQ(&Model(m->id()), m);
+    EXPECT_STREQ(ShadingModelName(m->id()), m->name());
+  }
+  EXPECT_EQ(FindModel("no-such-model"), nullptr);
+  EXPECT_EQ(AllModels().size(), 8u);
+}
+
+// The batched evaluator equals the per-sample definition for every model, light, channel count
+// and run alignment (float rounding: the runs sum in float and may contract to FMA).
+TEST(ModelBatch, EqualsPerSampleEvaluationForEveryModel) {
+  const std::vector<Vec3f> lights = TestLights();
+  for (const ModelDescriptor* d : AllModels())
+    for (bool grey : {false, true}) {
+      if (grey && d->name() != std::string("ptm") && d->name() != std::string("hsh")) continue;
+      for (uint32_t seed : {1u, 2u}) {
+        const MaterialMaps m = RandomModelMaps(d->id(), 23, 7, seed, grey);
+        const Vec3f v = seed == 1 ? Vec3f(0, 0, 1) : Normalize(Vec3f(0.3f, -0.2f, 0.9f));
+        const BatchEvaluator eval(m, lights, v);
+        const int64_t T = int64_t(m.width) * m.height;
+        for (int channels : {1, 3})
+          for (int64_t p0 : {int64_t(0), int64_t(5)}) {
+            const int n = int(std::min<int64_t>(T - p0, 97));
+            std::vector<float> out(size_t(3) * n);
+            for (int i = 0; i < int(lights.size()); ++i) {
+              eval.Evaluate(i, p0, n, channels, out.data());
+              for (int c = 0; c < channels; ++c)
+                for (int t = 0; t < n; ++t) {
+                  const float want = EvaluateTexel(m, p0 + t, c, lights[size_t(i)], v);
+                  ASSERT_NEAR(out[size_t(c * n + t)], want, 2e-6 + 2e-6 * std::abs(want))
+                      << d->name() << " light " << i << " texel " << p0 + t << " channel " << c;
+                }
+            }
+          }
+      }
+    }
+}
+
+TEST(ModelBatch, ScatteredEvaluationEqualsPerSample) {
+  const std::vector<Vec3f> lights = TestLights();
+  for (const ModelDescriptor* d : AllModels()) {
+    const MaterialMaps m = RandomModelMaps(d->id(), 9, 9, 3);
+    std::vector<int64_t> texels;
+    std::vector<Vec3f> ls, vs;
+    for (int k = 0; k < 60; ++k) {
+      texels.push_back((k * 37) % 81);
+      ls.push_back(lights[size_t(k) % lights.size()]);
+      vs.push_back(lights[size_t(k * 7 + 3) % lights.size()]);
+    }
+    std::vector<float> out(3 * texels.size());
+    d->EvaluateSamples(m, texels.data(), ls.data(), vs.data(), int(texels.size()), out.data());
+    for (size_t k = 0; k < texels.size(); ++k)
+      for (int c = 0; c < 3; ++c)
+        EXPECT_EQ(out[c * texels.size() + k], d->Evaluate(m, texels[k], c, ls[k], vs[k]))
+            << d->name();
+  }
+}
+
+// Writing a pack and reading it back gives maps that evaluate the same (the exact EXR maps).
+TEST(ModelPack, RoundTripEvaluatesTheSameForEveryModel) {
+  testing::TempDir dir;
+  const std::vector<Vec3f> lights = TestLights();
+  for (const ModelDescriptor* d : AllModels()) {
+    const MaterialMaps m = RandomModelMaps(d->id(), 8, 6, 2);
+    const std::vector<uint8_t> status(size_t(m.width) * m.height, 0);
+    PackInfo info;
+    info.method = d->name();
+    if (!m.specular_color.empty()) info.model_parameters["exponent"] = m.exponent.data()[0];
+    const std::string out = dir / d->name();
+    ASSERT_TRUE(WritePack(m, status, info, {}, out).ok()) << d->name();
+    auto back = ReadPack(out);
+    ASSERT_TRUE(back.ok()) << d->name() << ": " << back.status().message();
+    EXPECT_EQ(back->maps.model, d->id());
+    EXPECT_EQ(back->maps.basis_terms, m.basis_terms);
+    EXPECT_EQ(back->maps.specular_flat_normal, m.specular_flat_normal);
+    EXPECT_EQ(d->ParameterPlanes(back->maps), d->ParameterPlanes(m)) << d->name();
+    for (int64_t p = 0; p < int64_t(m.width) * m.height; ++p)
+      for (const Vec3f& l : lights)
+        for (int c = 0; c < 3; ++c) {
+          const float want = d->Evaluate(m, p, c, l, Vec3f(0, 0, 1));
+          ASSERT_NEAR(d->Evaluate(back->maps, p, c, l, Vec3f(0, 0, 1)), want,
+                      1e-6 + 1e-6 * std::abs(want))
+              << d->name();
+        }
+  }
+}
+
+// Every model's shader planes pack; a missing parameter map is named in the error.
+TEST(ModelShaderPlanes, PackForEveryModelAndNameAMissingMap) {
+  for (const ModelDescriptor* d : AllModels()) {
+    MaterialMaps m = RandomModelMaps(d->id(), 5, 4, 1);
+    auto sp = PackShaderParams(m);
+    ASSERT_TRUE(sp.ok()) << d->name() << ": " << sp.status().message();
+    EXPECT_EQ(sp->model, int(d->id()));
+    EXPECT_EQ(sp->texels.size(), size_t(sp->layers) * 4 * m.width * m.height);
+    const auto maps = d->ParameterMaps(m);
+    if (maps.empty()) continue;
+    const std::string first = maps.front().first;
+    if (first == "normal_scale") continue;  // optional: reads 1 when absent
+    // Drop the model's first parameter map: the shaders cannot render without it.
+    if (first == "specular") m.specular = Image();
+    if (first == "ambient") m.ambient = Image();
+    if (first == "coefficients") m.coefficients = Image();
+    auto bad = PackShaderParams(m);
+    ASSERT_FALSE(bad.ok()) << d->name();
+    EXPECT_NE(bad.status().message().find(d->name()), std::string::npos) << bad.status().message();
+  }
+}
+
+}  // namespace
+}  // namespace matfit

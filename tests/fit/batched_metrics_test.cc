@@ -1,0 +1,139 @@
+// The batched reconstruction, relighting error and shading cost against the literal per-sample
+// definitions (EvaluateTexel over texels × lights × channels), on 1- and 3-channel stacks with
+// flagged texels, for a linear, a basis and a lobe model.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <random>
+
+#include "core/parallel.h"
+#include "core/shading/evaluate.h"
+#include "core/synth/light_sets.h"
+#include "fit/metrics.h"
+#include "tests/core/model_maps.h"
+
+namespace matfit::fit {
+namespace {
+
+LightStack NoisyStack(const MaterialMaps& m, int channels, uint32_t seed) {
+  auto lights = synth::MakeLightSet("dome:30", 1);
+  EXPECT_TRUE(lights.ok());
+  LightStack s(m.width, m.height, channels, int(lights->size()));
+  s.lights() = *lights;
+  for (int i = 0; i < s.num_images(); ++i) s.lights()[size_t(i)].intensity = Vec3(0.9, 1.0, 1.1);
+  std::mt19937 rng(seed);
+  std::normal_distribution<float> noise(0, 0.02f);
+  for (int i = 0; i < s.num_images(); ++i)
+    for (int c = 0; c < channels; ++c)
+      for (int64_t p = 0; p < s.plane_size(); ++p)
+        s.Plane(i, c)[p] =
+            float(EvaluateTexel(m, p, c, Vec3f(s.lights()[size_t(i)].direction), Vec3f(0, 0, 1))) +
+            noise(rng);
+  return s;
+}
+
+// The definition: Σ over ok texels, lights, channels of (p − I · R)², per light in order.
+ReconstructionMetrics LiteralReconstruction(const LightStack& s, const MaterialMaps& maps,
+                                            const std::vector<uint8_t>& status) {
+  ReconstructionMetrics m;
+  std::map<int, std::pair<double, int64_t>> groups;
+  double total = 0;
+  const int C = s.channels();
+  for (int i = 0; i < s.num_images(); ++i) {
+    double acc = 0;
+    int64_t k = 0;
+    for (int64_t p = 0; p < s.plane_size(); ++p) {
+      if (!status.empty() && status[size_t(p)] != 0) continue;
+      for (int c = 0; c < C; ++c) {
+        const double pred = s.lights()[size_t(i)].intensity[C == 1 ? 0 : c] *
+                            EvaluateTexel(maps, p, c, Vec3f(s.lights()[size_t(i)].direction),
+                                          Vec3f(s.view_direction));
+        const double d = s.Plane(i, c)[p] - pred;
+        acc += d * d, ++k;
+      }
+    }
+    total += acc, m.samples += k;
+    auto& g = groups[int(std::lround(s.lights()[size_t(i)].theta_deg / 15.0)) * 15];
+    g.first += acc, g.second += k;
+  }
+  const double mse = total / double(m.samples);
+  m.deviation_percent = 100 * mse, m.rmse = std::sqrt(mse);
+  for (auto& [t, g] : groups) m.deviation_percent_by_theta[t] = 100 * g.first / g.second;
+  return m;
+}
+
+TEST(BatchedMetrics, ReconstructionEqualsTheLiteralSum) {
+  for (const char* name : {"lambert", "ptm", "blinn-phong", "heinrich"})
+    for (int channels : {1, 3}) {
+      // 61 × 37: runs end mid-row and the last run is short.
+      const MaterialMaps m =
+          testing::RandomModelMaps(ModelId(name), 61, 37, 4, /*grey=*/channels == 1);
+      const LightStack s = NoisyStack(m, channels, 9);
+      std::vector<uint8_t> status(size_t(s.plane_size()), 0);
+      for (size_t p = 0; p < status.size(); p += 7) status[p] = 3;
+      for (const auto& st : {status, std::vector<uint8_t>()}) {
+        const auto want = LiteralReconstruction(s, m, st);
+        for (int threads : {1, 2}) {
+          SetNumThreads(threads);
+          int64_t calls = 0, last = 0, total = 0;
+          const auto got = Reconstruction(s, m, st, [&](int64_t d, int64_t t) {
+            ++calls, last = d, total = t;
+            return true;
+          });
+          EXPECT_EQ(got.samples, want.samples);
+          EXPECT_NEAR(got.deviation_percent, want.deviation_percent, 1e-5 * want.deviation_percent)
+              << name << " channels " << channels;
+          ASSERT_EQ(got.deviation_percent_by_theta.size(), want.deviation_percent_by_theta.size());
+          for (const auto& [theta, dev] : want.deviation_percent_by_theta)
+            EXPECT_NEAR(got.deviation_percent_by_theta.at(theta), dev, 1e-5 * dev);
+          EXPECT_GT(calls, 0);
+          EXPECT_EQ(last, total);
+        }
+        SetNumThreads(0);
+      }
+    }
+}
+
+TEST(BatchedMetrics, ReconstructionIsTheSameForAnyThreadCount) {
+  const MaterialMaps m = testing::RandomModelMaps(ModelId("hsh"), 130, 70, 3);
+  const LightStack s = NoisyStack(m, 3, 2);
+  SetNumThreads(1);
+  const auto one = Reconstruction(s, m, {});
+  SetNumThreads(2);
+  const auto two = Reconstruction(s, m, {});
+  SetNumThreads(0);
+  EXPECT_EQ(one.deviation_percent, two.deviation_percent);  // run-order sums: bit-identical
+}
+
+TEST(BatchedMetrics, RelightingErrorEqualsTheLiteralRms) {
+  const MaterialMaps f = testing::RandomModelMaps(ModelId("cook-torrance"), 40, 30, 1);
+  MaterialMaps t = testing::RandomModelMaps(ModelId("blinn-phong"), 40, 30, 2);
+  for (int64_t p = 0; p < 40; ++p) t.mask.data()[size_t(p)] = 0;  // first row outside
+  const std::vector<Vec3> lights = {Vec3(0, 0, 1), Normalize(Vec3(0.4, 0.3, 0.8)),
+                                    Normalize(Vec3(-0.7, 0.1, 0.3))};
+  const auto err = RelightingError(f, t, lights, Vec3(0, 0, 1));
+  for (int64_t p = 0; p < 40 * 30; ++p) {
+    if (p < 40) {
+      EXPECT_TRUE(std::isnan(err[size_t(p)]));
+      continue;
+    }
+    double acc = 0;
+    for (const Vec3& l : lights)
+      for (int c = 0; c < 3; ++c) {
+        const double d = EvaluateTexel(f, p, c, Vec3f(l), Vec3f(0, 0, 1)) -
+                         EvaluateTexel(t, p, c, Vec3f(l), Vec3f(0, 0, 1));
+        acc += d * d;
+      }
+    EXPECT_NEAR(err[size_t(p)], std::sqrt(acc / 9), 1e-5);
+  }
+}
+
+TEST(BatchedMetrics, ShadingCostIsAMeasurement) {
+  const MaterialMaps m = testing::RandomModelMaps(ModelId("ptm"), 64, 64, 1);
+  const double ns = ShadingCostNs(m);
+  EXPECT_TRUE(std::isfinite(ns));
+  EXPECT_GT(ns, 0);
+}
+
+}  // namespace
+}  // namespace matfit::fit
