@@ -4,6 +4,7 @@
 #include <atomic>
 #include <chrono>
 #include <cmath>
+#include <cstring>
 #include <mutex>
 
 #include "core/model/model.h"
@@ -21,23 +22,43 @@ namespace {
 
 int64_t Runs(int64_t texels) { return (texels + kEvalRun - 1) / kEvalRun; }
 
-// Σ_t [ok_t] (obs_t − I · pred_t)² over a run, in double with 8 independent lanes (the
-// compiler keeps one lane per vector element; a single accumulator would serialise the adds).
+// Σ_t [ok_t] (obs_t − I · pred_t)² over a run: the difference in float (8 lanes; its rounding
+// is relative to each sample), its square summed in double in two 4-lane accumulators (the
+// compiler will not reassociate a scalar double sum), reduced in a fixed order so the result
+// does not depend on the ISA clone. `ok` holds 1.0f for texels to score, 0 elsewhere: a
+// select, so NaN outside scored texels never enters the sum.
+typedef double V4d __attribute__((vector_size(32)));
+typedef float V4f __attribute__((vector_size(16)));
+typedef float V8f __attribute__((vector_size(32)));
+
+// 8 differences squared into two double accumulators.
+__attribute__((always_inline)) inline void Accumulate8(const float* obs, const float* pred,
+                                                       float intensity, const float* ok, V4d* a,
+                                                       V4d* b) {
+  V8f o, p, w;
+  std::memcpy(&o, obs, sizeof o), std::memcpy(&p, pred, sizeof p), std::memcpy(&w, ok, sizeof w);
+  const V8f d = w != 0 ? o - intensity * p : V8f{};
+  const V4d lo = __builtin_convertvector(V4f{d[0], d[1], d[2], d[3]}, V4d);
+  const V4d hi = __builtin_convertvector(V4f{d[4], d[5], d[6], d[7]}, V4d);
+  *a += lo * lo, *b += hi * hi;
+}
+
 MATFIT_METRIC_CLONES
-double SumSquaredDiff(const float* __restrict obs, const float* __restrict pred, double intensity,
-                      const uint8_t* __restrict ok, int n) {
-  double lane[8] = {};
+double SumSquaredDiff(const float* obs, const float* pred, float intensity, const float* ok,
+                      int n) {
+  V4d a = {}, b = {}, c = {}, e = {};  // four chains: the adds' latency, not the loads, bound it
   int t = 0;
-  for (; t + 8 <= n; t += 8)
-    for (int k = 0; k < 8; ++k) {
-      const double d = double(obs[t + k]) - intensity * double(pred[t + k]);
-      lane[k] += ok[t + k] ? d * d : 0.0;
-    }
-  for (; t < n; ++t) {
-    const double d = double(obs[t]) - intensity * double(pred[t]);
-    lane[0] += ok[t] ? d * d : 0.0;
+  for (; t + 16 <= n; t += 16) {
+    Accumulate8(obs + t, pred + t, intensity, ok + t, &a, &b);
+    Accumulate8(obs + t + 8, pred + t + 8, intensity, ok + t + 8, &c, &e);
   }
-  return ((lane[0] + lane[4]) + (lane[1] + lane[5])) + ((lane[2] + lane[6]) + (lane[3] + lane[7]));
+  double tail = 0;
+  for (; t < n; ++t) {
+    const double d = ok[t] != 0 ? double(obs[t] - intensity * pred[t]) : 0.0;
+    tail += d * d;
+  }
+  const V4d s = (a + c) + (b + e);
+  return ((s[0] + s[2]) + (s[1] + s[3])) + tail;
 }
 
 std::vector<Vec3f> LightDirections(const LightStack& s) {
@@ -63,13 +84,15 @@ ReconstructionMetrics Reconstruction(const LightStack& s, const MaterialMaps& ma
       0, runs,
       [&](int64_t r0, int64_t r1) {
         std::vector<float> pred(size_t(3) * kEvalRun), scratch(kEvalRun);
-        uint8_t ok[kEvalRun];
+        float ok[kEvalRun];
         for (int64_t r = r0; r < r1; ++r) {
           const int64_t p0 = r * kEvalRun;
           const int len = int(std::min<int64_t>(kEvalRun, T - p0));
           int ok_count = 0;
-          for (int t = 0; t < len; ++t)
-            ok_count += ok[t] = status.empty() || status[size_t(p0 + t)] == 0;
+          for (int t = 0; t < len; ++t) {
+            const bool use = status.empty() || status[size_t(p0 + t)] == 0;
+            ok[t] = use ? 1.0f : 0.0f, ok_count += use;
+          }
           if (ok_count == 0) continue;
           for (int i = 0; i < n; ++i) {
             eval.Evaluate(i, p0, len, C, pred.data());
@@ -77,7 +100,7 @@ ReconstructionMetrics Reconstruction(const LightStack& s, const MaterialMaps& ma
             for (int c = 0; c < C; ++c)
               acc += SumSquaredDiff(s.Texels(i, c, p0, len, scratch.data()),
                                     pred.data() + size_t(c) * len,
-                                    s.lights()[i].intensity[C == 1 ? 0 : c], ok, len);
+                                    float(s.lights()[i].intensity[C == 1 ? 0 : c]), ok, len);
             run_sum[size_t(r * n + i)] = acc;
             run_count[size_t(r * n + i)] = int64_t(ok_count) * C;
           }

@@ -52,12 +52,20 @@ class HeinrichModel final : public ModelBase<HeinrichModel> {
       HeinrichDiffuseKernel(d.nx, d.ny, d.nz, scale, d.albedo[c], m.ambient.Plane(c).data() + p0,
                             light.l.x, light.l.y, light.l.z, n, out + c * n);
     if (m.specular_color.empty()) return;
+    // The lobe is L_spec,c · max(0, n_s·h)^e: the channel-free factor (L_spec = 1) once per
+    // texel, then scaled per channel (the same product the per-sample path forms).
     const float* e = m.exponent.Plane(0).data() + p0;
-    for (int c = 0; c < channels; ++c) {
-      const float* ls = m.specular_color.Plane(c).data() + p0;
-      for (int t = 0; t < n; ++t) {
-        const Vec3f ns = m.specular_flat_normal ? Vec3f(0, 0, 1) : Vec3f(d.nx[t], d.ny[t], d.nz[t]);
-        out[c * n + t] += shading::HeinrichSpecular(ls[t], e[t], ns, light.l, light.v);
+    float lobe[kEvalRun];
+    for (int t0 = 0; t0 < n; t0 += kEvalRun) {
+      const int len = std::min(kEvalRun, n - t0);
+      for (int t = 0; t < len; ++t) {
+        const int k = t0 + t;
+        const Vec3f ns = m.specular_flat_normal ? Vec3f(0, 0, 1) : Vec3f(d.nx[k], d.ny[k], d.nz[k]);
+        lobe[t] = shading::HeinrichSpecular(1.0f, e[k], ns, light.l, light.v);
+      }
+      for (int c = 0; c < channels; ++c) {
+        const float* ls = m.specular_color.Plane(c).data() + p0 + t0;
+        for (int t = 0; t < len; ++t) out[c * n + t0 + t] += ls[t] * lobe[t];
       }
     }
   }
