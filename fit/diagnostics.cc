@@ -5,6 +5,7 @@
 #include <cmath>
 #include <cstdio>
 
+#include "core/parallel.h"
 #include "fit/fit_common.h"
 
 namespace matfit::fit {
@@ -13,30 +14,43 @@ namespace {
 struct TexelSamples {
   std::vector<Eigen::Vector3d> l;
   std::vector<double> p;
+  std::vector<double> log_p;          // ln p, so that p^γ = exp(γ ln p) per trial γ
+  Eigen::LDLT<Eigen::Matrix3d> ldlt;  // of A = Σ l lᵀ, which does not depend on γ
 };
 
 // Pooled relative residual Σ_x Σ (y − l·g_x)² / Σ_x Σ (y − ȳ_x)² of per-texel least squares on
 // y = p^γ: the share of each texel's variation over lights that n·l does not explain (the
 // variance, not the energy, so γ → 0, where y flattens to a constant, is not favoured).
+// Parallel over fixed chunks of texels, summed in chunk order (the same for any thread count).
 double LambertResidual(const std::vector<TexelSamples>& texels, double gamma) {
+  constexpr int64_t kChunk = 64;
+  const int64_t chunks = (int64_t(texels.size()) + kChunk - 1) / kChunk;
+  std::vector<double> nums(size_t(chunks), 0.0), dens(size_t(chunks), 0.0);
+  ParallelFor(0, chunks, [&](int64_t c0, int64_t c1) {
+    std::vector<double> y;
+    for (int64_t c = c0; c < c1; ++c) {
+      double num = 0, den = 0;
+      for (int64_t x = c * kChunk; x < std::min<int64_t>((c + 1) * kChunk, texels.size()); ++x) {
+        const TexelSamples& t = texels[size_t(x)];
+        y.resize(t.p.size());
+        Eigen::Vector3d b = Eigen::Vector3d::Zero();
+        double mean = 0;
+        for (size_t i = 0; i < t.p.size(); ++i) {
+          y[i] = gamma == 1.0 ? t.p[i] : std::exp(gamma * t.log_p[i]);
+          mean += y[i] / double(y.size());
+          b += y[i] * t.l[i];
+        }
+        const Eigen::Vector3d g = t.ldlt.solve(b);
+        for (size_t i = 0; i < y.size(); ++i) {
+          const double r = y[i] - t.l[i].dot(g);
+          num += r * r, den += (y[i] - mean) * (y[i] - mean);
+        }
+      }
+      nums[size_t(c)] = num, dens[size_t(c)] = den;
+    }
+  });
   double num = 0, den = 0;
-  for (const auto& t : texels) {
-    Eigen::Matrix3d A = Eigen::Matrix3d::Zero();
-    Eigen::Vector3d b = Eigen::Vector3d::Zero();
-    std::vector<double> y(t.p.size());
-    double mean = 0;
-    for (size_t i = 0; i < t.p.size(); ++i) {
-      y[i] = std::pow(t.p[i], gamma);
-      mean += y[i] / double(y.size());
-      A += t.l[i] * t.l[i].transpose();
-      b += y[i] * t.l[i];
-    }
-    const Eigen::Vector3d g = A.ldlt().solve(b);
-    for (size_t i = 0; i < y.size(); ++i) {
-      const double r = y[i] - t.l[i].dot(g);
-      num += r * r, den += (y[i] - mean) * (y[i] - mean);
-    }
-  }
+  for (int64_t c = 0; c < chunks; ++c) num += nums[size_t(c)], den += dens[size_t(c)];
   return den > 0 ? num / den : 0;
 }
 
@@ -75,11 +89,15 @@ StackDiagnostics DiagnoseStack(const LightStack& s, int max_texels) {
     if (hi - lo < 6) continue;
     TexelSamples t;
     const double scale = 1.0 / v[hi - 1].first;  // γ acts on relative values
+    Eigen::Matrix3d A = Eigen::Matrix3d::Zero();
     for (size_t k = lo; k < hi; ++k) {
       const auto& dir = s.lights()[v[k].second].direction;
       t.l.emplace_back(dir.x, dir.y, dir.z);
       t.p.push_back(v[k].first * scale);
+      t.log_p.push_back(std::log(t.p.back()));
+      A += t.l.back() * t.l.back().transpose();
     }
+    t.ldlt.compute(A);
     texels.push_back(std::move(t));
   }
   d.texels_used = int(texels.size());
