@@ -35,15 +35,14 @@ StatusOr<HeldOutMetrics> HeldOut(const FitMethod& method, const LightStack& s, i
       ++h.failed_folds;
       continue;
     }
-    const LightStack held = SelectImages(s, test);
-    const ReconstructionMetrics m = Reconstruction(held, fit->maps, fit->status);
+    const ReconstructionMetrics m = Reconstruction(s, test, fit->maps, fit->status);
     total += m.deviation_percent / 100 * double(m.samples);
     h.samples += m.samples;
     // Every held-out image contributes the same number of samples (one status plane).
     for (const auto& [t, d] : m.deviation_percent_by_theta) {
       int64_t count = 0;
       for (size_t k = 0; k < test.size(); ++k)
-        if (int(std::lround(held.lights()[k].theta_deg / 15.0)) * 15 == t) count++;
+        if (int(std::lround(s.lights()[size_t(test[k])].theta_deg / 15.0)) * 15 == t) count++;
       const int64_t samples = m.samples / int64_t(test.size()) * count;
       groups[t].first += d / 100 * double(samples);
       groups[t].second += samples;

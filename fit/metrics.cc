@@ -61,20 +61,24 @@ double SumSquaredDiff(const float* obs, const float* pred, float intensity, cons
   return ((s[0] + s[2]) + (s[1] + s[3])) + tail;
 }
 
-std::vector<Vec3f> LightDirections(const LightStack& s) {
-  std::vector<Vec3f> d;
-  for (const auto& l : s.lights()) d.emplace_back(l.direction);
-  return d;
-}
-
 }  // namespace
 
 ReconstructionMetrics Reconstruction(const LightStack& s, const MaterialMaps& maps,
                                      const std::vector<uint8_t>& status,
                                      const ProgressFn& progress) {
-  const int n = s.num_images(), C = s.channels();
+  std::vector<int> all(size_t(s.num_images()));
+  for (int i = 0; i < s.num_images(); ++i) all[size_t(i)] = i;
+  return Reconstruction(s, all, maps, status, progress);
+}
+
+ReconstructionMetrics Reconstruction(const LightStack& s, const std::vector<int>& images,
+                                     const MaterialMaps& maps, const std::vector<uint8_t>& status,
+                                     const ProgressFn& progress) {
+  const int n = int(images.size()), C = s.channels();
   const int64_t T = s.plane_size(), runs = Runs(T);
-  const BatchEvaluator eval(maps, LightDirections(s), Vec3f(s.view_direction));
+  std::vector<Vec3f> dirs;
+  for (int i : images) dirs.emplace_back(s.lights()[size_t(i)].direction);
+  const BatchEvaluator eval(maps, dirs, Vec3f(s.view_direction));
   // Per run and light: Σ d² and the sample count, reduced below in run order.
   std::vector<double> run_sum(size_t(runs * n), 0.0);
   std::vector<int64_t> run_count(size_t(runs * n), 0);
@@ -98,9 +102,10 @@ ReconstructionMetrics Reconstruction(const LightStack& s, const MaterialMaps& ma
             eval.Evaluate(i, p0, len, C, pred.data());
             double acc = 0;
             for (int c = 0; c < C; ++c)
-              acc += SumSquaredDiff(s.Texels(i, c, p0, len, scratch.data()),
-                                    pred.data() + size_t(c) * len,
-                                    float(s.lights()[i].intensity[C == 1 ? 0 : c]), ok, len);
+              acc += SumSquaredDiff(
+                  s.Texels(images[size_t(i)], c, p0, len, scratch.data()),
+                  pred.data() + size_t(c) * len,
+                  float(s.lights()[size_t(images[size_t(i)])].intensity[C == 1 ? 0 : c]), ok, len);
             run_sum[size_t(r * n + i)] = acc;
             run_count[size_t(r * n + i)] = int64_t(ok_count) * C;
           }
@@ -122,7 +127,7 @@ ReconstructionMetrics Reconstruction(const LightStack& s, const MaterialMaps& ma
       sum += run_sum[size_t(r * n + i)], count += run_count[size_t(r * n + i)];
     total += sum;
     m.samples += count;
-    auto& g = groups[int(std::lround(s.lights()[i].theta_deg / 15.0)) * 15];
+    auto& g = groups[int(std::lround(s.lights()[size_t(images[size_t(i)])].theta_deg / 15.0)) * 15];
     g.first += sum, g.second += count;
   }
   const double mse = m.samples ? total / m.samples : 0;

@@ -29,6 +29,11 @@ struct ReconstructionMetrics {
 ReconstructionMetrics Reconstruction(const LightStack& stack, const MaterialMaps& maps,
                                      const std::vector<uint8_t>& status,
                                      const ProgressFn& progress = {});
+// The same over images `images` of the stack only (held-out folds score their test images in
+// place instead of copying them).
+ReconstructionMetrics Reconstruction(const LightStack& stack, const std::vector<int>& images,
+                                     const MaterialMaps& maps, const std::vector<uint8_t>& status,
+                                     const ProgressFn& progress = {});
 
 struct TruthMetrics {
   // A model without a fitted normal (mean, ptm, hsh) or whose albedo map is not a diffuse albedo

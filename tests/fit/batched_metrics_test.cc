@@ -105,6 +105,20 @@ TEST(BatchedMetrics, ReconstructionIsTheSameForAnyThreadCount) {
   EXPECT_EQ(one.deviation_percent, two.deviation_percent);  // run-order sums: bit-identical
 }
 
+// Scoring images in place equals scoring a copy of them (what held-out folds did before).
+TEST(BatchedMetrics, ReconstructionOfAnImageSubsetEqualsThatOfACopy) {
+  const MaterialMaps m = testing::RandomModelMaps(ModelId("lambert"), 50, 20, 5);
+  const LightStack s = NoisyStack(m, 3, 4);
+  const std::vector<int> test = {1, 5, 9, 13, 17, 29};
+  std::vector<uint8_t> status(size_t(s.plane_size()), 0);
+  status[3] = status[77] = 2;
+  const auto want = Reconstruction(SelectImages(s, test), m, status);
+  const auto got = Reconstruction(s, test, m, status);
+  EXPECT_EQ(got.samples, want.samples);
+  EXPECT_EQ(got.deviation_percent, want.deviation_percent);
+  EXPECT_EQ(got.deviation_percent_by_theta, want.deviation_percent_by_theta);
+}
+
 TEST(BatchedMetrics, RelightingErrorEqualsTheLiteralRms) {
   const MaterialMaps f = testing::RandomModelMaps(ModelId("cook-torrance"), 40, 30, 1);
   MaterialMaps t = testing::RandomModelMaps(ModelId("blinn-phong"), 40, 30, 2);
