@@ -133,7 +133,7 @@ Confidence ComputeConfidence(const LightStack& s, const MaterialMaps& maps, Mode
         const Vec3f l(s.lights()[i].direction);
         bool used = false;
         for (int c = 0; c < C; ++c) {
-          const float raw = s.Plane(i, c)[p];
+          const float raw = s.Sample(i, c, p);
           if (!std::isfinite(raw) || (clip && raw >= kClipLevel)) continue;
           const double q = double(raw) * inv[size_t(i) * C + c];
           const double r = q - EvaluateTexel(maps, p, c, l, v);

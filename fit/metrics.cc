@@ -26,7 +26,7 @@ ReconstructionMetrics Reconstruction(const LightStack& s, const MaterialMaps& ma
         for (int c = 0; c < C; ++c) {
           const double pred =
               s.lights()[i].intensity[C == 1 ? 0 : c] * EvaluateTexel(maps, p, c, l, v);
-          const double d = s.Plane(int(i), c)[p] - pred;
+          const double d = s.Sample(int(i), c, p) - pred;
           acc += d * d;
           ++k;
         }

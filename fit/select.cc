@@ -76,7 +76,7 @@ StatusOr<HeldOutSums> Score(const FitMethod& m, const LightStack& fine, const Li
           const Vec3f l(fine.lights()[i].direction);
           const double w = std::max(0.0f, l.z);
           for (int c = 0; c < C; ++c) {
-            const float raw = fine.Plane(i, c)[p];
+            const float raw = fine.Sample(i, c, p);
             if (!std::isfinite(raw) || (clip && raw >= kClipLevel)) continue;
             const double d = EvaluateTexel(fit->maps, q, c, l, v) - raw * inv[size_t(i) * C + c];
             h.sse[i] += d * d, ++h.count[i];
