@@ -82,7 +82,7 @@ void BM_CeresProblemPerTexel(benchmark::State& state) {
       ceres::Problem problem;
       for (int i = 0; i < s.num_images(); ++i) {
         auto* cost = new SampleCost{s.lights()[i].direction,
-                                    {s.Plane(i, 0)[p], s.Plane(i, 1)[p], s.Plane(i, 2)[p]}};
+                                    {s.Sample(i, 0, p), s.Sample(i, 1, p), s.Sample(i, 2, p)}};
         problem.AddResidualBlock(new ceres::AutoDiffCostFunction<SampleCost, 3, 7>(cost),
                                  new ceres::CauchyLoss(defaults.robust_scale), x);
       }

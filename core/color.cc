@@ -40,6 +40,13 @@ float DecodeToLinear(float stored, const ColorEncoding& enc) {
   return stored;
 }
 
+std::vector<float> LinearDecodeTable(const ColorEncoding& enc, int bits) {
+  const int codes = 1 << bits;
+  std::vector<float> lut(codes);
+  for (int i = 0; i < codes; ++i) lut[i] = DecodeToLinear(float(i) / float(codes - 1), enc);
+  return lut;
+}
+
 std::string ColorEncoding::ToString() const {
   switch (transfer) {
     case TransferFunction::kLinear: return "linear";

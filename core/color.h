@@ -3,6 +3,7 @@
 
 #include <cstdint>
 #include <string>
+#include <vector>
 
 namespace matfit {
 
@@ -29,6 +30,10 @@ struct ColorEncoding {
 
 // Stored value in [0, 1] → linear.
 float DecodeToLinear(float stored, const ColorEncoding& enc);
+
+// Linear value of every code of a `bits`-bit integer file (8 or 16): entry i is
+// DecodeToLinear(i / (2^bits − 1), enc), the value the image reader gives that code.
+std::vector<float> LinearDecodeTable(const ColorEncoding& enc, int bits);
 
 // What the user asked for on the command line (--color-space auto|srgb|linear).
 enum class ColorSpaceChoice { kAuto, kSrgb, kLinear };

@@ -61,30 +61,37 @@ ColorEncoding ChooseEncoding(const OIIO::ImageSpec& spec, const ImageReadOptions
   return {};
 }
 
+// Interleaved codes (file_ch per pixel) → planar codes of the first keep_ch channels; counts
+// pixels with a kept channel at the maximum code.
 template <typename T>
-void DecodeInteger(const std::vector<T>& raw, int file_ch, int keep_ch, const ColorEncoding& enc,
-                   Image* out, int64_t* saturated) {
-  constexpr int kCodes = 1 << (8 * sizeof(T));
-  std::vector<float> lut(kCodes);
-  for (int i = 0; i < kCodes; ++i) lut[i] = DecodeToLinear(float(i) / float(kCodes - 1), enc);
-  const int64_t n = out->plane_size();
+std::vector<T> Deinterleave(const std::vector<T>& raw, int64_t n, int file_ch, int keep_ch,
+                            int64_t* saturated) {
+  constexpr T kMax = T(~T(0));
+  std::vector<T> planes(size_t(n) * keep_ch);
   int64_t sat = 0;
   for (int64_t p = 0; p < n; ++p) {
     bool clipped = false;
     for (int c = 0; c < keep_ch; ++c) {
       const T code = raw[p * file_ch + c];
-      clipped |= (code == T(kCodes - 1));
-      out->Plane(c)[p] = lut[code];
+      clipped |= (code == kMax);
+      planes[size_t(c) * n + p] = code;
     }
     sat += clipped;
   }
   *saturated = sat;
+  return planes;
+}
+
+template <typename T>
+void ExpandCodes(const std::vector<T>& codes, const std::vector<float>& lut, Image* out) {
+  float* dst = out->data().data();
+  for (size_t k = 0; k < codes.size(); ++k) dst[k] = lut[codes[k]];
 }
 
 }  // namespace
 
-StatusOr<Image> ReadImage(const std::string& path, const ImageReadOptions& options,
-                          ImageFileInfo* info) {
+StatusOr<NativeImage> ReadImageNative(const std::string& path, const ImageReadOptions& options,
+                                      ImageFileInfo* info) {
   std::error_code ec;
   if (!options.confine_to.empty() && !PathWithin(path, options.confine_to))
     return InvalidArgument("image '" + path + "' lies outside the dataset folder '" +
@@ -111,22 +118,27 @@ StatusOr<Image> ReadImage(const std::string& path, const ImageReadOptions& optio
   fi.file_channels = file_ch;
   fi.encoding = ChooseEncoding(spec, options, &fi.encoding_reason);
 
-  Image img(spec.width, spec.height, keep_ch);
+  NativeImage img;
+  img.width = spec.width, img.height = spec.height, img.channels = keep_ch;
   const int64_t n = int64_t(spec.width) * spec.height;
   const auto base = spec.format.basetype;
   bool ok = false;
   if (base == OIIO::TypeDesc::UINT8 || base == OIIO::TypeDesc::INT8) {
     fi.pixel_format = "uint8";
+    img.type = SampleType::kUint8;
     std::vector<uint8_t> raw(size_t(n) * file_ch);
     ok = in->read_image(0, 0, 0, file_ch, OIIO::TypeDesc::UINT8, raw.data());
-    if (ok) DecodeInteger(raw, file_ch, keep_ch, fi.encoding, &img, &fi.saturated_pixels);
+    if (ok) img.u8 = Deinterleave(raw, n, file_ch, keep_ch, &fi.saturated_pixels);
   } else if (base == OIIO::TypeDesc::UINT16 || base == OIIO::TypeDesc::INT16) {
     fi.pixel_format = "uint16";
+    img.type = SampleType::kUint16;
     std::vector<uint16_t> raw(size_t(n) * file_ch);
     ok = in->read_image(0, 0, 0, file_ch, OIIO::TypeDesc::UINT16, raw.data());
-    if (ok) DecodeInteger(raw, file_ch, keep_ch, fi.encoding, &img, &fi.saturated_pixels);
+    if (ok) img.u16 = Deinterleave(raw, n, file_ch, keep_ch, &fi.saturated_pixels);
   } else {
     fi.pixel_format = base == OIIO::TypeDesc::HALF ? "half" : "float";
+    img.type = SampleType::kFloat32;
+    img.floats = Image(spec.width, spec.height, keep_ch);
     std::vector<float> raw(size_t(n) * file_ch);
     ok = in->read_image(0, 0, 0, file_ch, OIIO::TypeDesc::FLOAT, raw.data());
     if (ok) {
@@ -134,7 +146,7 @@ StatusOr<Image> ReadImage(const std::string& path, const ImageReadOptions& optio
         for (int c = 0; c < keep_ch; ++c) {
           const float v = raw[p * file_ch + c];
           fi.nonfinite_samples += !std::isfinite(v);
-          img.Plane(c)[p] = std::isfinite(v) ? DecodeToLinear(v, fi.encoding) : v;
+          img.floats.Plane(c)[p] = std::isfinite(v) ? DecodeToLinear(v, fi.encoding) : v;
         }
     }
   }
@@ -143,6 +155,21 @@ StatusOr<Image> ReadImage(const std::string& path, const ImageReadOptions& optio
                      "' (truncated or corrupt file?): " + LastOiioError(in.get()));
   }
   in->close();
+  return img;
+}
+
+StatusOr<Image> ReadImage(const std::string& path, const ImageReadOptions& options,
+                          ImageFileInfo* info) {
+  ImageFileInfo local;
+  ImageFileInfo& fi = info ? *info : local;
+  auto native = ReadImageNative(path, options, &fi);
+  if (!native.ok()) return native.status();
+  if (native->type == SampleType::kFloat32) return std::move(native->floats);
+  Image img(native->width, native->height, native->channels);
+  if (native->type == SampleType::kUint8)
+    ExpandCodes(native->u8, LinearDecodeTable(fi.encoding, 8), &img);
+  else
+    ExpandCodes(native->u16, LinearDecodeTable(fi.encoding, 16), &img);
   return img;
 }
 

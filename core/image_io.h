@@ -4,9 +4,11 @@
 
 #include <cstdint>
 #include <string>
+#include <vector>
 
 #include "core/color.h"
 #include "core/image.h"
+#include "core/sample_type.h"
 #include "core/status.h"
 
 namespace matfit {
@@ -39,6 +41,22 @@ struct ImageFileInfo {
 // otherwise linear. Integer codes map to [0, 1].
 StatusOr<Image> ReadImage(const std::string& path, const ImageReadOptions& options = {},
                           ImageFileInfo* info = nullptr);
+
+// One image at its file's own depth, planar [channel][row][col], channels as ReadImage keeps
+// them: integer files (8/16-bit) as their codes, whose linear values are
+// LinearDecodeTable(info.encoding, 8 or 16)[code]; half/float files as linear float (`floats`).
+struct NativeImage {
+  int width = 0, height = 0, channels = 0;
+  SampleType type = SampleType::kFloat32;
+  std::vector<uint8_t> u8;    // kUint8: channels × height × width codes
+  std::vector<uint16_t> u16;  // kUint16
+  Image floats;               // kFloat32
+};
+
+// Reads `path` like ReadImage but keeps integer codes: ReadImage(path) is this image with every
+// code replaced by its table value (same transfer function, same saturation count).
+StatusOr<NativeImage> ReadImageNative(const std::string& path, const ImageReadOptions& options = {},
+                                      ImageFileInfo* info = nullptr);
 
 // Reads only the header: size and channel count as ReadImage would return them.
 Status ReadImageSize(const std::string& path, int* width, int* height, int* channels);

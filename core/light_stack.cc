@@ -1,15 +1,112 @@
 #include "core/light_stack.h"
 
 #include <algorithm>
+#include <cstring>
+#include <type_traits>
 
 namespace matfit {
+namespace {
+
+// out[x] = lut[src[x]]: one table lookup per sample. Codes are read 8 bytes at a time and split
+// with shifts, which halves the load traffic of a byte-by-byte loop (≈ 0.35 ns per 8-bit sample
+// on the 2-core test machine, against 0.6 byte by byte and 0.45–0.6 with AVX2/AVX-512 gathers).
+void DecodeRun(const uint8_t* src, int n, const float* __restrict lut, float* __restrict out) {
+  int x = 0;
+  for (; x + 8 <= n; x += 8) {
+    uint64_t b;
+    std::memcpy(&b, src + x, sizeof b);
+    // Written out: GCC at -O2 keeps the k loop, which runs at half this speed.
+    float* o = out + x;
+    o[0] = lut[b & 0xff], o[1] = lut[(b >> 8) & 0xff], o[2] = lut[(b >> 16) & 0xff];
+    o[3] = lut[(b >> 24) & 0xff], o[4] = lut[(b >> 32) & 0xff], o[5] = lut[(b >> 40) & 0xff];
+    o[6] = lut[(b >> 48) & 0xff], o[7] = lut[b >> 56];
+  }
+  for (; x < n; ++x) out[x] = lut[src[x]];
+}
+
+void DecodeRun(const uint16_t* src, int n, const float* __restrict lut, float* __restrict out) {
+  int x = 0;
+  for (; x + 4 <= n; x += 4) {
+    uint64_t b;
+    std::memcpy(&b, src + x, sizeof b);
+    float* o = out + x;
+    o[0] = lut[b & 0xffff], o[1] = lut[(b >> 16) & 0xffff], o[2] = lut[(b >> 32) & 0xffff];
+    o[3] = lut[b >> 48];
+  }
+  for (; x < n; ++x) out[x] = lut[src[x]];
+}
+
+}  // namespace
 
 LightStack::LightStack(int width, int height, int channels, int num_images)
-    : width_(width), height_(height), channels_(channels), num_images_(num_images) {
+    : LightStack(width, height, channels, num_images, SampleType::kFloat32, {}) {}
+
+LightStack::LightStack(int width, int height, int channels, int num_images, SampleType type,
+                       std::vector<float> lut)
+    : width_(width),
+      height_(height),
+      channels_(channels),
+      num_images_(num_images),
+      type_(type),
+      lut_(std::move(lut)) {
   MATFIT_CHECK(width >= 0 && height >= 0 && num_images >= 0);
   MATFIT_CHECK(channels == 1 || channels == 3, "stacks hold 1 or 3 channels");
-  data_.assign(size_t(plane_size()) * channels * num_images, 0.0f);
+  MATFIT_CHECK(lut_.size() == size_t(SampleCodes(type)),
+               "an integer stack needs one table entry per code, a float stack none");
+  const size_t samples = size_t(plane_size()) * channels * num_images;
+  switch (type) {
+    case SampleType::kFloat32: f32_.assign(samples, 0.0f); break;
+    case SampleType::kUint8: u8_.assign(samples, 0); break;
+    case SampleType::kUint16: u16_.assign(samples, 0); break;
+  }
   lights_.resize(num_images);
+}
+
+template <typename T>
+std::span<T> LightStack::Codes(int image, int channel) {
+  if constexpr (std::is_same_v<T, uint8_t>) {
+    MATFIT_CHECK(type_ == SampleType::kUint8, "Codes<uint8_t> on a stack that is not uint8");
+    return {u8_.data() + PlaneOffset(image, channel), size_t(plane_size())};
+  } else {
+    static_assert(std::is_same_v<T, uint16_t>, "codes are uint8_t or uint16_t");
+    MATFIT_CHECK(type_ == SampleType::kUint16, "Codes<uint16_t> on a stack that is not uint16");
+    return {u16_.data() + PlaneOffset(image, channel), size_t(plane_size())};
+  }
+}
+
+template <typename T>
+std::span<const T> LightStack::Codes(int image, int channel) const {
+  return const_cast<LightStack*>(this)->Codes<T>(image, channel);
+}
+
+template std::span<uint8_t> LightStack::Codes<uint8_t>(int, int);
+template std::span<uint16_t> LightStack::Codes<uint16_t>(int, int);
+template std::span<const uint8_t> LightStack::Codes<uint8_t>(int, int) const;
+template std::span<const uint16_t> LightStack::Codes<uint16_t>(int, int) const;
+
+void LightStack::Decode(int64_t k, int n, float* out) const {
+  if (type_ == SampleType::kUint8)
+    DecodeRun(u8_.data() + k, n, lut_.data(), out);
+  else
+    DecodeRun(u16_.data() + k, n, lut_.data(), out);
+}
+
+LightStack LightStack::ToFloat() const {
+  if (is_float()) return *this;
+  LightStack out(width_, height_, channels_, num_images_);
+  for (int i = 0; i < num_images_; ++i)
+    for (int c = 0; c < channels_; ++c)
+      Decode(PlaneOffset(i, c), int(plane_size()), out.Plane(i, c).data());
+  out.lights_ = lights_;
+  out.view_direction = view_direction;
+  out.view_theta_deg = view_theta_deg, out.view_phi_deg = view_phi_deg;
+  out.mask = mask;
+  out.mm_per_texel = mm_per_texel;
+  out.layout = layout, out.source = source, out.object_name = object_name;
+  out.image_files = image_files;
+  out.encodings = encodings, out.encoding_reasons = encoding_reasons;
+  out.saturated_pixels = saturated_pixels, out.nonfinite_samples = nonfinite_samples;
+  return out;
 }
 
 int64_t LightStack::MaskedTexels() const {
@@ -17,10 +114,13 @@ int64_t LightStack::MaskedTexels() const {
   return std::count_if(mask.begin(), mask.end(), [](uint8_t m) { return m != 0; });
 }
 
-size_t LightStack::MemoryBytes() const { return data_.size() * sizeof(float) + mask.size(); }
+size_t LightStack::MemoryBytes() const {
+  return f32_.size() * sizeof(float) + u8_.size() + u16_.size() * sizeof(uint16_t) +
+         lut_.size() * sizeof(float) + mask.size();
+}
 
 LightStack SelectImages(const LightStack& s, const std::vector<int>& idx) {
-  LightStack out(s.width(), s.height(), s.channels(), int(idx.size()));
+  LightStack out(s.width(), s.height(), s.channels(), int(idx.size()), s.sample_type(), s.lut());
   auto pick = [&](const auto& v, auto& dst) {
     if (v.size() == size_t(s.num_images()))
       for (int i : idx) dst.push_back(v[i]);
@@ -30,8 +130,14 @@ LightStack SelectImages(const LightStack& s, const std::vector<int>& idx) {
     MATFIT_CHECK(i >= 0 && i < s.num_images());
     out.lights()[k] = s.lights()[i];
     for (int c = 0; c < s.channels(); ++c) {
-      auto src = s.Plane(i, c);
-      std::copy(src.begin(), src.end(), out.Plane(int(k), c).begin());
+      auto copy = [&](auto src, auto dst) { std::copy(src.begin(), src.end(), dst.begin()); };
+      switch (s.sample_type()) {
+        case SampleType::kFloat32: copy(s.Plane(i, c), out.Plane(int(k), c)); break;
+        case SampleType::kUint8: copy(s.Codes<uint8_t>(i, c), out.Codes<uint8_t>(int(k), c)); break;
+        case SampleType::kUint16:
+          copy(s.Codes<uint16_t>(i, c), out.Codes<uint16_t>(int(k), c));
+          break;
+      }
     }
   }
   out.view_direction = s.view_direction;

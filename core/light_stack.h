@@ -1,9 +1,13 @@
-// LightStack: N images of one sample under N lights, as linear float32 planes.
+// LightStack: N images of one sample under N lights, linear, at the files' native depth.
 //
-// Layout (plane-major SoA): data[((i * C + c) * H + y) * W + x] for image i, channel c,
-// row y (0 = top), column x. Directions are unit vectors in the sample's tangent frame
-// (METHODS.md §0: z = surface normal toward the camera, x = image right, y = image up),
-// pointing away from the surface.
+// Layout (plane-major SoA): sample[((i * C + c) * H + y) * W + x] for image i, channel c,
+// row y (0 = top), column x. Samples are float32 (float inputs, stacks built in memory) or the
+// files' own uint8 / uint16 codes; an integer stack carries a table lut[code] = linear value,
+// built with the transfer function the decoder used, so every read gives the value a float
+// decode would (bit for bit). Kernels read through Row()/Texels() (a pointer into the planes
+// for float stacks, decoded into caller scratch otherwise). Directions are unit vectors in the
+// sample's tangent frame (METHODS.md §0: z = surface normal toward the camera, x = image right,
+// y = image up), pointing away from the surface.
 #pragma once
 
 #include <cstdint>
@@ -14,6 +18,7 @@
 #include "core/check.h"
 #include "core/color.h"
 #include "core/large_page_allocator.h"
+#include "core/sample_type.h"
 #include "core/vec3.h"
 
 namespace matfit {
@@ -27,8 +32,12 @@ struct LightSample {
 class LightStack {
  public:
   LightStack() = default;
-  // Allocates zeroed planes; lights are default (frontal, unit intensity).
+  // Allocates zeroed float32 planes; lights are default (frontal, unit intensity).
   LightStack(int width, int height, int channels, int num_images);
+  // Zeroed planes of `type`; integer types need `lut` with SampleCodes(type) entries
+  // (code → linear value), float32 an empty one.
+  LightStack(int width, int height, int channels, int num_images, SampleType type,
+             std::vector<float> lut);
 
   int width() const { return width_; }
   int height() const { return height_; }
@@ -36,37 +45,67 @@ class LightStack {
   int num_images() const { return num_images_; }
   int64_t plane_size() const { return int64_t(width_) * height_; }
   int64_t texels() const { return plane_size(); }
+  SampleType sample_type() const { return type_; }
+  bool is_float() const { return type_ == SampleType::kFloat32; }
+  // Code → linear value (256 or 65536 entries); empty for float stacks.
+  const std::vector<float>& lut() const { return lut_; }
 
+  // Float stacks only (a MATFIT_CHECK failure on a native-depth stack): the planes for code
+  // that builds or edits stacks (renderer, perturbations, tests), and the planes as one array.
+  // Readers use Row/Texels/At/Sample, which work on every stack.
   std::span<float> Plane(int image, int channel) {
-    return {data_.data() + PlaneOffset(image, channel), size_t(plane_size())};
+    CheckFloat();
+    return {f32_.data() + PlaneOffset(image, channel), size_t(plane_size())};
   }
   std::span<const float> Plane(int image, int channel) const {
-    return {data_.data() + PlaneOffset(image, channel), size_t(plane_size())};
+    CheckFloat();
+    return {f32_.data() + PlaneOffset(image, channel), size_t(plane_size())};
   }
-  float& At(int image, int channel, int y, int x) {
-    MATFIT_DCHECK(y >= 0 && y < height_ && x >= 0 && x < width_);
-    return data_[PlaneOffset(image, channel) + int64_t(y) * width_ + x];
-  }
+  // Linear value of one sample, any sample type (read-only for every stack, so that reading a
+  // non-const native stack never picks a float-only overload; write through Plane()).
   float At(int image, int channel, int y, int x) const {
     MATFIT_DCHECK(y >= 0 && y < height_ && x >= 0 && x < width_);
-    return data_[PlaneOffset(image, channel) + int64_t(y) * width_ + x];
+    return Sample(image, channel, int64_t(y) * width_ + x);
+  }
+  // Linear value of texel p (row-major index) of (image, channel), any sample type.
+  float Sample(int image, int channel, int64_t p) const {
+    MATFIT_DCHECK(p >= 0 && p < plane_size());
+    const int64_t k = PlaneOffset(image, channel) + p;
+    if (type_ == SampleType::kFloat32) return f32_[k];
+    return type_ == SampleType::kUint8 ? lut_[u8_[k]] : lut_[u16_[k]];
   }
   // Row y, columns [x0, x0 + n) of (image, channel) as linear floats. Kernels read the stack
   // through this: it points into the planes for float stacks, and decodes into `scratch`
   // (n floats, caller-owned) for stacks held at their native depth.
   const float* Row(int image, int channel, int y, int x0, int n, float* scratch) const {
-    (void)scratch, (void)n;
     MATFIT_DCHECK(y >= 0 && y < height_ && x0 >= 0 && x0 + n <= width_);
-    return data_.data() + PlaneOffset(image, channel) + int64_t(y) * width_ + x0;
+    return Texels(image, channel, int64_t(y) * width_ + x0, n, scratch);
   }
   // The same for a run of n texels starting at row-major texel index p (may span rows).
   const float* Texels(int image, int channel, int64_t p, int n, float* scratch) const {
-    (void)scratch, (void)n;
     MATFIT_DCHECK(p >= 0 && p + n <= plane_size());
-    return data_.data() + PlaneOffset(image, channel) + p;
+    const int64_t k = PlaneOffset(image, channel) + p;
+    if (type_ == SampleType::kFloat32) return f32_.data() + k;
+    Decode(k, n, scratch);
+    return scratch;
   }
-  const float* data() const { return data_.data(); }
-  float* data() { return data_.data(); }
+  // The stored codes of (image, channel) of an integer stack; T must match sample_type()
+  // (uint8_t or uint16_t). For readers that store codes and writers that keep them.
+  template <typename T>
+  std::span<T> Codes(int image, int channel);
+  template <typename T>
+  std::span<const T> Codes(int image, int channel) const;
+  // Float stacks only: every sample, plane after plane.
+  const float* data() const {
+    CheckFloat();
+    return f32_.data();
+  }
+  float* data() {
+    CheckFloat();
+    return f32_.data();
+  }
+  // The same stack as float32 (a copy; metadata kept). Costs 4 bytes per sample.
+  LightStack ToFloat() const;
 
   std::vector<LightSample>& lights() { return lights_; }
   const std::vector<LightSample>& lights() const { return lights_; }
@@ -90,7 +129,7 @@ class LightStack {
 
   bool has_mask() const { return !mask.empty(); }
   int64_t MaskedTexels() const;  // texels inside the mask (all when no mask)
-  // Bytes held by the pixel planes and the mask.
+  // Bytes held by the samples (at their native size), the lookup table and the mask.
   size_t MemoryBytes() const;
 
  private:
@@ -99,13 +138,27 @@ class LightStack {
     return (int64_t(image) * channels_ + channel) * plane_size();
   }
 
+  void CheckFloat() const {
+    MATFIT_CHECK(type_ == SampleType::kFloat32,
+                 "LightStack: Plane()/data() on a stack held at native depth "
+                 "(uint8/uint16 codes); read it with Row/Texels/At/Sample, or convert it with "
+                 "ToFloat()");
+  }
+  // lut[code] for n samples from sample index k into out.
+  void Decode(int64_t k, int n, float* out) const;
+
   int width_ = 0, height_ = 0, channels_ = 0, num_images_ = 0;
-  std::vector<float, LargePageAllocator<float>> data_;
+  SampleType type_ = SampleType::kFloat32;
+  // One of these holds the samples (the others are empty).
+  std::vector<float, LargePageAllocator<float>> f32_;
+  std::vector<uint8_t, LargePageAllocator<uint8_t>> u8_;
+  std::vector<uint16_t, LargePageAllocator<uint16_t>> u16_;
+  std::vector<float> lut_;
   std::vector<LightSample> lights_;
 };
 
 // A stack holding only images `indices` of `stack` (in that order), with their lights and
-// provenance; mask, view and physical size are kept.
+// provenance; sample type and table, mask, view and physical size are kept.
 LightStack SelectImages(const LightStack& stack, const std::vector<int>& indices);
 
 }  // namespace matfit

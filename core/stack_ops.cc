@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <string>
+#include <vector>
 
 namespace matfit {
 namespace {
@@ -10,8 +11,10 @@ namespace {
 // The fits' clip test (fit/fit_common.h kClipLevel): samples at the file's maximum code.
 constexpr float kClippedLevel = 0.9999f;
 
-LightStack EmptyLike(const LightStack& s, int w, int h) {
-  LightStack out(w, h, s.channels(), s.num_images());
+// Same metadata, w × h; native sample type and table when `native`, else float32.
+LightStack EmptyLike(const LightStack& s, int w, int h, bool native) {
+  LightStack out = native ? LightStack(w, h, s.channels(), s.num_images(), s.sample_type(), s.lut())
+                          : LightStack(w, h, s.channels(), s.num_images());
   out.lights() = s.lights();
   out.view_direction = s.view_direction;
   out.view_theta_deg = s.view_theta_deg, out.view_phi_deg = s.view_phi_deg;
@@ -30,12 +33,17 @@ StatusOr<LightStack> CropStack(const LightStack& s, int x, int y, int w, int h) 
     return InvalidArgument("crop " + std::to_string(w) + "x" + std::to_string(h) + "+" +
                            std::to_string(x) + "+" + std::to_string(y) + " is outside the " +
                            std::to_string(s.width()) + "x" + std::to_string(s.height()) + " stack");
-  LightStack out = EmptyLike(s, w, h);
+  LightStack out = EmptyLike(s, w, h, /*native=*/true);
+  auto crop = [&](auto src, auto dst) {  // one plane, samples copied as stored
+    for (int r = 0; r < h; ++r)
+      std::copy_n(src.data() + int64_t(y + r) * s.width() + x, w, dst.data() + int64_t(r) * w);
+  };
   for (int i = 0; i < s.num_images(); ++i)
-    for (int c = 0; c < s.channels(); ++c)
-      for (int r = 0; r < h; ++r)
-        std::copy_n(s.Plane(i, c).data() + int64_t(y + r) * s.width() + x, w,
-                    out.Plane(i, c).data() + int64_t(r) * w);
+    for (int c = 0; c < s.channels(); ++c) switch (s.sample_type()) {
+        case SampleType::kFloat32: crop(s.Plane(i, c), out.Plane(i, c)); break;
+        case SampleType::kUint8: crop(s.Codes<uint8_t>(i, c), out.Codes<uint8_t>(i, c)); break;
+        case SampleType::kUint16: crop(s.Codes<uint16_t>(i, c), out.Codes<uint16_t>(i, c)); break;
+      }
   if (s.has_mask()) {
     out.mask.resize(size_t(w) * h);
     for (int r = 0; r < h; ++r)
@@ -53,7 +61,7 @@ StatusOr<LightStack> DownsampleStack(const LightStack& s, int f) {
                            std::to_string(s.height()) + " stack by " + std::to_string(f) +
                            " leaves no texel");
   if (f == 1) return CropStack(s, 0, 0, s.width(), s.height());
-  LightStack out = EmptyLike(s, w, h);
+  LightStack out = EmptyLike(s, w, h, /*native=*/false);  // block means are not codes
   out.mm_per_texel = s.mm_per_texel * f;
   bool may_clip = false;
   for (int64_t v : s.saturated_pixels) may_clip = may_clip || v > 0;
@@ -71,9 +79,10 @@ StatusOr<LightStack> DownsampleStack(const LightStack& s, int f) {
         out.mask[size_t(by) * w + bx] = inside[size_t(by) * w + bx] = 2 * k >= f * f;
       }
   }
+  std::vector<float> scratch(s.is_float() ? 0 : size_t(s.plane_size()));
   for (int i = 0; i < s.num_images(); ++i)
     for (int c = 0; c < s.channels(); ++c) {
-      const float* src = s.Plane(i, c).data();
+      const float* src = s.Texels(i, c, 0, int(s.plane_size()), scratch.data());
       float* dst = out.Plane(i, c).data();
       for (int by = 0; by < h; ++by)
         for (int bx = 0; bx < w; ++bx) {
@@ -92,6 +101,43 @@ StatusOr<LightStack> DownsampleStack(const LightStack& s, int f) {
           dst[int64_t(by) * w + bx] = k == 0 ? NAN : clipped ? 1.0f : float(sum / k);
         }
     }
+  return out;
+}
+
+LightStack QuantiseStack(const LightStack& s, int bits) {
+  MATFIT_CHECK(bits == 8 || bits == 16, "QuantiseStack: 8 or 16 bits");
+  const ColorEncoding enc{bits == 8 ? TransferFunction::kSrgb : TransferFunction::kLinear, 1.0f};
+  const SampleType type = bits == 8 ? SampleType::kUint8 : SampleType::kUint16;
+  LightStack out(s.width(), s.height(), s.channels(), s.num_images(), type,
+                 LinearDecodeTable(enc, bits));
+  out.lights() = s.lights();
+  out.view_direction = s.view_direction;
+  out.view_theta_deg = s.view_theta_deg, out.view_phi_deg = s.view_phi_deg;
+  out.mm_per_texel = s.mm_per_texel;
+  out.layout = s.layout, out.source = s.source, out.object_name = s.object_name;
+  out.image_files = s.image_files;
+  out.mask = s.mask;
+  out.encodings.assign(s.num_images(), enc);
+  out.encoding_reasons.assign(s.num_images(), "quantised in memory");
+  out.saturated_pixels.assign(s.num_images(), 0);
+  out.nonfinite_samples.assign(s.num_images(), 0);
+  const int max = (1 << bits) - 1;
+  std::vector<char> clipped(size_t(s.plane_size()));
+  for (int i = 0; i < s.num_images(); ++i) {
+    std::fill(clipped.begin(), clipped.end(), 0);
+    for (int c = 0; c < s.channels(); ++c)
+      for (int64_t p = 0; p < s.plane_size(); ++p) {
+        const float v = s.Sample(i, c, p);
+        const float e = std::isnan(v) ? 0.0f : std::clamp(v, 0.0f, 1.0f);
+        const int code = bits == 8 ? int(LinearToSrgb8(e)) : int(std::lround(e * 65535.0f));
+        clipped[p] |= code == max;
+        if (bits == 8)
+          out.Codes<uint8_t>(i, c)[p] = uint8_t(code);
+        else
+          out.Codes<uint16_t>(i, c)[p] = uint16_t(code);
+      }
+    for (char k : clipped) out.saturated_pixels[i] += k;
+  }
   return out;
 }
 

@@ -33,15 +33,15 @@ class StackTileView {
   int height() const { return tile_.height; }
   int num_images() const { return stack_->num_images(); }
   int channels() const { return stack_->channels(); }
-  // Pointer to tile-local row y of (image, channel); width() contiguous floats.
-  const float* Row(int image, int channel, int y) const {
+  // Tile-local row y of (image, channel) as width() linear floats (LightStack::Row: into the
+  // planes for float stacks, decoded into scratch, width() floats, otherwise).
+  const float* Row(int image, int channel, int y, float* scratch) const {
     MATFIT_DCHECK(y >= 0 && y < tile_.height);
-    return stack_->Plane(image, channel).data() + int64_t(tile_.y0 + y) * stack_->width() +
-           tile_.x0;
+    return stack_->Row(image, channel, tile_.y0 + y, tile_.x0, tile_.width, scratch);
   }
   float At(int image, int channel, int y, int x) const {
-    MATFIT_DCHECK(x >= 0 && x < tile_.width);
-    return Row(image, channel, y)[x];
+    MATFIT_DCHECK(x >= 0 && x < tile_.width && y >= 0 && y < tile_.height);
+    return stack_->At(image, channel, tile_.y0 + y, tile_.x0 + x);
   }
   // Texel index in the full plane of tile-local (y, x).
   int64_t GlobalIndex(int y, int x) const {

@@ -77,7 +77,7 @@ StackDiagnostics DiagnoseStack(const LightStack& s, int max_texels) {
       double y = 0;
       bool good = s.lights()[i].direction.z > 0;
       for (int c = 0; c < C; ++c) {
-        const float raw = s.Plane(i, c)[p];
+        const float raw = s.Sample(i, c, p);
         good = good && std::isfinite(raw) && !(clip && raw >= kClipLevel);
         y += (C == 3 ? kLuma[c] : 1.0f) * raw * inv[size_t(i) * C + c];
       }

@@ -88,13 +88,13 @@ void MarkUnfittableTexels(const LightStack& s, bool flag_clipped, FitResult* r) 
   const int W = s.width();
   ParallelFor(0, s.height(), [&](int64_t y0, int64_t y1) {
     std::vector<char> hit(W);
-    std::vector<float> peak(W);
+    std::vector<float> peak(W), scratch(s.is_float() ? 0 : W);
     for (int64_t y = y0; y < y1; ++y) {
       std::fill(hit.begin(), hit.end(), 0);
       std::fill(peak.begin(), peak.end(), 0.0f);
       for (int i = 0; i < s.num_images(); ++i)
         for (int c = 0; c < s.channels(); ++c) {
-          const float* src = s.Plane(i, c).data() + y * W;
+          const float* src = s.Row(i, c, int(y), 0, W, scratch.data());
           for (int x = 0; x < W; ++x) {
             peak[x] = std::max(peak[x], src[x]);  // NaN samples leave peak unchanged
             hit[x] |= clip && src[x] >= kClipLevel;

@@ -1,6 +1,7 @@
 // Pieces shared by the fitting methods (not part of the public fit API).
 #pragma once
 
+#include <algorithm>
 #include <chrono>
 #include <vector>
 
@@ -8,6 +9,7 @@
 #include "core/status.h"
 #include "core/tiles.h"
 #include "fit/fit_types.h"
+#include "fit/row_kernels.h"
 
 namespace matfit::fit {
 
@@ -42,6 +44,39 @@ void ApplyPeakStatus(const float* peak, int64_t first, int64_t m, bool clip, uin
 // if cancelled.
 bool ForEachTile(const LightStack& stack, const FitOptions& options,
                  const std::function<void(const Tile&)>& fn);
+
+// Plane segments of a strip for the row kernels, from any stack. Group(i0, planes, c, first, m,
+// fn) hands fn(src, x, len) the samples of images i0 … i0 + planes − 1 (≤ kMaxRowPlanes),
+// channel c, texels [first + x, first + x + len) as linear floats: for float stacks once, x = 0,
+// len = m, pointing into the planes; for native-depth stacks in chunks of kChunk texels decoded
+// through the table into scratch (kMaxRowPlanes × kChunk floats, L1/L2-sized). Every texel gets
+// the same samples in the same order either way, so kernel results are identical.
+class StripReader {
+ public:
+  static constexpr int kChunk = 1024;
+  explicit StripReader(const LightStack& stack) : s_(stack) {
+    if (!stack.is_float()) scratch_.resize(size_t(kMaxRowPlanes) * kChunk);
+  }
+  template <typename Fn>
+  void Group(int i0, int planes, int c, int64_t first, int64_t m, Fn&& fn) {
+    const float* src[kMaxRowPlanes];
+    if (s_.is_float()) {
+      for (int q = 0; q < planes; ++q) src[q] = s_.Texels(i0 + q, c, first, int(m), nullptr);
+      fn(src, int64_t(0), m);
+      return;
+    }
+    for (int64_t x = 0; x < m; x += kChunk) {
+      const int len = int(std::min<int64_t>(kChunk, m - x));
+      for (int q = 0; q < planes; ++q)
+        src[q] = s_.Texels(i0 + q, c, first + x, len, scratch_.data() + size_t(q) * kChunk);
+      fn(src, x, int64_t(len));
+    }
+  }
+
+ private:
+  const LightStack& s_;
+  std::vector<float> scratch_;
+};
 
 // Counts status entries other than ok/masked into result->flagged_texels and adds a warning
 // naming the most common reason.

@@ -74,7 +74,7 @@ StatusOr<FitResult> FitHeinrich(const LightStack& s, const FitOptions& o) {
     const int64_t first = int64_t(t.y0) * W, m = t.texels();
     std::vector<float> acc(size_t(12) * m, 0.0f);  // [c][t, q′x, q′y, q′z][m]
     std::vector<float> peak(m, 0.0f);
-    const float* src[kMaxRowPlanes];
+    StripReader reader(s);
     float w[kMaxRowPlanes * 4];
     for (int c = 0; c < C; ++c) {
       float* a = acc.data() + size_t(4 * c) * m;
@@ -84,12 +84,14 @@ StatusOr<FitResult> FitHeinrich(const LightStack& s, const FitOptions& o) {
         for (int q = 0; q < planes; ++q) {
           const int i = i0 + q;
           const double wi = inv[i * C + c];
-          src[q] = s.Plane(i, c).data() + first;
           w[q * 4] = float(wi), w[q * 4 + 1] = float((dirs[i].x - mean.x) * wi);
           w[q * 4 + 2] = float((dirs[i].y - mean.y) * wi),
                     w[q * 4 + 3] = float((dirs[i].z - mean.z) * wi);
         }
-        RowAccumulate(src, planes, m, 4, w, ap, peak.data());
+        reader.Group(i0, planes, c, first, m, [&](const float* const* src, int64_t x, int64_t len) {
+          float* a4[4] = {ap[0] + x, ap[1] + x, ap[2] + x, ap[3] + x};
+          RowAccumulate(src, planes, len, 4, w, a4, peak.data() + x);
+        });
       }
     }
     ApplyPeakStatus(peak.data(), first, m, clip, r.status.data());

@@ -28,14 +28,14 @@ StatusOr<FitResult> FitHeinrichReference(const LightStack& s, const FitOptions& 
         if (r.status[p] != kTexelOk) continue;  // masked or flagged before fitting
         double tc[3] = {0, 0, 0};
         for (int i = 0; i < n; ++i)
-          for (int c = 0; c < C; ++c) tc[c] += double(s.Plane(i, c)[p]) * inv[i * C + c] / n;
+          for (int c = 0; c < C; ++c) tc[c] += double(s.Sample(i, c, p)) * inv[i * C + c] / n;
         double ata[36] = {}, atb[6] = {};
         for (int i = 0; i < n; ++i) {
           const Vec3& l = s.lights()[i].direction;
           for (int c = 0; c < C; ++c) {
             double row[6] = {tc[c] * l.x, tc[c] * l.y, tc[c] * l.z, 0, 0, 0};
             row[3 + c] = tc[c];
-            const double b = double(s.Plane(i, c)[p]) * inv[i * C + c];
+            const double b = double(s.Sample(i, c, p)) * inv[i * C + c];
             for (int j = 0; j < 6; ++j) {
               atb[j] += row[j] * b;
               for (int k = 0; k < 6; ++k) ata[j * 6 + k] += row[j] * row[k];

@@ -42,7 +42,7 @@ double HeinrichSquaredError(const LightStack& s, const FitResult& r, int64_t* sa
         for (int i = 0; i < n; ++i)
           for (int c = 0; c < C; ++c) {
             const double d =
-                s.Plane(i, c)[p] * inv[i * C + c] - EvaluateTexel(r.maps, p, c, dirs[i], v);
+                s.Sample(i, c, p) * inv[i * C + c] - EvaluateTexel(r.maps, p, c, dirs[i], v);
             local += d * d;
           }
         local_count += int64_t(n) * C;
@@ -76,7 +76,7 @@ void AddHeinrichSpecular(const LightStack& s, const FitOptions& o, FitResult* r)
     for (int c = 0; c < 3; ++c) {
       const int sc = C == 1 ? 0 : c;
       m.specular_color.Plane(c)[p] =
-          s.Plane(i1, sc)[p] * inv[i1 * C + sc] - EvaluateTexel(m, p, c, l1, v);
+          s.Sample(i1, sc, p) * inv[i1 * C + sc] - EvaluateTexel(m, p, c, l1, v);
     }
   }
   // One exponent per material: coarse search over powers of two, then golden section in log2 e.

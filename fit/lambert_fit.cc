@@ -36,7 +36,7 @@ StatusOr<FitResult> FitLambert(const LightStack& s, const FitOptions& o) {
   const bool ok = ForEachTile(s, o, [&](const Tile& t) {
     const int64_t first = int64_t(t.y0) * W, m = t.texels();
     std::vector<float> g(size_t(3) * C * m, 0.0f), peak(m, 0.0f);  // [c][x, y, z][m]
-    const float* src[kMaxRowPlanes];
+    StripReader reader(s);
     float w[kMaxRowPlanes * 3];
     for (int c = 0; c < C; ++c) {
       float* gc[3] = {&g[(3 * c) * m], &g[(3 * c + 1) * m], &g[(3 * c + 2) * m]};
@@ -44,11 +44,13 @@ StatusOr<FitResult> FitLambert(const LightStack& s, const FitOptions& o) {
         const int planes = std::min(kMaxRowPlanes, n - i0);
         for (int q = 0; q < planes; ++q) {
           const int i = i0 + q;
-          src[q] = s.Plane(i, c).data() + first;
           for (int j = 0; j < 3; ++j)
             w[q * 3 + j] = float(lm->pinv[size_t(j) * n + i]) * inv[i * C + c];
         }
-        RowAccumulate(src, planes, m, 3, w, gc, peak.data());
+        reader.Group(i0, planes, c, first, m, [&](const float* const* src, int64_t x, int64_t len) {
+          float* a[3] = {gc[0] + x, gc[1] + x, gc[2] + x};
+          RowAccumulate(src, planes, len, 3, w, a, peak.data() + x);
+        });
       }
     }
     ApplyPeakStatus(peak.data(), first, m, clip, r.status.data());

@@ -74,6 +74,7 @@ StatusOr<FitResult> FitLambertRobust(const LightStack& s, const FitOptions& o) {
     std::vector<double> lum(size_t(n) * t.width), y(n), absr(n);
     std::vector<int> order(n);
     std::vector<char> keep(n), next(n), clipped(n);
+    std::vector<float> scratch(s.is_float() ? 0 : t.width);
     for (int row = t.y0; row < t.y0 + t.height; ++row) {
       const int64_t base = int64_t(row) * W + t.x0;
       // Gather luminance image by image (contiguous rows).
@@ -82,7 +83,7 @@ StatusOr<FitResult> FitLambertRobust(const LightStack& s, const FitOptions& o) {
         std::fill(dst, dst + t.width, 0.0);
         for (int c = 0; c < C; ++c) {
           const float w = (C == 1 ? 1.0f : kLuma[c]) * inv[i * C + c];
-          const float* src = s.Plane(i, c).data() + base;
+          const float* src = s.Row(i, c, row, t.x0, t.width, scratch.data());
           for (int k = 0; k < t.width; ++k) dst[k] += w * src[k];
         }
       }
@@ -94,7 +95,7 @@ StatusOr<FitResult> FitLambertRobust(const LightStack& s, const FitOptions& o) {
         std::fill(clipped.begin(), clipped.end(), 0);
         if (may_clip)
           for (int i = 0; i < n; ++i)
-            for (int c = 0; c < C; ++c) clipped[i] |= s.Plane(i, c)[p] >= kClipLevel;
+            for (int c = 0; c < C; ++c) clipped[i] |= s.Sample(i, c, p) >= kClipLevel;
         int finite = 0;
         for (int i = 0; i < n; ++i) {
           y[i] = lum[size_t(i) * t.width + k];
@@ -160,7 +161,7 @@ StatusOr<FitResult> FitLambertRobust(const LightStack& s, const FitOptions& o) {
           if (!keep[i]) continue;
           const double si = std::max(0.0, Dot(nn, dirs[i]));
           den += si * si;
-          for (int c = 0; c < C; ++c) num[c] += s.Plane(i, c)[p] * inv[i * C + c] * si;
+          for (int c = 0; c < C; ++c) num[c] += s.Sample(i, c, p) * inv[i * C + c] * si;
         }
         for (int c = 0; c < 3; ++c) {
           r.maps.normal.Plane(c)[p] = float(nn[c]);

@@ -65,7 +65,7 @@ StatusOr<FitResult> FitLinearBasis(const LightStack& s, const FitOptions& o,
     const int64_t first = int64_t(t.y0) * W, m = t.texels();
     std::vector<float> peak(m, 0.0f);
     float* ap[kMaxRowTerms];
-    const float* src[kMaxRowPlanes];
+    StripReader reader(s);
     float w[kMaxRowPlanes * kMaxRowTerms];
     auto coef = [&](int q) { return r.maps.coefficients.Plane(q).data() + first; };
     for (int c = 0; c < C; ++c) {
@@ -74,10 +74,13 @@ StatusOr<FitResult> FitLinearBasis(const LightStack& s, const FitOptions& o,
         const int planes = std::min(kMaxRowPlanes, n - i0);
         for (int q = 0; q < planes; ++q) {
           const int i = i0 + q;
-          src[q] = s.Plane(i, c).data() + first;
           for (int j = 0; j < K; ++j) w[q * K + j] = pinv[size_t(j) * n + i] * inv[i * C + c];
         }
-        RowAccumulate(src, planes, m, K, w, ap, peak.data());
+        reader.Group(i0, planes, c, first, m, [&](const float* const* src, int64_t x, int64_t len) {
+          float* a[kMaxRowTerms];
+          for (int j = 0; j < K; ++j) a[j] = ap[j] + x;
+          RowAccumulate(src, planes, len, K, w, a, peak.data() + x);
+        });
       }
     }
     uint8_t* status = r.status.data() + first;

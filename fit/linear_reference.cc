@@ -36,7 +36,7 @@ StatusOr<FitResult> FitLambertReference(const LightStack& s, const FitOptions& o
         for (int i = 0; i < n; ++i) {
           double lum = 0;
           for (int c = 0; c < C; ++c) {
-            q[i * C + c] = double(s.Plane(i, c)[p]) * inv[i * C + c];
+            q[i * C + c] = double(s.Sample(i, c, p)) * inv[i * C + c];
             lum += (C == 1 ? 1.0 : double(kLuma[c])) * q[i * C + c];
           }
           const Vec3& l = s.lights()[i].direction;
@@ -91,7 +91,7 @@ void SolveBasisTexels(const LightStack& s, const std::vector<double>& rows,
         double ata[K * K] = {}, atb[K] = {};
         for (int i = 0; i < n; ++i) {
           const double* b = rows.data() + size_t(i) * K;
-          const double v = double(s.Plane(i, c)[p]) * inv[i * C + c];
+          const double v = double(s.Sample(i, c, p)) * inv[i * C + c];
           for (int j = 0; j < K; ++j) {
             atb[j] += b[j] * v;
             for (int k = 0; k < K; ++k) ata[j * K + k] += b[j] * b[k];

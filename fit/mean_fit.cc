@@ -22,17 +22,17 @@ StatusOr<FitResult> FitMean(const LightStack& s, const FitOptions& o) {
   const bool ok = ForEachTile(s, o, [&](const Tile& t) {
     const int64_t first = int64_t(t.y0) * W, m = t.texels();
     std::vector<float> sum(size_t(C) * m, 0.0f), peak(m, 0.0f);
-    const float* src[kMaxRowPlanes];
+    StripReader reader(s);
     float w[kMaxRowPlanes];
     for (int c = 0; c < C; ++c) {
       float* acc = sum.data() + size_t(c) * m;
       for (int i0 = 0; i0 < n; i0 += kMaxRowPlanes) {
         const int planes = std::min(kMaxRowPlanes, n - i0);
-        for (int q = 0; q < planes; ++q) {
-          src[q] = s.Plane(i0 + q, c).data() + first;
-          w[q] = inv[(i0 + q) * C + c] / float(n);
-        }
-        RowAccumulate(src, planes, m, 1, w, &acc, peak.data());
+        for (int q = 0; q < planes; ++q) w[q] = inv[(i0 + q) * C + c] / float(n);
+        reader.Group(i0, planes, c, first, m, [&](const float* const* src, int64_t x, int64_t len) {
+          float* a = acc + x;
+          RowAccumulate(src, planes, len, 1, w, &a, peak.data() + x);
+        });
       }
     }
     ApplyPeakStatus(peak.data(), first, m, /*clip=*/false,

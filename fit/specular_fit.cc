@@ -54,7 +54,7 @@ StatusOr<FitResult> FitLobe(const LightStack& s, const FitOptions& o, const std:
       double lum = 0, pred = 0;
       bool finite = true;  // a NaN/Inf sample (dead pixel, decode hole) is dropped
       for (int c = 0; c < C; ++c) {
-        obs[i * C + c] = double(s.Plane(i, c)[p]) * inv[i * C + c];
+        obs[i * C + c] = double(s.Sample(i, c, p)) * inv[i * C + c];
         finite = finite && std::isfinite(obs[i * C + c]);
         lum += obs[i * C + c];
         pred += init->maps.albedo.Plane(C == 1 ? 0 : c)[p] * std::max(0.0, Dot(n0, dirs[i]));

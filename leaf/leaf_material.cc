@@ -99,7 +99,8 @@ StatusOr<LeafMaterial> MakeLeafMaterial(const LeafScan& scan, const SheetAnalysi
     for (int k = 0; k < s.num_images(); ++k)
       for (int c = 0; c < s.channels(); ++c)
         for (int y = 0; y < h; ++y)
-          for (int x = 0; x < w; ++x) crop.At(k, c, y, x) = s.At(k, c, y0 + y, x0 + x);
+          for (int x = 0; x < w; ++x)
+            crop.Plane(k, c)[int64_t(y) * w + x] = s.At(k, c, y0 + y, x0 + x);
     crop.lights() = s.lights();
     crop.mask = mask;
     crop.mm_per_texel = mm;

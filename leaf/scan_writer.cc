@@ -1,4 +1,5 @@
 // WriteLeafScan: a synthetic scan as the files a leaf rig would leave (docs/formats.md).
+#include <algorithm>
 #include <cstdio>
 #include <filesystem>
 #include <nlohmann/json.hpp>
@@ -27,8 +28,9 @@ Status WriteLeafScan(const SyntheticScan& s, const std::string& dir, bool overwr
     for (int k = 0; k < top.num_images(); ++k) {
       Image img(top.width(), top.height(), top.channels());
       for (int c = 0; c < top.channels(); ++c) {
-        const auto src = top.Plane(k, c);
-        std::copy(src.begin(), src.end(), img.Plane(c).begin());
+        float* dst = img.Plane(c).data();
+        const float* src = top.Texels(k, c, 0, int(top.plane_size()), dst);  // decodes into dst
+        if (src != dst) std::copy_n(src, top.plane_size(), dst);
       }
       MATFIT_RETURN_IF_ERROR(WriteImage((root / top.image_files[k]).string(), img, png8));
       const Vec3& d = top.lights()[k].direction;

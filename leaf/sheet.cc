@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <opencv2/imgproc.hpp>
+#include <vector>
 
 namespace matfit::leaf {
 
@@ -112,9 +113,10 @@ StatusOr<SheetAnalysis> Analyze(const LeafScan& scan, LightStack top, const Shee
   Image color;
   if (top.num_images() > 0 && top.channels() >= 3) {
     color = Image(w, h, 3);
+    std::vector<float> scratch(top.is_float() ? 0 : size_t(n));
     for (int m = 0; m < top.num_images(); ++m)
       for (int c = 0; c < 3; ++c) {
-        const auto p = top.Plane(m, c);
+        const float* p = top.Texels(m, c, 0, int(n), scratch.data());
         for (int64_t i = 0; i < n; ++i) color.Plane(c)[i] += p[i];
       }
   } else if (scan.front.channels() >= 3) {
@@ -135,7 +137,8 @@ StatusOr<SheetAnalysis> Analyze(const LeafScan& scan, LightStack top, const Shee
   // 3. Top-lit images (or the front-lit photo) over the bare sheet's brightness.
   const auto top_bg = BareSheet(a.segmentation.labels, w, h, o.top_margin_px);
   if (top.num_images() > 0) {
-    a.top = std::move(top);  // flat-fielded in place below
+    // Flat-fielded in place below: the result is no longer file codes, so float32.
+    a.top = top.is_float() ? std::move(top) : top.ToFloat();
     const int ch = a.top.channels();
     for (int m = 0; m < a.top.num_images(); ++m) {
       const double cos_t = std::max(0.05, a.top.lights()[m].direction.z);

@@ -113,7 +113,7 @@ SyntheticScan MakeSyntheticScan(const SyntheticScanOptions& o) {
           if (o.minimal) {
             s.scan.front.Plane(c)[i] = val;
           } else {
-            s.scan.top.At(k, c, y, x) = val;
+            s.scan.top.Plane(k, c)[int64_t(y) * s.scan.top.width() + x] = val;
           }
         }
       }

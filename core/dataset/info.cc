@@ -34,6 +34,7 @@ DatasetInfo ComputeDatasetInfo(const LightStack& s) {
   info.images = s.num_images();
   info.width = s.width(), info.height = s.height(), info.channels = s.channels();
   info.memory_bytes = s.MemoryBytes();
+  info.sample_type = SampleTypeName(s.sample_type());
   info.view_theta_deg = s.view_theta_deg, info.view_phi_deg = s.view_phi_deg;
   info.has_mask = s.has_mask();
   info.masked_texels = s.MaskedTexels();
@@ -101,10 +102,14 @@ DatasetInfo ComputeDatasetInfo(const LightStack& s) {
 
   // Black images.
   std::vector<int> black;
+  std::vector<float> scratch(s.is_float() ? 0 : size_t(s.plane_size()));
   for (int i = 0; i < n; ++i) {
     float mx = 0;
-    for (int c = 0; c < s.channels(); ++c)
-      for (float v : s.Plane(i, c)) mx = std::max(mx, std::isfinite(v) ? v : 0.0f);
+    for (int c = 0; c < s.channels(); ++c) {
+      const float* v = s.Texels(i, c, 0, int(s.plane_size()), scratch.data());
+      for (int64_t p = 0; p < s.plane_size(); ++p)
+        mx = std::max(mx, std::isfinite(v[p]) ? v[p] : 0.0f);
+    }
     if (mx < 1e-4f) black.push_back(i);
   }
 
@@ -155,7 +160,8 @@ std::string FormatDatasetInfo(const DatasetInfo& d) {
   if (!d.object_name.empty()) o += "object       " + d.object_name + "\n";
   o += "images       " + std::to_string(d.images) + " x " + std::to_string(d.width) + "x" +
        std::to_string(d.height) + ", " + std::to_string(d.channels) + " channel(s), " +
-       HumanBytes(double(d.memory_bytes)) + " as float32\n";
+       HumanBytes(double(d.memory_bytes)) + " as " +
+       (d.sample_type.empty() ? "float32" : d.sample_type) + "\n";
   o += "view         θv=" + Fmt("%.1f", d.view_theta_deg) + "° φv=" + Fmt("%.1f", d.view_phi_deg) +
        "°\n";
   for (const auto& e : d.encodings) o += "colour       " + e + "\n";
@@ -198,6 +204,7 @@ std::string DatasetInfoJson(const DatasetInfo& d) {
       {"height", d.height},
       {"channels", d.channels},
       {"memory_bytes", d.memory_bytes},
+      {"sample_type", d.sample_type},
       {"view", {{"theta_deg", d.view_theta_deg}, {"phi_deg", d.view_phi_deg}}},
       {"encodings", d.encodings},
       {"mask_texels", d.has_mask ? nlohmann::json(d.masked_texels) : nlohmann::json()},

@@ -17,7 +17,8 @@ struct ThetaGroup {
 struct DatasetInfo {
   std::string layout, detection_reason, source, object_name;
   int images = 0, width = 0, height = 0, channels = 0;
-  size_t memory_bytes = 0;
+  size_t memory_bytes = 0;  // LightStack::MemoryBytes (samples at their stored size)
+  std::string sample_type;  // how the stack holds samples: "uint8", "uint16", "float32"
   double view_theta_deg = 0, view_phi_deg = 0;
   std::vector<ThetaGroup> theta_groups;  // light count per θ_l group
   double theta_min = 0, theta_max = 0, max_azimuth_gap_deg = 0;

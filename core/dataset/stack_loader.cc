@@ -9,24 +9,62 @@
 
 namespace matfit {
 
-StatusOr<LightStack> LoadStack(const std::vector<std::string>& files,
-                               std::vector<LightSample> lights, const ImageReadOptions& options,
-                               const ProgressFn& progress) {
-  MATFIT_CHECK(files.size() == lights.size());
-  if (files.empty()) return DataError("the dataset lists no images");
+namespace {
+
+bool SameEncoding(const ColorEncoding& a, const ColorEncoding& b) {
+  return a.transfer == b.transfer && (a.transfer != TransferFunction::kGamma || a.gamma == b.gamma);
+}
+
+// Copies a decoded image into image i of the stack (whose sample type it has).
+void StorePlanes(const NativeImage& img, int i, LightStack* stack) {
+  const int64_t n = stack->plane_size();
+  for (int c = 0; c < img.channels; ++c) switch (img.type) {
+      case SampleType::kFloat32:
+        std::copy_n(img.floats.Plane(c).data(), n, stack->Plane(i, c).data());
+        break;
+      case SampleType::kUint8:
+        std::copy_n(img.u8.data() + c * n, n, stack->Codes<uint8_t>(i, c).data());
+        break;
+      case SampleType::kUint16:
+        std::copy_n(img.u16.data() + c * n, n, stack->Codes<uint16_t>(i, c).data());
+        break;
+    }
+}
+
+// Decodes files into a stack whose samples are of `type` with one transfer function
+// (native: the first file's) or, with as_float, linear float32. Returns false in *uniform when a
+// file's depth or transfer function differs from the first one's (the stack is then incomplete
+// and the caller loads again as float).
+StatusOr<LightStack> Load(const std::vector<std::string>& files, std::vector<LightSample> lights,
+                          const ImageReadOptions& options, const ProgressFn& progress,
+                          bool as_float, bool* uniform) {
+  *uniform = true;
   ImageFileInfo first_info;
-  auto first = ReadImage(files[0], options, &first_info);
+  auto read = [&](const std::string& path, ImageFileInfo* info) -> StatusOr<NativeImage> {
+    if (!as_float) return ReadImageNative(path, options, info);
+    auto img = ReadImage(path, options, info);
+    if (!img.ok()) return img.status();
+    NativeImage f;
+    f.width = img->width(), f.height = img->height(), f.channels = img->channels();
+    f.floats = std::move(*img);
+    return f;
+  };
+  auto first = read(files[0], &first_info);
   if (!first.ok()) return first.status();
-  const int w = first->width(), h = first->height(), ch = first->channels();
+  const int w = first->width, h = first->height, ch = first->channels;
+  const SampleType type = first->type;
   const int n = int(files.size());
   constexpr double kMaxStackBytes = 16.0 * (1ull << 30);  // 16 GiB: two thirds of this machine
-  const double bytes = double(w) * h * ch * n * sizeof(float);
+  const double bytes = double(w) * h * ch * n * SampleBytes(type);
   if (bytes > kMaxStackBytes)
-    return DataError(
-        "the stack of " + std::to_string(n) + " images of " + std::to_string(w) + "x" +
-        std::to_string(h) + " needs " + std::to_string(int64_t(bytes / (1 << 20))) +
-        " MiB as float32, more than the 16 GiB limit; select one view or crop the images");
-  LightStack stack(w, h, ch, n);
+    return DataError("the stack of " + std::to_string(n) + " images of " + std::to_string(w) + "x" +
+                     std::to_string(h) + " needs " + std::to_string(int64_t(bytes / (1 << 20))) +
+                     " MiB as " + SampleTypeName(type) +
+                     ", more than the 16 GiB limit; select one view or crop the images");
+  std::vector<float> lut;
+  if (type != SampleType::kFloat32)
+    lut = LinearDecodeTable(first_info.encoding, type == SampleType::kUint8 ? 8 : 16);
+  LightStack stack(w, h, ch, n, type, std::move(lut));
   stack.lights() = std::move(lights);
   stack.image_files = files;
   stack.encodings.resize(n);
@@ -36,33 +74,40 @@ StatusOr<LightStack> LoadStack(const std::vector<std::string>& files,
 
   std::vector<Status> errors(n);
   std::atomic<int64_t> done{0};
+  std::atomic<bool> mixed{false};
   std::mutex progress_mutex;
-  auto store = [&](int i, const Image& img, const ImageFileInfo& info) {
-    for (int c = 0; c < ch; ++c)
-      std::copy_n(img.Plane(c).data(), img.plane_size(), stack.Plane(i, c).data());
+  auto store = [&](int i, const NativeImage& img, const ImageFileInfo& info) {
+    StorePlanes(img, i, &stack);
     stack.encodings[i] = info.encoding;
     stack.encoding_reasons[i] = info.encoding_reason;
     stack.saturated_pixels[i] = info.saturated_pixels;
     stack.nonfinite_samples[i] = info.nonfinite_samples;
   };
   store(0, *first, first_info);
-  first = Image();
+  first = NativeImage();
+  // One image decoded per task at a time: the only copy besides the stack is that image's.
   ParallelFor(1, n, [&](int64_t b, int64_t e) {
     for (int64_t i = b; i < e; ++i) {
+      if (mixed) break;
       ImageFileInfo info;
-      auto img = ReadImage(files[i], options, &info);
+      auto img = read(files[i], &info);
       if (!img.ok()) {
         errors[i] = img.status();
         continue;
       }
-      if (img->width() != w || img->height() != h || img->channels() != ch) {
+      if (img->width != w || img->height != h || img->channels != ch) {
         errors[i] =
-            DataError("image '" + files[i] + "' is " + std::to_string(img->width()) + "x" +
-                      std::to_string(img->height()) + " with " + std::to_string(img->channels()) +
+            DataError("image '" + files[i] + "' is " + std::to_string(img->width) + "x" +
+                      std::to_string(img->height) + " with " + std::to_string(img->channels) +
                       " channel(s) but '" + files[0] + "' is " + std::to_string(w) + "x" +
                       std::to_string(h) + " with " + std::to_string(ch) +
                       ": all images of a stack must have the same size and channels");
         continue;
+      }
+      if (img->type != type ||
+          (type != SampleType::kFloat32 && !SameEncoding(info.encoding, first_info.encoding))) {
+        mixed = true;  // one table cannot serve both: the caller reloads as float
+        break;
       }
       store(int(i), *img, info);
       const int64_t d = ++done;
@@ -74,8 +119,27 @@ StatusOr<LightStack> LoadStack(const std::vector<std::string>& files,
   });
   for (const Status& s : errors)
     if (!s.ok()) return s;
+  if (mixed) {
+    *uniform = false;
+    return stack;
+  }
   if (progress) progress(n, n);
   return stack;
+}
+
+}  // namespace
+
+StatusOr<LightStack> LoadStack(const std::vector<std::string>& files,
+                               std::vector<LightSample> lights, const ImageReadOptions& options,
+                               const ProgressFn& progress) {
+  MATFIT_CHECK(files.size() == lights.size());
+  if (files.empty()) return DataError("the dataset lists no images");
+  bool uniform = true;
+  auto stack = Load(files, lights, options, progress, /*as_float=*/false, &uniform);
+  if (!stack.ok() || uniform) return stack;
+  // Files of mixed depth or transfer function: linear float32, as every image decodes alone.
+  *stack = LightStack();
+  return Load(files, std::move(lights), options, progress, /*as_float=*/true, &uniform);
 }
 
 StatusOr<std::vector<uint8_t>> ReadMaskImage(const std::string& path, int width, int height) {

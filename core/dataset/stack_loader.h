@@ -14,6 +14,8 @@ namespace matfit {
 
 // Decodes `files` (in parallel) into a stack with `lights` (same count). All images must
 // have the same size and channel count; the first one that differs is named in the error.
+// 8/16-bit files stay at their depth (the stack's table holds the transfer function), float
+// files become float32; files of mixed depth or transfer function give a float32 stack.
 StatusOr<LightStack> LoadStack(const std::vector<std::string>& files,
                                std::vector<LightSample> lights, const ImageReadOptions& options,
                                const ProgressFn& progress);

@@ -1,5 +1,6 @@
 #include "core/dataset/writer.h"
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
@@ -32,8 +33,9 @@ std::string Extension(int bits) { return bits == 32 ? ".exr" : ".png"; }
 Image ImageOf(const LightStack& s, int i) {
   Image img(s.width(), s.height(), s.channels());
   for (int c = 0; c < s.channels(); ++c) {
-    auto src = s.Plane(i, c);
-    std::copy(src.begin(), src.end(), img.Plane(c).begin());
+    float* dst = img.Plane(c).data();
+    const float* src = s.Texels(i, c, 0, int(s.plane_size()), dst);  // decodes into dst
+    if (src != dst) std::copy_n(src, s.plane_size(), dst);
   }
   return img;
 }

@@ -10,7 +10,8 @@ namespace {
 
 TEST(LightStack, PlaneMajorLayout) {
   LightStack s(5, 3, 3, 4);
-  s.At(2, 1, 2, 4) = 7.0f;
+  s.Plane(2, 1)[2 * 5 + 4] = 7.0f;
+  EXPECT_EQ(s.At(2, 1, 2, 4), 7.0f);
   // data[((i*C + c)*H + y)*W + x]
   EXPECT_EQ(s.data()[((2 * 3 + 1) * 3 + 2) * 5 + 4], 7.0f);
   EXPECT_EQ(s.Plane(2, 1)[2 * 5 + 4], 7.0f);
@@ -52,10 +53,11 @@ TEST(Tiles, RowStripsCoverEveryRowOnce) {
 TEST(Tiles, ViewMapsLocalToGlobal) {
   LightStack s(10, 8, 1, 2);
   for (int y = 0; y < 8; ++y)
-    for (int x = 0; x < 10; ++x) s.At(1, 0, y, x) = float(100 * y + x);
+    for (int x = 0; x < 10; ++x) s.Plane(1, 0)[y * 10 + x] = float(100 * y + x);
   StackTileView v(s, Tile{4, 3, 5, 4});
   EXPECT_EQ(v.At(1, 0, 0, 0), 304.0f);
-  EXPECT_EQ(v.Row(1, 0, 2)[3], 507.0f);
+  float scratch[5];
+  EXPECT_EQ(v.Row(1, 0, 2, scratch)[3], 507.0f);
   EXPECT_EQ(v.GlobalIndex(2, 3), 5 * 10 + 7);
 }
 

@@ -137,7 +137,7 @@ TEST(BonnReader, SelectsTheRequestedViewOrTheMostFrontal) {
   ASSERT_TRUE(v.ok()) << v.status().ToString();
   EXPECT_EQ(v->view_theta_deg, 30.0);
   EXPECT_NEAR(AngleBetweenDeg(v->view_direction, DirectionFromAnglesDeg(30, 60)), 0.0, 1e-9);
-  EXPECT_NEAR(v->At(5, 1, 3, 3), 0.5f * frontal->At(5, 1, 3, 3), 1e-4);
+  EXPECT_NEAR(v->Sample(5, 1, 3 * 16 + 3), 0.5f * frontal->Sample(5, 1, 3 * 16 + 3), 1e-4);
   o.view = ViewAngles{45, 0};
   auto missing = ReadDataset(tmp.path(), o);
   ASSERT_FALSE(missing.ok());
@@ -168,10 +168,12 @@ TEST(ReadDataset, EightBitDatasetsAreLinearisedFromSrgb) {
   EXPECT_EQ(back->encodings[0].transfer, TransferFunction::kSrgb);
   // Quantisation error is half an sRGB code, converted to linear: ≤ 0.5/255 · max dL/dE
   // (≈ 2.4 near white) ≈ 0.0047.
+  EXPECT_EQ(back->sample_type(), SampleType::kUint8);  // held at the files' depth
+  const LightStack f = back->ToFloat();
   double worst = 0;
-  for (int64_t i = 0; i < back->plane_size() * 3 * back->num_images(); ++i)
-    worst = std::max(worst,
-                     double(std::abs(back->data()[i] - std::clamp(r.stack.data()[i], 0.0f, 1.0f))));
+  for (int64_t i = 0; i < f.plane_size() * 3 * f.num_images(); ++i)
+    worst =
+        std::max(worst, double(std::abs(f.data()[i] - std::clamp(r.stack.data()[i], 0.0f, 1.0f))));
   EXPECT_LT(worst, 0.0048);
   EXPECT_GT(worst, 0.0);  // it really was quantised
 }
@@ -185,7 +187,7 @@ TEST(ReadDataset, ColorSpaceOverrideReachesEveryImage) {
   auto back = ReadDataset(tmp.path(), o);
   ASSERT_TRUE(back.ok());
   for (const auto& e : back->encodings) EXPECT_EQ(e.transfer, TransferFunction::kLinear);
-  EXPECT_GT(back->At(0, 0, 0, 0), r.stack.At(0, 0, 0, 0) + 0.1);  // undecoded sRGB is brighter
+  EXPECT_GT(back->Sample(0, 0, 0), r.stack.At(0, 0, 0, 0) + 0.1);  // undecoded sRGB is brighter
 }
 
 }  // namespace

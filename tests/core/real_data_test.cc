@@ -2,6 +2,7 @@
 #include <gtest/gtest.h>
 
 #include <filesystem>
+#include <utility>
 
 #include "core/dataset/dataset.h"
 #include "core/dataset/info.h"
@@ -54,7 +55,8 @@ TEST(RealData, ChromeHighlightAgreesWithLightZeroWhenTgaIsUpright) {
   for (int y = 0; y < s->height(); ++y)
     for (int x = 0; x < s->width(); ++x) {
       if (!s->mask[size_t(y) * s->width() + x]) continue;
-      const float v = s->At(0, 0, y, x) + s->At(0, 1, y, x) + s->At(0, 2, y, x);
+      const float v = std::as_const(*s).At(0, 0, y, x) + std::as_const(*s).At(0, 1, y, x) +
+                      std::as_const(*s).At(0, 2, y, x);
       if (v > best) best = v, bx = x, by = y;
     }
   EXPECT_GT(bx, cx) << "highlight should be right of centre";

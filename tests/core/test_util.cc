@@ -42,8 +42,10 @@ double MaxAbsDiff(const LightStack& a, const LightStack& b) {
   EXPECT_EQ(a.channels(), b.channels());
   EXPECT_EQ(a.num_images(), b.num_images());
   double m = 0;
-  const int64_t n = a.plane_size() * a.channels() * a.num_images();
-  for (int64_t i = 0; i < n; ++i) m = std::max(m, double(std::abs(a.data()[i] - b.data()[i])));
+  for (int i = 0; i < a.num_images(); ++i)
+    for (int c = 0; c < a.channels(); ++c)
+      for (int64_t p = 0; p < a.plane_size(); ++p)
+        m = std::max(m, double(std::abs(a.Sample(i, c, p) - b.Sample(i, c, p))));
   return m;
 }
 

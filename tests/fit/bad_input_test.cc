@@ -65,7 +65,7 @@ TEST(BadInput, ClippedSamplesAreFlaggedOrDroppedNeverUsed) {
 
 TEST(BadInput, NanPixelsAreFlaggedByTheLinearMethodsAndDroppedByTheRobustOne) {
   LightStack s = Plastic(8).stack;
-  s.At(7, 0, 3, 3) = std::nanf("");
+  s.Plane(7, 0)[3 * s.width() + 3] = std::nanf("");
   for (const char* name : {"lambert", "heinrich", "ptm", "hsh3", "mean"}) {
     auto fit = MakeMethod(name)->Fit(s, {});
     ASSERT_TRUE(fit.ok()) << name;
@@ -99,7 +99,8 @@ TEST(BadInput, NanPixelsAreFlaggedByTheLinearMethodsAndDroppedByTheRobustOne) {
   }
   // A texel left with fewer than 3 finite samples is flagged.
   LightStack holes = data.stack;
-  for (int i = 0; i < holes.num_images() - 2; ++i) holes.At(i, 1, 3, 3) = std::nanf("");
+  for (int i = 0; i < holes.num_images() - 2; ++i)
+    holes.Plane(i, 1)[3 * holes.width() + 3] = std::nanf("");
   auto sparse = MakeMethod("lambert-robust")->Fit(holes, {});
   ASSERT_TRUE(sparse.ok());
   EXPECT_EQ(sparse->status[27], kTexelNonFinite);

@@ -73,8 +73,8 @@ TEST(Lambert, DegenerateLightsAreRejectedWithAReason) {
 TEST(Lambert, BlackAndNaNTexelsAreFlaggedNotGuessed) {
   auto data = Synth("plaster", "dome:12", 8);
   for (int i = 0; i < 12; ++i)
-    for (int c = 0; c < 3; ++c) data.stack.At(i, c, 2, 3) = 0.0f;
-  data.stack.At(4, 1, 5, 5) = std::nanf("");
+    for (int c = 0; c < 3; ++c) data.stack.Plane(i, c)[2 * data.stack.width() + 3] = 0.0f;
+  data.stack.Plane(4, 1)[5 * data.stack.width() + 5] = std::nanf("");
   auto fit = FitLambert(data.stack, {});
   ASSERT_TRUE(fit.ok());
   EXPECT_EQ(fit->status[2 * 8 + 3], kTexelNoSignal);

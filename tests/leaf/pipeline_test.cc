@@ -332,7 +332,7 @@ TEST(LeafScan, FindsEveryLeafOfTheSharedSheet) {
     int64_t cell_all[9] = {};
     for (int64_t i = 0; i < a->top.plane_size(); ++i) {
       if (!a->background[i]) continue;
-      const float r = scan->top.Plane(m, 1)[i], f = a->top.Plane(m, 1)[i];
+      const float r = scan->top.Sample(m, 1, i), f = a->top.Plane(m, 1)[i];
       ++cell_all[3 * int(3 * (i / a->width) / a->height) + int(3 * (i % a->width) / a->width)];
       if (r >= 0.995f) {
         clipped.push_back(f);
@@ -397,7 +397,8 @@ TEST(LeafScan, LeafCutByTheBorderIsMarked) {
   for (int k = 0; k < top.num_images(); ++k)
     for (int c = 0; c < 3; ++c)
       for (int y = 0; y < top.height(); ++y)
-        for (int x = 0; x < top.width(); ++x) top.At(k, c, y, x) = s.scan.top.At(k, c, y, x + cut);
+        for (int x = 0; x < top.width(); ++x)
+          top.Plane(k, c)[int64_t(y) * top.width() + x] = s.scan.top.At(k, c, y, x + cut);
   top.lights() = s.scan.top.lights();
   s.scan.top = std::move(top);
   auto a = AnalyzeSheet(s.scan, SheetOptions{});

@@ -35,7 +35,7 @@ double RelitRmse(const LightStack& s, const fit::FitResult& fit, EglRenderer* eg
     for (int64_t p = 0; p < s.plane_size(); ++p) {
       if (fit.status[p] != 0) continue;
       for (int c = 0; c < s.channels(); ++c) {
-        const double e = s.Plane(i, c)[p] - img->Plane(c)[p];
+        const double e = s.Sample(i, c, p) - img->Plane(c)[p];
         sum += e * e, ++n;
       }
     }

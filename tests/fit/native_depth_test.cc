@@ -1,0 +1,123 @@
+// Fits on a stack held at native depth (uint8 / uint16 codes + table) equal fits on the same
+// stack held as float32 (LightStack::ToFloat): the kernels read linear values through the table
+// that the decoder uses, in the same order, so the maps agree to rounding (here: exactly).
+#include <gtest/gtest.h>
+
+#include <cmath>
+
+#include "core/stack_ops.h"
+#include "fit/confidence.h"
+#include "fit/method.h"
+#include "fit/methods.h"
+#include "fit/metrics.h"
+#include "tests/fit/synth_data.h"
+
+namespace matfit::fit {
+namespace {
+
+void ExpectSameMaps(const MaterialMaps& a, const MaterialMaps& b, const std::string& what) {
+  const std::pair<const Image*, const Image*> planes[] = {{&a.normal, &b.normal},
+                                                          {&a.albedo, &b.albedo},
+                                                          {&a.ambient, &b.ambient},
+                                                          {&a.normal_scale, &b.normal_scale},
+                                                          {&a.specular, &b.specular},
+                                                          {&a.exponent, &b.exponent},
+                                                          {&a.roughness, &b.roughness},
+                                                          {&a.specular_color, &b.specular_color},
+                                                          {&a.coefficients, &b.coefficients}};
+  for (const auto& [x, y] : planes) {
+    ASSERT_EQ(x->data().size(), y->data().size()) << what;
+    for (size_t k = 0; k < x->data().size(); ++k) {
+      const float u = x->data()[k], v = y->data()[k];
+      if (std::isnan(u) && std::isnan(v)) continue;
+      ASSERT_NEAR(u, v, 1e-6) << what << " sample " << k;
+    }
+  }
+}
+
+void CompareMethods(const LightStack& native, const std::vector<std::string>& methods) {
+  ASSERT_FALSE(native.is_float());
+  const LightStack f = native.ToFloat();
+  ASSERT_TRUE(f.is_float());
+  for (const std::string& name : methods) {
+    auto method = MakeMethod(name);
+    ASSERT_TRUE(method) << name;
+    auto a = method->Fit(native, {}), b = method->Fit(f, {});
+    ASSERT_TRUE(a.ok()) << name << ": " << a.status().ToString();
+    ASSERT_TRUE(b.ok()) << name << ": " << b.status().ToString();
+    EXPECT_EQ(a->status, b->status) << name;
+    EXPECT_EQ(a->flagged_texels, b->flagged_texels) << name;
+    ExpectSameMaps(a->maps, b->maps, name);
+    for (const auto& [k, v] : b->parameters) EXPECT_NEAR(a->parameters[k], v, 1e-6) << name << k;
+    const auto ra = Reconstruction(native, a->maps, a->status);
+    const auto rb = Reconstruction(f, b->maps, b->status);
+    EXPECT_NEAR(ra.rmse, rb.rmse, 1e-9) << name;
+  }
+}
+
+TEST(NativeDepth, EightBitSrgbFitsEqualFloatFits) {
+  // Plastic with noise and clipping: highlights, clipped samples and shadows exercise the
+  // flags and the per-sample rejection; 61 × 47 leaves kernel tails.
+  auto data = SynthData({"plastic", "dome:40", 61, 0.01});
+  for (int i = 0; i < data.stack.num_images(); ++i)
+    for (int c = 0; c < 3; ++c)
+      for (float& v : data.stack.Plane(i, c)) v = std::min(v * 1.6f, 1.0f);
+  const LightStack q = QuantiseStack(data.stack, 8);
+  int64_t sat = 0;
+  for (int64_t v : q.saturated_pixels) sat += v;
+  EXPECT_GT(sat, 0) << "the test needs clipped samples";
+  CompareMethods(
+      q, {"mean", "lambert", "lambert-robust", "heinrich", "ptm", "hsh2", "hsh3", "blinn-phong"});
+}
+
+TEST(NativeDepth, EightBitReferencesEqualFloat) {
+  const LightStack q = QuantiseStack(SynthData({"wool", "bonn81", 24, 0.01}).stack, 8);
+  const LightStack f = q.ToFloat();
+  using Fn = StatusOr<FitResult> (*)(const LightStack&, const FitOptions&);
+  for (Fn fn : {Fn(FitLambertReference), Fn(FitPtmReference), Fn(FitHeinrichReference)}) {
+    auto a = fn(q, {}), b = fn(f, {});
+    ASSERT_TRUE(a.ok() && b.ok());
+    EXPECT_EQ(a->status, b->status);
+    ExpectSameMaps(a->maps, b->maps, a->method);
+  }
+}
+
+TEST(NativeDepth, SixteenBitLinearFitsEqualFloatFits) {
+  auto data = SynthData({"granite", "bonn81", 40, 0.005});
+  CompareMethods(QuantiseStack(data.stack, 16), {"lambert", "ptm", "heinrich", "lambert-robust"});
+}
+
+TEST(NativeDepth, GreyStackAndMask) {
+  auto data = SynthData({"plaster", "dome:24", 33, 0.01});
+  LightStack grey(33, 33, 1, data.stack.num_images());
+  grey.lights() = data.stack.lights();
+  for (int i = 0; i < grey.num_images(); ++i)
+    for (int64_t p = 0; p < grey.plane_size(); ++p)
+      grey.Plane(i, 0)[p] = data.stack.Sample(i, 1, p);
+  grey.mask.assign(size_t(grey.plane_size()), 1);
+  for (int64_t p = 0; p < grey.plane_size(); p += 7) grey.mask[p] = 0;
+  CompareMethods(QuantiseStack(grey, 8), {"mean", "lambert", "ptm", "heinrich", "lambert-robust"});
+}
+
+TEST(NativeDepth, ConfidenceEqualsFloat) {
+  const LightStack q = QuantiseStack(SynthData({"plaster", "dome:30", 24, 0.01}).stack, 8);
+  const LightStack f = q.ToFloat();
+  auto fit = FitLambert(f, {});
+  ASSERT_TRUE(fit.ok());
+  const ModelSize size{5, 1, 3};
+  std::vector<uint8_t> sa = fit->status, sb = fit->status;
+  const auto a = ComputeConfidence(q, fit->maps, size, &sa);
+  const auto b = ComputeConfidence(f, fit->maps, size, &sb);
+  EXPECT_EQ(a.bound, b.bound);
+  EXPECT_EQ(sa, sb);
+}
+
+TEST(NativeDepth, HeldOutFoldsKeepTheSampleType) {
+  const LightStack q = QuantiseStack(SynthData({"plaster", "dome:12", 8}).stack, 8);
+  const LightStack some = SelectImages(q, {3, 1, 7});
+  EXPECT_EQ(some.sample_type(), SampleType::kUint8);
+  for (int64_t p = 0; p < q.plane_size(); ++p) EXPECT_EQ(some.Sample(1, 2, p), q.Sample(1, 2, p));
+}
+
+}  // namespace
+}  // namespace matfit::fit
