@@ -55,13 +55,13 @@ class LightStack {
   // through this: it points into the planes for float stacks, and decodes into `scratch`
   // (n floats, caller-owned) for stacks held at their native depth.
   const float* Row(int image, int channel, int y, int x0, int n, float* scratch) const {
-    (void)scratch;
+    (void)scratch, (void)n;  // n is read by MATFIT_DCHECK only (compiled out in release)
     MATFIT_DCHECK(y >= 0 && y < height_ && x0 >= 0 && x0 + n <= width_);
     return data_.data() + PlaneOffset(image, channel) + int64_t(y) * width_ + x0;
   }
   // The same for a run of n texels starting at row-major texel index p (may span rows).
   const float* Texels(int image, int channel, int64_t p, int n, float* scratch) const {
-    (void)scratch;
+    (void)scratch, (void)n;  // n is read by MATFIT_DCHECK only (compiled out in release)
     MATFIT_DCHECK(p >= 0 && p + n <= plane_size());
     return data_.data() + PlaneOffset(image, channel) + p;
   }
