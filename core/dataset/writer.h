@@ -12,6 +12,9 @@ struct DatasetWriteOptions {
   // 8: 8-bit sRGB PNG (quantised, like camera JPEG/PNG data); 16: 16-bit linear PNG;
   // 32: float EXR (lossless).
   int bits = 16;
+  // Image file format: "auto" (PNG for 8/16-bit, EXR for 32), "png" (8/16-bit), "jpg" (8-bit
+  // sRGB JPEG, lossy, like camera RTI sets) or "exr" (32-bit).
+  std::string format = "auto";
   // Base name of the images for the lights-txt layout (must equal the final folder name).
   std::string object_name = "object";
 
