@@ -9,7 +9,8 @@
 namespace matfit::fit {
 
 FitAssessment AssessFit(const LightStack& stack, const FitMethod& method, FitResult* r,
-                        const ConfidenceOptions& options) {
+                        const ConfidenceOptions& options,
+                        const ProgressFn& /*progress: not reported yet*/) {
   FitAssessment a;
   a.diagnostics = DiagnoseStack(stack);
   a.confidence = ComputeConfidence(

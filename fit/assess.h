@@ -17,7 +17,8 @@ struct FitAssessment {
 
 // Marks texels kTexelUnverifiable (no bound) and, when the stack looks gamma-encoded, every ok
 // texel kTexelSuspectData (bound +inf); appends the warnings; recounts flagged_texels.
+// `progress` (optional) reports work done.
 FitAssessment AssessFit(const LightStack& stack, const FitMethod& method, FitResult* result,
-                        const ConfidenceOptions& options = {});
+                        const ConfidenceOptions& options = {}, const ProgressFn& progress = {});
 
 }  // namespace matfit::fit

@@ -11,7 +11,8 @@
 namespace matfit::fit {
 
 ReconstructionMetrics Reconstruction(const LightStack& s, const MaterialMaps& maps,
-                                     const std::vector<uint8_t>& status) {
+                                     const std::vector<uint8_t>& status,
+                                     const ProgressFn& /*progress: not reported yet*/) {
   const int n = s.num_images(), C = s.channels();
   const Vec3f v(s.view_direction);
   std::vector<double> sum(n, 0.0);

@@ -9,6 +9,7 @@
 
 #include "core/light_stack.h"
 #include "core/material_maps.h"
+#include "core/progress_fn.h"
 
 namespace matfit::fit {
 
@@ -22,9 +23,10 @@ struct ReconstructionMetrics {
 };
 
 // Compares the stack with the maps' forward evaluation at the stack's own lights, over texels
-// whose status is 0 (status may be empty: all texels).
+// whose status is 0 (status may be empty: all texels). `progress` (optional) reports work done.
 ReconstructionMetrics Reconstruction(const LightStack& stack, const MaterialMaps& maps,
-                                     const std::vector<uint8_t>& status);
+                                     const std::vector<uint8_t>& status,
+                                     const ProgressFn& progress = {});
 
 struct TruthMetrics {
   // A model without a fitted normal (mean, ptm, hsh) or whose albedo map is not a diffuse albedo
