@@ -40,6 +40,18 @@ std::string ByTheta(const std::map<int, double>& m) {
   return s;
 }
 
+// "read 2.10 s, fit 0.17 s, …; total 3.50 s"
+std::string Timings(const fit::StageTimings& t) {
+  std::string s;
+  char buf[96];
+  for (const auto& [stage, seconds] : t.stages) {
+    std::snprintf(buf, sizeof buf, "%s%s %.3g s", s.empty() ? "" : ", ", stage.c_str(), seconds);
+    s += buf;
+  }
+  std::snprintf(buf, sizeof buf, "; total %.3g s", t.total);
+  return s + buf;
+}
+
 int RunFit(FitArgs& a) {
   if (a.job.model == "list") {
     PrintModels();
@@ -64,6 +76,13 @@ int RunFit(FitArgs& a) {
   auto r = fit::RunFitJob(a.job, progress);
   bar.reset();
   if (!r.ok()) return Fail("fit", r.status().message().c_str());
+  if (a.job.decode_only) {
+    std::printf("decoded     %d images of %dx%d, %d channel%s, %d thread%s\n", r->images, r->width,
+                r->height, r->channels, r->channels == 1 ? "" : "s", NumThreads(),
+                NumThreads() == 1 ? "" : "s");
+    std::printf("timings     %s\n", Timings(r->timings).c_str());
+    return 0;
+  }
 
   const auto& f = r->fit;
   std::printf("method      %s (%s)\n", f.method.c_str(), ShadingModelName(f.maps.model));
@@ -85,6 +104,7 @@ int RunFit(FitArgs& a) {
   if (r->truth && r->truth->has_albedo)
     std::printf("vs truth    albedo RMSE %.5f\n", r->truth->albedo_rmse);
   for (const auto& w : f.warnings) std::printf("warning     %s\n", w.c_str());
+  std::printf("timings     %s\n", Timings(r->timings).c_str());
   if (a.job.report_only.empty())
     std::printf("pack        %s%s\n", a.job.out.c_str(), a.job.zip ? " (zip)" : "");
   else if (!a.job.out.empty())
@@ -128,6 +148,9 @@ void RegisterFit(CLI::App& app, int* exit_code) {
   sub->add_option(
       "--report-only", j.report_only,
       "score this existing pack against DIR instead of fitting (--out: report.json path)");
+  sub->add_flag("--decode-only", j.decode_only,
+                "only read (decode) the dataset, as a fit would, and print the time: the floor "
+                "of the whole process");
   sub->add_flag("--quiet", args->quiet, "no progress output");
   sub->callback([args, exit_code] {
     if (args->job.model != "list" && args->job.input.empty()) {

@@ -16,10 +16,25 @@ namespace {
 
 struct SynthArgs {
   synth::SynthOptions options;
-  std::string layout = "bonn", out;
+  std::string layout = "bonn", out, size = "64";
+  bool bits_given = false;
   bool force = false, list = false, leaf_scan = false, minimal = false;
   int threads = 0;
 };
+
+// --size N (square) or WxH, e.g. 512x344.
+bool ParseSize(const std::string& text, int* width, int* height) {
+  int w = 0, h = 0, used = 0;
+  if (std::sscanf(text.c_str(), "%d%n", &w, &used) == 1 && used == int(text.size())) {
+    *width = w, *height = 0;
+    return true;
+  }
+  if (std::sscanf(text.c_str(), "%dx%d%n", &w, &h, &used) == 2 && used == int(text.size())) {
+    *width = w, *height = h;
+    return true;
+  }
+  return false;
+}
 
 int RunSynth(SynthArgs& a) {
   if (a.list) {
@@ -31,7 +46,14 @@ int RunSynth(SynthArgs& a) {
     return 0;
   }
   if (a.out.empty()) return Fail("synth", "--out DIR is required");
+  if (!ParseSize(a.size, &a.options.size, &a.options.height))
+    return Fail("synth",
+                ("--size must be N or WIDTHxHEIGHT (e.g. 512x344), got '" + a.size + "'").c_str());
+  // The format's own depth unless --bits says otherwise (then Check names the mismatch).
+  if (!a.bits_given && a.options.format == "jpg") a.options.bits = 8;
+  if (!a.bits_given && a.options.format == "exr") a.options.bits = 32;
   if (a.leaf_scan) {
+    if (a.options.height > 0) return Fail("synth", "--leaf-scan takes --size N (the leaf width)");
     // A leaf-rig scan (ring-lit + back-lit sheet with markers) of the synthetic leaf, --size
     // pixels wide, on a sheet 1.75 × 1.3 times that.
     leaf::SyntheticScanOptions so;
@@ -65,10 +87,14 @@ int RunSynth(SynthArgs& a) {
   if (!st.ok()) return Fail("synth", st.message().c_str());
   const double secs = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   std::printf(
-      "wrote %s: %s under %s, %d images of %dx%d (%s layout, %d-bit), truth in %s/truth "
+      "wrote %s: %s under %s, %d images of %dx%d (%s layout, %d-bit %s), truth in %s/truth "
       "(%.2f s)\n",
       a.out.c_str(), a.options.material.c_str(), a.options.lights.c_str(),
-      result->stack.num_images(), a.options.size, a.options.size, a.layout.c_str(), a.options.bits,
+      result->stack.num_images(), a.options.size, a.options.rows(), a.layout.c_str(),
+      a.options.bits,
+      a.options.format == "jpg" ? "JPEG"
+      : a.options.bits == 32    ? "EXR"
+                                : "PNG",
       a.out.c_str(), secs);
   if (result->perturb.clipped_samples > 0)
     std::printf("note: %lld samples were clipped at %.3g\n",
@@ -89,7 +115,8 @@ void RegisterSynth(CLI::App& app, int* exit_code) {
       ->capture_default_str();
   sub->add_option("--lights", o.lights, "bonn81, ring12, ring:N[:THETA], dome:N, random:N")
       ->capture_default_str();
-  sub->add_option("--size", o.size, "texels per side")->capture_default_str();
+  sub->add_option("--size", args->size, "texels per side N, or WIDTHxHEIGHT (e.g. 512x344)")
+      ->capture_default_str();
   sub->add_option("--noise", o.perturb.gaussian_sigma, "Gaussian noise σ, fraction of full scale")
       ->capture_default_str();
   sub->add_option("--shot-noise", o.perturb.shot_photons, "photons at full scale (0 = off)")
@@ -105,6 +132,9 @@ void RegisterSynth(CLI::App& app, int* exit_code) {
       ->capture_default_str();
   sub->add_option("--bits", o.bits, "8 (sRGB PNG), 16 (linear PNG), 32 (float EXR)")
       ->capture_default_str();
+  sub->add_option("--format", o.format,
+                  "image files: auto (PNG for 8/16-bit, EXR for 32), png, jpg (8-bit sRGB), exr")
+      ->capture_default_str();
   sub->add_option("--out", args->out, "output folder (created atomically)");
   sub->add_flag("--force", args->force, "replace --out if it exists");
   sub->add_option("--threads", args->threads, "worker threads (0 = all cores)")
@@ -113,7 +143,10 @@ void RegisterSynth(CLI::App& app, int* exit_code) {
   sub->add_flag("--leaf-scan", args->leaf_scan,
                 "write a leaf-rig scan of the synthetic leaf (for `matfit leaf`) instead");
   sub->add_flag("--minimal", args->minimal, "with --leaf-scan: one front-lit photo, no ring");
-  sub->callback([args, exit_code] { *exit_code = RunSynth(*args); });
+  sub->callback([args, exit_code, sub] {
+    args->bits_given = sub->get_option("--bits")->count() > 0;
+    *exit_code = RunSynth(*args);
+  });
 }
 
 }  // namespace matfit::app

@@ -9,10 +9,9 @@
 #include <mutex>
 #include <string>
 
-namespace matfit {
+#include "core/progress_fn.h"
 
-// done units of total; return false to ask the job to stop (cancellation is a return value).
-using ProgressFn = std::function<bool(int64_t done, int64_t total)>;
+namespace matfit {
 
 class ProgressReporter {
  public:

@@ -28,7 +28,7 @@
 
 #include "core/light_stack.h"
 #include "core/material_maps.h"
-#include "core/progress.h"
+#include "core/progress_fn.h"
 #include "core/vec3.h"
 
 namespace matfit::fit {

@@ -1,5 +1,7 @@
 #include "fit/fit_job.h"
 
+#include <atomic>
+#include <chrono>
 #include <fstream>
 #include <sstream>
 #include "core/atomic_file.h"
@@ -12,6 +14,59 @@
 #include "fit/report.h"
 
 namespace matfit::fit {
+namespace {
+
+using Clock = std::chrono::steady_clock;
+
+double Since(Clock::time_point t) {
+  return std::chrono::duration<double>(Clock::now() - t).count();
+}
+
+// The stages of one job: announces each to the progress callback (done = 0 at the start, done =
+// total at the end unless the stage's own callback got there) and times it.
+class Stages {
+ public:
+  explicit Stages(const StageProgress& progress) : progress_(progress), start_(Clock::now()) {}
+
+  // Starts `name` (ending nothing: stages do not overlap); false = cancelled.
+  bool Begin(const char* name, int64_t total = 1) {
+    name_ = name, total_ = total, reached_ = false, begin_ = Clock::now();
+    return !progress_ || progress_(name_, 0, total_);
+  }
+  // The stage's own callback for the code it runs (empty without a progress callback).
+  ProgressFn Callback() {
+    if (!progress_) return {};
+    return [this, name = name_](int64_t d, int64_t t) {
+      if (t > 0) total_ = t;  // End() completes the stage in the callback's own units
+      if (t > 0 && d >= t) reached_ = true;
+      return progress_(name, d, t);
+    };
+  }
+  // Ends the running stage: records its time, reports it complete.
+  void End() {
+    timings_.stages.emplace_back(name_, Since(begin_));
+    if (progress_ && !reached_) progress_(name_, total_.load(), total_.load());
+  }
+  // Completed stages, and the running one so far when `running` is set; total so far.
+  StageTimings Snapshot(bool running = false) const {
+    StageTimings t = timings_;
+    if (running) t.stages.emplace_back(name_, Since(begin_));
+    t.total = Since(start_);
+    return t;
+  }
+
+ private:
+  const StageProgress& progress_;
+  Clock::time_point start_, begin_;
+  std::string name_;
+  std::atomic<int64_t> total_{1};
+  std::atomic<bool> reached_{false};
+  StageTimings timings_;
+};
+
+Status Cancelled() { return Status(StatusCode::kCancelled, "cancelled"); }
+
+}  // namespace
 
 bool FitJobOptions::Check(std::string* why) const {
   auto fail = [why](std::string message) {
@@ -19,6 +74,11 @@ bool FitJobOptions::Check(std::string* why) const {
     return false;
   };
   if (input.empty()) return fail("the dataset path is empty");
+  if (decode_only) {
+    if (!out.empty() || !report_only.empty() || holdout != 0)
+      return fail("--decode-only only reads the dataset: drop --out, --report-only and --holdout");
+    return read.Check(why);
+  }
   if (out.empty() && report_only.empty()) return fail("--out PACK is required");
   if (model == "auto") {
     if (!report_only.empty()) return fail("--report-only scores an existing pack: no --model auto");
@@ -37,39 +97,54 @@ bool FitJobOptions::Check(std::string* why) const {
 StatusOr<FitJobResult> RunFitJob(const FitJobOptions& o, const StageProgress& progress) {
   std::string why;
   if (!o.Check(&why)) return InvalidArgument(why);
-  auto stage = [&](const char* name) -> ProgressFn {
-    if (!progress) return {};
-    return [=](int64_t d, int64_t t) { return progress(name, d, t); };
-  };
+  Stages stages(progress);
+  if (!stages.Begin("read")) return Cancelled();
   ReadOptions ro = o.read;
-  ro.progress = stage("read");
+  ro.progress = stages.Callback();
   auto stack = ReadDataset(o.input, ro);
   if (!stack.ok()) return stack.status();
+  std::optional<PackContents> pack;
   if (!o.report_only.empty()) {
-    auto pack = ReadPack(o.report_only);
-    if (!pack.ok()) return pack.status();
+    auto p = ReadPack(o.report_only);
+    if (!p.ok()) return p.status();
+    pack = std::move(*p);
+  }
+  stages.End();
+  FitJobResult r;
+  r.images = stack->num_images();
+  r.width = stack->width(), r.height = stack->height(), r.channels = stack->channels();
+  if (o.decode_only) {
+    r.timings = stages.Snapshot();
+    return r;
+  }
+  if (pack) {
     if (pack->maps.width != stack->width() || pack->maps.height != stack->height())
       return InvalidArgument("pack '" + o.report_only + "' is " + std::to_string(pack->maps.width) +
                              "x" + std::to_string(pack->maps.height) + " but the dataset is " +
                              std::to_string(stack->width()) + "x" +
                              std::to_string(stack->height()));
-    FitJobResult r;
-    r.images = stack->num_images();
     r.fit.maps = std::move(pack->maps);
     r.fit.status = std::move(pack->status);
     r.fit.method = pack->method;
     for (uint8_t st : r.fit.status) r.fit.flagged_texels += st != 0 && st != 1;
-    r.reconstruction = Reconstruction(*stack, r.fit.maps, r.fit.status);
+    if (!stages.Begin("reconstruction")) return Cancelled();
+    r.reconstruction = Reconstruction(*stack, r.fit.maps, r.fit.status, stages.Callback());
+    stages.End();
     const std::string truth_dir = synth::FindTruthFolder(o.input);
-    if (!truth_dir.empty())
+    if (!truth_dir.empty()) {
+      if (!stages.Begin("truth")) return Cancelled();
       if (auto truth = synth::ReadTruth(truth_dir); truth.ok() && truth->width == stack->width())
         r.truth = CompareToTruth(r.fit.maps, *truth, r.fit.status);
+      stages.End();
+    }
+    r.timings = stages.Snapshot();
     FitReportInputs ri;
     ri.result = &r.fit;
     ri.images = r.images;
     ri.reconstruction = r.reconstruction;
     ri.truth = r.truth;
     ri.source = o.input;
+    ri.timings = &r.timings;
     r.report_json = MakeReportJson(ri);
     if (!o.out.empty()) MATFIT_RETURN_IF_ERROR(WriteFileAtomic(o.out, r.report_json));
     return r;
@@ -88,8 +163,9 @@ StatusOr<FitJobResult> RunFitJob(const FitJobOptions& o, const StageProgress& pr
       scene = *parsed;
     }
     if (o.budget > 0) scene.error_budget = o.budget;
+    if (!stages.Begin("select")) return Cancelled();
     SelectOptions so;
-    so.fit.progress = stage("select");
+    so.fit.progress = stages.Callback();
     auto sel = SelectModel(*stack, scene, so);
     if (!sel.ok()) return sel.status();
     selection = std::move(*sel);
@@ -107,34 +183,40 @@ StatusOr<FitJobResult> RunFitJob(const FitJobOptions& o, const StageProgress& pr
           std::to_string(1 << selection->level) +
           " of the dataset's resolution): its reconstruction and held-out figures are at that "
           "resolution; truth maps and --report-only compare at the dataset's");
+    stages.End();
   }
   const auto method = MakeMethod(model);
+  if (!stages.Begin("fit")) return Cancelled();
   FitOptions fo = o.fit;
-  fo.progress = stage("fit");
+  fo.progress = stages.Callback();
   auto fit = method->Fit(*stack, fo);
   if (!fit.ok()) return fit.status();
+  stages.End();
 
-  FitJobResult r;
   r.images = stack->num_images();
-  r.reconstruction = Reconstruction(*stack, fit->maps, fit->status);
+  if (!stages.Begin("reconstruction")) return Cancelled();
+  r.reconstruction = Reconstruction(*stack, fit->maps, fit->status, stages.Callback());
+  stages.End();
   const std::vector<uint8_t> fitted_status = fit->status;  // metrics describe what was fitted
-  r.assessment = AssessFit(*stack, *method, &*fit);
+  if (!stages.Begin("confidence")) return Cancelled();
+  r.assessment = AssessFit(*stack, *method, &*fit, {}, stages.Callback());
+  stages.End();
   if (selection) {
     for (const auto& w : selection->warnings) fit->warnings.push_back("model selection: " + w);
     r.selection = selection;
   }
   if (o.holdout >= 2) {
-    if (progress && !progress("heldout", 0, o.holdout))
-      return Status(StatusCode::kCancelled, "cancelled");
+    if (!stages.Begin("heldout", o.holdout)) return Cancelled();
     FitOptions ho = o.fit;
-    ho.progress = stage("heldout");
+    ho.progress = stages.Callback();
     auto h = HeldOut(*method, *stack, o.holdout, ho);
     if (!h.ok()) return h.status();
     r.heldout = *h;
-    if (progress) progress("heldout", o.holdout, o.holdout);
+    stages.End();
   }
   const std::string truth_dir = synth::FindTruthFolder(o.input);
   if (!truth_dir.empty()) {
+    if (!stages.Begin("truth")) return Cancelled();
     auto truth = synth::ReadTruth(truth_dir);
     if (truth.ok() && truth->width == stack->width() && truth->height == stack->height())
       r.truth = CompareToTruth(fit->maps, *truth, fitted_status);
@@ -142,8 +224,11 @@ StatusOr<FitJobResult> RunFitJob(const FitJobOptions& o, const StageProgress& pr
       fit->warnings.push_back(
           "truth folder '" + truth_dir + "' could not be used: " +
           (truth.ok() ? std::string("size differs") : truth.status().message()));
+    stages.End();
   }
   r.fit = std::move(*fit);
+
+  if (!stages.Begin("write")) return Cancelled();
   FitReportInputs ri;
   ri.result = &r.fit;
   ri.parameters_per_texel = method->parameters_per_texel();
@@ -155,13 +240,19 @@ StatusOr<FitJobResult> RunFitJob(const FitJobOptions& o, const StageProgress& pr
   ri.assessment = &r.assessment;
   if (selection) ri.selection_json = SelectionJson(*selection, scene);
   ri.source = o.input;
-  r.report_json = MakeReportJson(ri);
+  r.report_json = MakeReportJson(ri);  // for material.json's summary; timed again below
 
-  if (progress && !progress("write", 0, 1)) return Status(StatusCode::kCancelled, "cancelled");
   PackInfo info;
   info.method = r.fit.method;
   info.source = o.input;
   info.report_json = r.report_json;
+  // report.json is the pack's last file: its timings include the write up to that point.
+  info.final_report_json = [&] {
+    r.timings = stages.Snapshot(/*running=*/true);
+    ri.timings = &r.timings;
+    r.report_json = MakeReportJson(ri);
+    return r.report_json;
+  };
   info.model_parameters = r.fit.parameters;
   info.mm_per_texel = stack->mm_per_texel;
   info.warnings = r.fit.warnings;
@@ -173,7 +264,8 @@ StatusOr<FitJobResult> RunFitJob(const FitJobOptions& o, const StageProgress& pr
                              "light; +inf = flagged), docs/stability.md",
                              std::move(bound)});
   MATFIT_RETURN_IF_ERROR(WritePack(r.fit.maps, r.fit.status, info, {o.zip, o.overwrite}, o.out));
-  if (progress) progress("write", 1, 1);
+  stages.End();
+  r.timings = stages.Snapshot();
   return r;
 }
 

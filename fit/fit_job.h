@@ -1,5 +1,6 @@
 // The whole `matfit fit` path as one controller: read → fit → score (reconstruction, held-out
 // lights, truth when present) → report.json → material pack. The CLI and the server share it.
+// Every stage is timed (report.json "timings") and announced to the progress callback.
 #pragma once
 
 #include <functional>
@@ -11,6 +12,7 @@
 #include "fit/fit_types.h"
 #include "fit/holdout.h"
 #include "fit/metrics.h"
+#include "fit/report.h"
 #include "fit/select.h"
 
 namespace matfit::fit {
@@ -26,6 +28,9 @@ struct FitJobOptions {
   std::string out;                // pack folder (or .zip with zip); report file with report_only
   std::string report_only;        // score this existing pack against the dataset (no fitting)
   bool zip = false, overwrite = false;
+  // Read the dataset and stop: the decode floor (same reader, parallel decode and threads as a
+  // fit; no fit, no scores, nothing written). Not with out, report_only or holdout.
+  bool decode_only = false;
 
   bool Check(std::string* why) const;
 };
@@ -39,11 +44,17 @@ struct FitJobResult {
   FitAssessment assessment;            // diagnostics + per-texel error bound (not report_only)
   std::optional<Selection> selection;  // with model "auto"
   std::string report_json;
+  int width = 0, height = 0, channels = 0;  // of the stack as read
+  // Wall seconds per stage and in total. report.json holds them as of composing it (its write
+  // and total stop there); here write and total run to the end of the job.
+  StageTimings timings;
 };
 
 // With report_only: reads the pack, scores it against the dataset (reconstruction, truth when
 // present), fills report_json and writes it to `out` when `out` is set.
-// stage is "read", "select" (auto), "fit", "heldout" or "write"; return false to cancel.
+// stage, in order: "read", "select" (auto), "fit", "reconstruction", "confidence", "heldout",
+// "truth", "write" (report_only: "read", "reconstruction", "truth"). Each stage is announced with
+// done = 0 and ends with done = total; return false to cancel.
 using StageProgress = std::function<bool(const std::string& stage, int64_t done, int64_t total)>;
 
 StatusOr<FitJobResult> RunFitJob(const FitJobOptions& options, const StageProgress& progress = {});

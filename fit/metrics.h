@@ -9,7 +9,7 @@
 
 #include "core/light_stack.h"
 #include "core/material_maps.h"
-#include "core/progress.h"
+#include "core/progress_fn.h"
 
 namespace matfit::fit {
 

@@ -77,6 +77,12 @@ std::string MakeReportJson(const FitReportInputs& in) {
                         {"residual_linear", d.residual_linear},
                         {"residual_best", d.residual_best}};
   }
+  if (in.timings) {
+    json t = json::object();
+    for (const auto& [stage, seconds] : in.timings->stages) t[stage] = seconds;
+    t["total"] = in.timings->total;
+    j["timings"] = t;
+  }
   if (!in.selection_json.empty()) j["selection"] = json::parse(in.selection_json);
   if (in.truth) {
     // null where the model has no such map (see TruthMetrics).

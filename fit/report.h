@@ -3,6 +3,8 @@
 
 #include <optional>
 #include <string>
+#include <utility>
+#include <vector>
 
 #include "fit/assess.h"
 #include "fit/fit_types.h"
@@ -10,6 +12,13 @@
 #include "fit/metrics.h"
 
 namespace matfit::fit {
+
+// Wall seconds per stage of a job, in the order the stages ran (stages that did not run are
+// absent), and the job's total so far.
+struct StageTimings {
+  std::vector<std::pair<std::string, double>> stages;
+  double total = 0;
+};
 
 struct FitReportInputs {
   const FitResult* result = nullptr;
@@ -21,6 +30,7 @@ struct FitReportInputs {
   const FitAssessment* assessment = nullptr;  // optional
   std::string selection_json;                 // optional: SelectionJson (model auto)
   std::string source;
+  const StageTimings* timings = nullptr;  // optional: report.json "timings"
 };
 
 std::string MakeReportJson(const FitReportInputs& in);

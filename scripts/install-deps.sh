@@ -10,8 +10,9 @@ PACKAGES=(
   # core: image I/O, JSON, CLI, logging, threading, math
   libopenimageio-dev openimageio-tools nlohmann-json3-dev libcli11-dev
   libspdlog-dev libfmt-dev libtbb-dev libeigen3-dev libglm-dev
-  # tests and benchmarks
-  libgtest-dev libgmock-dev libbenchmark-dev
+  # tests and benchmarks (time: /usr/bin/time for peak RSS and python3 for the tables of
+  # scripts/bench-whole-process.sh)
+  libgtest-dev libgmock-dev libbenchmark-dev time python3
   # fit: nonlinear least squares, image processing
   libceres-dev libopencv-core-dev libopencv-imgproc-dev
   # server: HTTP, job store, upload archives (curl: the shell tests and the README session)

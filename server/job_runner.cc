@@ -15,16 +15,20 @@ namespace {
 namespace fs = std::filesystem;
 using json = nlohmann::json;
 
-// Share of the whole job each stage takes (measured roughly on the fixtures), in order.
-// model=auto adds the selection (several fits per candidate) before the final fit.
+// Share of the whole job each stage takes (measured roughly on the fixtures), in order; the
+// stages of fit::RunFitJob (fit/fit_job.h) and leaf::RunLeafJob. model=auto adds the selection
+// (several fits per candidate) before the final fit. Without held-out folds or truth the job
+// jumps over their spans.
 const std::map<std::string, std::pair<double, double>>& StageSpans(bool leaf, bool select) {
   static const std::map<std::string, std::pair<double, double>> fit = {
-      {"read", {0.0, 0.1}}, {"fit", {0.1, 0.6}}, {"heldout", {0.6, 0.95}}, {"write", {0.95, 1}}};
-  static const std::map<std::string, std::pair<double, double>> autofit = {{"read", {0.0, 0.05}},
-                                                                           {"select", {0.05, 0.8}},
-                                                                           {"fit", {0.8, 0.9}},
-                                                                           {"heldout", {0.9, 0.98}},
-                                                                           {"write", {0.98, 1}}};
+      {"read", {0.0, 0.1}},       {"fit", {0.1, 0.35}},     {"reconstruction", {0.35, 0.5}},
+      {"confidence", {0.5, 0.6}}, {"heldout", {0.6, 0.93}}, {"truth", {0.93, 0.95}},
+      {"write", {0.95, 1}}};
+  static const std::map<std::string, std::pair<double, double>> autofit = {
+      {"read", {0.0, 0.05}},       {"select", {0.05, 0.75}},
+      {"fit", {0.75, 0.82}},       {"reconstruction", {0.82, 0.86}},
+      {"confidence", {0.86, 0.9}}, {"heldout", {0.9, 0.97}},
+      {"truth", {0.97, 0.98}},     {"write", {0.98, 1}}};
   static const std::map<std::string, std::pair<double, double>> lf = {
       {"read", {0.0, 0.1}}, {"sheet", {0.1, 0.4}}, {"leaves", {0.4, 0.95}}, {"write", {0.95, 1}}};
   return leaf ? lf : (select ? autofit : fit);

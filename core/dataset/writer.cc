@@ -28,7 +28,10 @@ ImageWriteOptions ImageOptions(int bits) {
   return {PixelFormat::kFloat, TransferFunction::kLinear};
 }
 
-std::string Extension(int bits) { return bits == 32 ? ".exr" : ".png"; }
+std::string Extension(const DatasetWriteOptions& o) {
+  if (o.format == "jpg") return ".jpg";
+  return o.bits == 32 ? ".exr" : ".png";
+}
 
 Image ImageOf(const LightStack& s, int i) {
   Image img(s.width(), s.height(), s.channels());
@@ -65,6 +68,16 @@ bool DatasetWriteOptions::Check(std::string* why) const {
     *why = "--bits must be 8, 16 or 32, got " + std::to_string(bits);
     return false;
   }
+  if (format != "auto" && format != "png" && format != "jpg" && format != "exr") {
+    *why = "--format must be auto, png, jpg or exr, got '" + format + "'";
+    return false;
+  }
+  if ((format == "jpg" && bits != 8) || (format == "png" && bits == 32) ||
+      (format == "exr" && bits != 32)) {
+    *why = "--format " + format + " cannot hold --bits " + std::to_string(bits) +
+           " (jpg: 8; png: 8 or 16; exr: 32)";
+    return false;
+  }
   if (layout == Layout::kAuto) {
     *why = "--layout must name a layout to write (bonn, utia, lp, diligent, lights-txt)";
     return false;
@@ -81,7 +94,7 @@ Status WriteDataset(const LightStack& s, const DatasetWriteOptions& o, const std
   std::string why;
   if (!o.Check(&why)) return InvalidArgument(why);
   const fs::path d(dir);
-  const std::string ext = Extension(o.bits);
+  const std::string ext = Extension(o);
   const int n = s.num_images();
   switch (o.layout) {
     case Layout::kBonn:

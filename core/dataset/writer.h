@@ -14,6 +14,10 @@ struct DatasetWriteOptions {
   int bits = 16;
   // Base name of the images for the lights-txt layout (must equal the final folder name).
   std::string object_name = "object";
+  // Image file format: "auto" (PNG for 8/16-bit, EXR for 32), "png" (8/16-bit), "jpg" (8-bit
+  // sRGB JPEG, lossy, like camera RTI sets) or "exr" (32-bit). Last, so that aggregate
+  // initialisers {layout, bits, object_name} keep their meaning.
+  std::string format = "auto";
 
   bool Check(std::string* why) const;
 };

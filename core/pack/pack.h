@@ -3,6 +3,7 @@
 #pragma once
 
 #include <cstdint>
+#include <functional>
 #include <map>
 #include <string>
 #include <utility>
@@ -29,6 +30,9 @@ struct PackInfo {
   std::vector<PackExtraMap> extra_maps;
   // Extra preview renders at the pack root (file name → linear image, written as sRGB PNG).
   std::vector<std::pair<std::string, Image>> previews;
+  // When set, called after every other file of the pack is written; its result is written as
+  // report.json instead of report_json (so the report can time the write itself).
+  std::function<std::string()> final_report_json;
 };
 
 struct PackWriteOptions {

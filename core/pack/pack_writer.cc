@@ -272,8 +272,9 @@ Status WritePack(const MaterialMaps& m, const std::vector<uint8_t>& status, cons
   MATFIT_RETURN_IF_ERROR(WriteFileAtomic(
       (root / "material.json").string(),
       material.dump(2, ' ', false, nlohmann::json::error_handler_t::replace) + "\n"));
-  if (!info.report_json.empty())
-    MATFIT_RETURN_IF_ERROR(WriteFileAtomic((root / "report.json").string(), info.report_json));
+  const std::string report = info.final_report_json ? info.final_report_json() : info.report_json;
+  if (!report.empty())
+    MATFIT_RETURN_IF_ERROR(WriteFileAtomic((root / "report.json").string(), report));
 
   if (!options.zip) {
     if (fs::exists(out, ec) && !options.overwrite)

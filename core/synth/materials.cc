@@ -237,4 +237,24 @@ StatusOr<MaterialMaps> MakeMaterial(const std::string& name, int size, uint64_t 
   return m;
 }
 
+StatusOr<MaterialMaps> MakeMaterial(const std::string& name, int width, int height, uint64_t seed) {
+  if (height < 4 || height > 8192)
+    return InvalidArgument("--size height must be in [4, 8192], got " + std::to_string(height));
+  auto m = MakeMaterial(name, std::max(width, height), seed);
+  if (!m.ok() || width == height) return m;
+  auto crop = [&](Image& img) {
+    if (img.empty()) return;
+    Image out(width, height, img.channels());
+    for (int c = 0; c < img.channels(); ++c)
+      for (int y = 0; y < height; ++y)
+        for (int x = 0; x < width; ++x) out.At(c, y, x) = img.At(c, y, x);
+    img = std::move(out);
+  };
+  for (Image* img : {&m->albedo, &m->normal, &m->height_map, &m->mask, &m->specular, &m->exponent,
+                     &m->roughness, &m->thickness, &m->translucency})
+    crop(*img);
+  m->width = width, m->height = height;
+  return m;
+}
+
 }  // namespace matfit::synth

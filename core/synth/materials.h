@@ -30,6 +30,9 @@ const MaterialInfo* FindMaterial(const std::string& name);
 
 // Builds the maps of material `name` at size × size texels.
 StatusOr<MaterialMaps> MakeMaterial(const std::string& name, int size, uint64_t seed);
+// width × height texels: the top-left crop of the max(width, height)² material (same texel
+// scale, normals from the uncropped height field); width == height is the square one.
+StatusOr<MaterialMaps> MakeMaterial(const std::string& name, int width, int height, uint64_t seed);
 
 // Unit normals from a height field in texel units: n = normalize(−∂h/∂x, −∂h/∂y, 1), central
 // differences with wrap-around, y up (row index grows downward).

@@ -49,13 +49,17 @@ std::string ParamsJson(const SynthOptions& o, const SynthResult& r) {
       {"model", model},
       {"maps", maps},
       {"size", o.size},
+      {"width", o.size},
+      {"height", o.rows()},
       {"seed", o.seed},
       {"light_set", o.lights},
       {"layout", LayoutName(o.layout)},
       {"bits", o.bits},
-      {"encoding", o.bits == 8    ? "sRGB 8-bit PNG"
-                   : o.bits == 16 ? "linear 16-bit PNG"
-                                  : "linear float EXR"},
+      {"format", o.format},
+      {"encoding", o.format == "jpg" ? "sRGB 8-bit JPEG"
+                   : o.bits == 8     ? "sRGB 8-bit PNG"
+                   : o.bits == 16    ? "linear 16-bit PNG"
+                                     : "linear float EXR"},
       {"view_direction", {0, 0, 1}},
       {"perturbations",
        {{"cast_shadows", r.cast_shadows},
@@ -118,6 +122,10 @@ bool SynthOptions::Check(std::string* why) const {
     *why = "--size must be in [4, 8192], got " + std::to_string(size);
     return false;
   }
+  if (height != 0 && (height < 4 || height > 8192)) {
+    *why = "--size height must be in [4, 8192], got " + std::to_string(height);
+    return false;
+  }
   if (bits != 8 && bits != 16 && bits != 32) {
     *why = "--bits must be 8, 16 or 32, got " + std::to_string(bits);
     return false;
@@ -126,6 +134,9 @@ bool SynthOptions::Check(std::string* why) const {
     *why = "--layout must be one of bonn, utia, lp, diligent, lights-txt";
     return false;
   }
+  DatasetWriteOptions wo;  // the file format against the bit depth
+  wo.layout = layout, wo.bits = bits, wo.format = format;
+  if (!wo.Check(why)) return false;
   return perturb.Check(why);
 }
 
@@ -136,7 +147,7 @@ StatusOr<SynthResult> Synthesize(const SynthOptions& o) {
   if (!lights.ok()) return lights.status();
   // BTF layouts store the angles in the file names: quantise so names and pixels agree.
   if (o.layout == Layout::kBonn || o.layout == Layout::kUtia) QuantizeToIntegerDegrees(&*lights);
-  auto maps = MakeMaterial(o.material, o.size, o.seed);
+  auto maps = MakeMaterial(o.material, o.size, o.rows(), o.seed);
   if (!maps.ok()) return maps.status();
   SynthResult r;
   r.truth = std::move(*maps);
@@ -160,6 +171,7 @@ Status WriteSynthDataset(const SynthResult& r, const SynthOptions& o, const std:
   DatasetWriteOptions wo;
   wo.layout = o.layout;
   wo.bits = o.bits;
+  wo.format = o.format;
   wo.object_name = fs::path(out_dir).filename().string();
   if (wo.object_name.empty()) wo.object_name = fs::path(out_dir).parent_path().filename().string();
   MATFIT_RETURN_IF_ERROR(WriteDataset(r.stack, wo, dir.temp_path()));

@@ -14,12 +14,16 @@ namespace matfit::synth {
 struct SynthOptions {
   std::string material = "plaster";  // see Materials()
   std::string lights = "bonn81";     // see light_sets.h
-  int size = 64;                     // texels per side, [4, 8192]
+  int size = 64;                     // texels per side (the width), [4, 8192]
+  int height = 0;                    // rows, [4, 8192]; 0 = size (square)
   bool shadows = false;              // cast shadows from the height field (always on for fabrics)
   PerturbOptions perturb;            // noise, shot noise, clipping, misregistration
   uint64_t seed = 1;                 // everything is a function of the seed
   Layout layout = Layout::kBonn;     // output layout
   int bits = 16;                     // 8 (sRGB PNG), 16 (linear PNG), 32 (EXR)
+  std::string format = "auto";       // image files: auto, png, jpg (8-bit), exr (writer.h)
+
+  int rows() const { return height > 0 ? height : size; }
 
   bool Check(std::string* why) const;
 };

@@ -5,7 +5,10 @@
 
 #include <filesystem>
 #include <fstream>
+#include <map>
 #include <nlohmann/json.hpp>
+#include <string>
+#include <vector>
 
 #include "core/dataset/dataset.h"
 #include "core/image_io.h"
@@ -162,6 +165,73 @@ TEST(FitJob, ZipPackAndRefusalToOverwrite) {
   EXPECT_NE(again.status().message().find("--force"), std::string::npos);
   o.overwrite = true;
   EXPECT_TRUE(RunFitJob(o).ok());
+}
+
+// Every stage that ran is announced in order and timed; report.json has the same stages.
+TEST(FitJob, AnnouncesAndTimesEveryStageThatRan) {
+  PackDir tmp;
+  for (int holdout : {0, 3}) {
+    FitJobOptions o;
+    o.input = kFixture;  // has truth/
+    o.model = "lambert";
+    o.holdout = holdout;
+    o.out = tmp / ("pack" + std::to_string(holdout));
+    std::vector<std::string> seen;
+    std::map<std::string, std::pair<int64_t, int64_t>> last;  // stage → (done, total)
+    auto r = RunFitJob(o, [&](const std::string& stage, int64_t done, int64_t total) {
+      if (seen.empty() || seen.back() != stage) {
+        EXPECT_EQ(done, 0) << stage << " starts at 0";
+        seen.push_back(stage);
+      }
+      last[stage] = {done, total};
+      return true;
+    });
+    ASSERT_TRUE(r.ok()) << r.status().ToString();
+    std::vector<std::string> expected = {"read", "fit", "reconstruction", "confidence"};
+    if (holdout) expected.push_back("heldout");
+    expected.insert(expected.end(), {"truth", "write"});
+    EXPECT_EQ(seen, expected);
+    for (const auto& [stage, dt] : last) EXPECT_GE(dt.first, dt.second) << stage << " ends done";
+
+    const auto report = ReadJson(o.out + "/report.json");
+    ASSERT_TRUE(report.contains("timings"));
+    const auto& t = report["timings"];
+    EXPECT_EQ(t.size(), expected.size() + 1);
+    double sum = 0;
+    for (const auto& stage : expected) {
+      ASSERT_TRUE(t.contains(stage)) << stage;
+      EXPECT_GE(t[stage].get<double>(), 0.0) << stage;
+      sum += t[stage].get<double>();
+    }
+    EXPECT_LE(sum, t["total"].get<double>());
+    EXPECT_EQ(t.contains("heldout"), holdout > 0);
+    EXPECT_FALSE(t.contains("select"));
+    // The result's timings run to the end of the job: the same stages, no shorter.
+    ASSERT_EQ(r->timings.stages.size(), expected.size());
+    for (size_t i = 0; i < expected.size(); ++i) EXPECT_EQ(r->timings.stages[i].first, expected[i]);
+    EXPECT_GE(r->timings.total, t["total"].get<double>());
+  }
+}
+
+TEST(FitJob, DecodeOnlyReadsTheDatasetAndWritesNothing) {
+  PackDir tmp;
+  FitJobOptions o;
+  o.input = kFixture;
+  o.decode_only = true;
+  auto r = RunFitJob(o);
+  ASSERT_TRUE(r.ok()) << r.status().ToString();
+  EXPECT_EQ(r->images, 81);
+  EXPECT_GT(r->width, 0);
+  EXPECT_EQ(r->channels, 3);
+  ASSERT_EQ(r->timings.stages.size(), 1u);
+  EXPECT_EQ(r->timings.stages[0].first, "read");
+  EXPECT_LE(r->timings.stages[0].second, r->timings.total);
+  EXPECT_TRUE(r->report_json.empty());
+  o.out = tmp / "pack";
+  auto bad = RunFitJob(o);
+  ASSERT_FALSE(bad.ok());
+  EXPECT_NE(bad.status().message().find("--decode-only"), std::string::npos);
+  EXPECT_FALSE(fs::exists(tmp / "pack"));
 }
 
 TEST(FitJob, BadOptionsAndDataAreReportedBeforeAnythingIsWritten) {
