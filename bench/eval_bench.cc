@@ -10,6 +10,7 @@
 #include <memory>
 #include <string>
 
+#include "bench/read_floor.h"
 #include "core/model/model.h"
 #include "core/parallel.h"
 #include "core/synth/synth.h"
@@ -47,23 +48,7 @@ const fit::FitResult& Fitted(int method) {
   return *r;
 }
 
-// The same floor as fit_bench's read_stack: every float once, 8 vector accumulators.
-__attribute__((target_clones("avx512f", "avx2", "default"))) float SumFloats(const float* p,
-                                                                             int64_t floats) {
-  typedef float V16f __attribute__((vector_size(64)));
-  V16f acc[8] = {};
-  for (int64_t i = 0; i + 128 <= floats; i += 128)
-    for (int j = 0; j < 8; ++j) {
-      V16f v;
-      std::memcpy(&v, p + i + 16 * j, sizeof v);
-      acc[j] += v;
-    }
-  for (int j = 1; j < 8; ++j) acc[0] += acc[j];
-  float sum = 0;
-  for (int k = 0; k < 16; ++k) sum += acc[0][k];
-  for (int64_t i = floats / 128 * 128; i < floats; ++i) sum += p[i];
-  return sum;
-}
+using matfit::bench::SumFloats;  // the same floor as fit_bench's read_stack
 
 void BM_ReadStack(benchmark::State& state) {
   const LightStack& s = Stack();
