@@ -77,10 +77,24 @@ class BasisModel final : public ModelBase<BasisModel<kPtm>> {
                       MaterialMaps* m) const override {
     MATFIT_RETURN_IF_ERROR(load("coefficients", &m->coefficients));
     auto k = params.find("basis_terms");
-    m->basis_terms = k == params.end() ? 0 : int(k->second);
-    if (m->basis_terms <= 0 || m->basis_terms > ModelLight::kMaxBasis)
+    if (k == params.end())
       return DataError(std::string("model.parameters.basis_terms is missing for a ") + name() +
                        " pack");
+    m->basis_terms = int(k->second);
+    const int order = int(std::lround(std::sqrt(double(m->basis_terms))));
+    const bool valid = kPtm ? m->basis_terms == shading::kPtmTerms
+                            : k->second == double(m->basis_terms) && order >= 1 && order <= 4 &&
+                                  order * order == m->basis_terms;
+    if (!valid)
+      return DataError(std::string("model.parameters.basis_terms is ") + std::to_string(k->second) +
+                       " for a " + name() + " pack; it must be " +
+                       (kPtm ? "6" : "1, 4, 9 or 16 (HSH order²)"));
+    const int ch = m->coefficients.channels();
+    if (ch != m->basis_terms && ch != 3 * m->basis_terms)
+      return DataError("the coefficients map has " + std::to_string(ch) + " channel(s); a " +
+                       name() + " pack with basis_terms " + std::to_string(m->basis_terms) +
+                       " needs " + std::to_string(m->basis_terms) + " (grey) or " +
+                       std::to_string(3 * m->basis_terms) + " (RGB)");
     return Status::Ok();
   }
   bool AddShaderPlanes(const MaterialMaps& m, ShaderPlaneSink* s) const override {

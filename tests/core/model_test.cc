@@ -3,6 +3,8 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <fstream>
+#include <iterator>
 #include <set>
 
 #include "core/model/model.h"
@@ -122,6 +124,32 @@ TEST(ModelPack, RoundTripEvaluatesTheSameForEveryModel) {
                       1e-6 + 1e-6 * std::abs(want))
               << d->name();
         }
+  }
+}
+
+// A pack whose basis_terms or coefficient planes do not fit its model is refused with the field
+// and the allowed values, never evaluated.
+TEST(ModelPack, ReaderRefusesInconsistentBasisTerms) {
+  testing::TempDir dir;
+  const MaterialMaps m = RandomModelMaps(ModelId("hsh"), 6, 5, 1);  // 9 terms, 27 planes
+  const std::vector<uint8_t> status(30, 0);
+  const std::string out = dir / "hsh";
+  ASSERT_TRUE(WritePack(m, status, {}, {}, out).ok());
+  const std::string mj = out + "/material.json";
+  std::ifstream in(mj);
+  const std::string good((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  ASSERT_NE(good.find("\"basis_terms\": 9"), std::string::npos);
+  for (const auto& [terms, want] :
+       std::vector<std::pair<std::string, std::string>>{{"5", "must be 1, 4, 9 or 16"},
+                                                        {"4", "needs 4 (grey) or 12 (RGB)"},
+                                                        {"9.5", "must be 1, 4, 9 or 16"}}) {
+    std::string text = good;
+    text.replace(text.find("\"basis_terms\": 9"), 17, "\"basis_terms\": " + terms);
+    testing::WriteText(mj, text);
+    auto back = ReadPack(out);
+    ASSERT_FALSE(back.ok()) << terms;
+    EXPECT_NE(back.status().message().find(want), std::string::npos) << back.status().message();
+    EXPECT_NE(back.status().message().find("material.json"), std::string::npos);
   }
 }
 
