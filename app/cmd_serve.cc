@@ -75,7 +75,35 @@ void RegisterServe(CLI::App& app, int* exit_code) {
       ->capture_default_str();
   sub->add_option("--max-entries", o.archive.max_entries, "archive entry count limit")
       ->capture_default_str();
-  sub->add_option("--request-timeout", o.request_timeout_s, "socket inactivity timeout, s")
+  sub->add_option("--request-timeout", o.request_timeout_s,
+                  "longest silence within a request body or a response, s")
+      ->capture_default_str();
+  sub->add_option("--header-timeout", o.header_timeout_s,
+                  "a request head must be complete this long after its first byte, s (408)")
+      ->capture_default_str();
+  sub->add_option("--keep-alive-timeout", o.keep_alive_timeout_s,
+                  "idle keep-alive connections are closed after this, s")
+      ->capture_default_str();
+  sub->add_option("--transfer-grace", o.transfer_grace_s,
+                  "a body or response may take this long plus its bytes / --min-transfer-rate, s")
+      ->capture_default_str();
+  sub->add_option("--min-transfer-rate", o.min_transfer_rate,
+                  "bytes/s a body or response must average after the grace (slower: cut)")
+      ->capture_default_str();
+  sub->add_option("--max-connections", o.max_connections,
+                  "open connections in all (more are answered 503)")
+      ->capture_default_str();
+  sub->add_option("--max-client-connections", o.max_client_connections,
+                  "open connections per client address (more are answered 503)")
+      ->capture_default_str();
+  sub->add_option("--max-client-requests", o.max_client_requests,
+                  "requests of one client address served at once, per lane")
+      ->capture_default_str();
+  sub->add_option("--http-threads", o.http_threads,
+                  "request workers for requests without a body (reads, polls, deletes)")
+      ->capture_default_str();
+  sub->add_option("--upload-slots", o.upload_slots,
+                  "request workers for requests with a body (submissions)")
       ->capture_default_str();
   sub->add_option("--drain-seconds", o.drain_seconds,
                   "on SIGTERM: how long running jobs may finish before they are re-queued")

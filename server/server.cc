@@ -2,8 +2,10 @@
 
 #include <fcntl.h>
 #include <sys/file.h>
+#include <sys/resource.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <filesystem>
@@ -45,10 +47,24 @@ bool ServerOptions::Check(std::string* why) const {
     return *why = "--data DIR is required (jobs, datasets and packs live there)", false;
   if (port < 0 || port > 65535) return *why = "--port must be in [0, 65535]", false;
   if (workers < 1 || workers > 64) return *why = "--workers must be in [1, 64]", false;
-  if (http_threads < 2 || http_threads > 256)
-    return *why = "HTTP threads must be in [2, 256]", false;
+  if (http_threads < 1 || http_threads > 256)
+    return *why = "--http-threads must be in [1, 256]", false;
+  if (upload_slots < 1 || upload_slots > 64)
+    return *why = "--upload-slots must be in [1, 64]", false;
+  if (max_connections < 8 || max_connections > 100000)
+    return *why = "--max-connections must be in [8, 100000]", false;
+  if (max_client_connections < 1 || max_client_connections > max_connections)
+    return *why = "--max-client-connections must be in [1, --max-connections]", false;
+  if (max_client_requests < 1) return *why = "--max-client-requests must be ≥ 1", false;
+  if (!(header_timeout_s >= 0.1 && header_timeout_s <= 3600))
+    return *why = "--header-timeout must be in [0.1, 3600] s", false;
+  if (!(keep_alive_timeout_s >= 0.1 && keep_alive_timeout_s <= 3600))
+    return *why = "--keep-alive-timeout must be in [0.1, 3600] s", false;
   if (max_upload_bytes < 1024) return *why = "--max-upload must be at least 1 KiB", false;
   if (request_timeout_s < 1) return *why = "--request-timeout must be ≥ 1 s", false;
+  if (!(transfer_grace_s >= 0.1 && transfer_grace_s <= 3600))
+    return *why = "--transfer-grace must be in [0.1, 3600] s", false;
+  if (!(min_transfer_rate >= 1)) return *why = "--min-transfer-rate must be ≥ 1 byte/s", false;
   if (drain_seconds < 0) return *why = "--drain-seconds must be ≥ 0", false;
   if (render_backend != "auto" && render_backend != "egl" && render_backend != "cpu")
     return *why = "render backend must be auto, egl or cpu", false;
@@ -128,14 +144,8 @@ StatusOr<std::unique_ptr<Server>> Server::Create(const ServerOptions& options) {
 
 void Server::Impl::RegisterRoutes() {
   const auto& o = options;
-  http.new_task_queue = [n = o.http_threads] { return new httplib::ThreadPool(size_t(n)); };
-  http.set_read_timeout(o.request_timeout_s, 0);
-  http.set_write_timeout(o.request_timeout_s, 0);
-  http.set_keep_alive_timeout(5);
-  http.set_keep_alive_max_count(1000);
-  // Responses go out as headers + body writes: without TCP_NODELAY, Nagle + delayed ACK adds
-  // ~40 ms to every keep-alive request.
-  http.set_tcp_nodelay(true);
+  // Timeouts, keep-alive and TCP_NODELAY are the connection layer's (http_gate.cc), which
+  // takes its limits in Start().
   http.set_payload_max_length(size_t(o.max_upload_bytes));
 
   // Authorisation before routing (and before an upload body is read).
@@ -237,8 +247,9 @@ void Server::Impl::RegisterRoutes() {
       std::lock_guard<std::mutex> lock(mutex);
       busy = int(live.size());
     }
-    res.set_content(metrics.Render(jobs, jobs["queued"], options.workers, busy),
-                    "text/plain; version=0.0.4");
+    std::string page = metrics.Render(jobs, jobs["queued"], options.workers, busy);
+    RenderGateStats(http.Stats(), &page);
+    res.set_content(page, "text/plain; version=0.0.4");
   };
   http.Get("/metrics", metrics_page);
   http.Get("/api/v1/metrics", metrics_page);
@@ -248,6 +259,18 @@ void Server::Impl::RegisterRoutes() {
 
 Status Server::Start() {
   Impl& m = *impl_;
+  // Every open connection is a descriptor: make room for the connection limit.
+  if (rlimit r{}; ::getrlimit(RLIMIT_NOFILE, &r) == 0) {
+    const rlim_t want = rlim_t(m.options.max_connections) + 512;
+    if (r.rlim_cur < want && r.rlim_cur != RLIM_INFINITY) {
+      r.rlim_cur = std::min(want, r.rlim_max);
+      ::setrlimit(RLIMIT_NOFILE, &r);
+    }
+    if (r.rlim_cur < want)
+      LogEvent("warn", "descriptor_limit",
+               {{"limit", int64_t(r.rlim_cur)}, {"max_connections", m.options.max_connections}});
+  }
+  m.http.Configure(m.options);
   if (m.options.port == 0) {
     m.port = m.http.bind_to_any_port(m.options.bind);
     if (m.port <= 0) return IoError("cannot bind " + m.options.bind + " on any port");
@@ -257,6 +280,7 @@ Status Server::Start() {
                      " (in use, or not allowed); choose another --port");
     m.port = m.options.port;
   }
+  m.http.RaiseBacklog(std::min(m.options.max_connections, 4096));
   m.http_thread = std::thread([&m] { m.http.listen_after_bind(); });
   // stop() is a no-op until the listener runs: wait, so that an early Shutdown cannot hang.
   while (!m.http.is_running()) std::this_thread::sleep_for(std::chrono::milliseconds(1));
@@ -282,7 +306,8 @@ void Server::Shutdown() {
   LogEvent("info", "shutdown", {{"drain_seconds", m.options.drain_seconds}});
   m.http.stop();
   if (m.http_thread.joinable()) m.http_thread.join();
-  m.draining = true;  // workers take no new job
+  m.http.StopConnections();  // requests being served finish; waiting connections close
+  m.draining = true;         // workers take no new job
   {
     std::unique_lock<std::mutex> lock(m.mutex);
     m.wake.notify_all();

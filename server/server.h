@@ -23,12 +23,22 @@ struct ServerOptions {
   std::vector<std::string> allow_roots;         // folders whose datasets may be named by path
   int64_t max_upload_bytes = int64_t(4) << 30;  // request body limit, 4 GiB
   ArchiveLimits archive;
-  int request_timeout_s = 60;  // socket read/write inactivity
-  double drain_seconds = 10;   // on shutdown: wait this long for running jobs, then re-queue
+  double drain_seconds = 10;  // on shutdown: wait this long for running jobs, then re-queue
   std::string render_backend = "auto";  // previews: auto, egl, cpu
-  int http_threads =
-      32;              // one per open connection (cpp-httplib keeps a thread per keep-alive client)
-  bool quiet = false;  // no request log lines (errors are still logged)
+  bool quiet = false;                   // no request log lines (errors are still logged)
+
+  // Connections (server/http_gate.h). Open connections wait for their request head in one
+  // event loop, not in a thread; only complete heads reach the request workers.
+  int http_threads = 16;             // workers for requests without a body (reads, polls, deletes)
+  int upload_slots = 4;              // workers for requests with a body (submissions)
+  int max_connections = 1000;        // open connections in all; more are answered 503
+  int max_client_connections = 32;   // open connections per client address; more get 503
+  int max_client_requests = 4;       // requests of one address served at once (per lane)
+  double header_timeout_s = 10;      // a request head must be complete this long after it began
+  double keep_alive_timeout_s = 5;   // an idle keep-alive connection is closed after this
+  int request_timeout_s = 60;        // longest silence within a body or a response
+  double transfer_grace_s = 10;      // a body/response may take grace + bytes / min rate
+  double min_transfer_rate = 16384;  // bytes/s a body or response must average after the grace
 
   bool Check(std::string* why) const;
 };

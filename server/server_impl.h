@@ -15,6 +15,7 @@
 #include <vector>
 
 #include "server/auth.h"
+#include "server/http_gate.h"
 #include "server/job_store.h"
 #include "server/metrics.h"
 #include "server/preview.h"
@@ -39,7 +40,7 @@ struct Server::Impl {
   std::unique_ptr<JobStore> store;
   Metrics metrics;
   std::unique_ptr<PreviewRenderer> previews;
-  httplib::Server http;
+  GatedHttpServer http;  // httplib parses and routes; server/http_gate.h holds connections
   std::thread http_thread;
   std::vector<std::thread> workers;
   int port = 0;

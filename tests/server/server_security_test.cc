@@ -238,8 +238,9 @@ TEST_F(ServerTest, PublicReadAndNoTokenFileOnlyOnLoopback) {
 
 TEST_F(ServerTest, StalledClientsTimeOutAndAnInterruptedUploadLeavesNothing) {
   opts_.request_timeout_s = 1;
+  opts_.header_timeout_s = 1;
   Start();
-  // A client that sends half a request line and stalls is disconnected by the read timeout.
+  // A client that sends half a request head and stalls is disconnected at the header deadline.
   const int stall = Connect(server_->port());
   ASSERT_GE(stall, 0);
   const std::string half = "GET /healthz HTTP/1.1\r\nHost: x\r\n";
