@@ -353,7 +353,7 @@ TEST_F(HardeningInputTest, AnArchiveOfManyEmptyFoldersIsRefusedQuickly) {
   ASSERT_TRUE(r);
   EXPECT_EQ(r->status, 413) << r->body;
   EXPECT_NE(Message(r).find("folders"), std::string::npos) << Message(r);
-  EXPECT_LT(s, 2.0);
+  EXPECT_LT(s, 3.0);  // it took 4 s here (29 s in the issue) to unpack them all
   ExpectDataClean(0);
 }
 
