@@ -75,6 +75,13 @@ void RegisterServe(CLI::App& app, int* exit_code) {
       ->capture_default_str();
   sub->add_option("--max-entries", o.archive.max_entries, "archive entry count limit")
       ->capture_default_str();
+  sub->add_option("--max-folders", o.archive.max_folders,
+                  "archive folder count limit (folders cost the disk an inode each)")
+      ->capture_default_str();
+  sub->add_option("--max-unpack-ratio", o.archive.max_unpack_ratio,
+                  "an archive unpacks to at most this many times its size (at least 64 MiB; "
+                  "0 = only --max-unpacked-mib)")
+      ->capture_default_str();
   sub->add_option("--request-timeout", o.request_timeout_s,
                   "longest silence within a request body or a response, s")
       ->capture_default_str();

@@ -93,12 +93,13 @@ void ExpandCodes(const std::vector<T>& codes, const std::vector<float>& lut, Ima
 StatusOr<NativeImage> ReadImageNative(const std::string& path, const ImageReadOptions& options,
                                       ImageFileInfo* info) {
   std::error_code ec;
-  if (!options.confine_to.empty() && !PathWithin(path, options.confine_to))
-    return InvalidArgument("image '" + path + "' lies outside the dataset folder '" +
-                           options.confine_to +
-                           "'; list only files inside the dataset (no absolute paths, no ..)");
-  if (!fs::is_regular_file(path, ec)) return NotFound("image file '" + path + "' does not exist");
-  auto in = OIIO::ImageInput::open(path);
+  // The dataset sandbox: open the resolved file, and only when it lies inside confine_to.
+  auto real = ResolveInDataset(path, options.confine_to);
+  if (!real.ok()) return Status(real.status().code(), "image " + real.status().message());
+  if (!fs::is_regular_file(*real, ec))
+    return NotFound("image file '" + DatasetRelative(path, options.confine_to) +
+                    "' does not exist");
+  auto in = OIIO::ImageInput::open(*real);
   if (!in) return DataError("cannot open image '" + path + "': " + LastOiioError(nullptr));
   const OIIO::ImageSpec spec = in->spec();
   if (spec.width <= 0 || spec.height <= 0 || spec.nchannels <= 0 || spec.depth > 1)

@@ -20,8 +20,8 @@ struct ImageReadOptions {
   ColorSpaceChoice layout_default = ColorSpaceChoice::kAuto;
   // Data maps (coefficient planes, lobe shapes): keep every channel instead of 1 or 3.
   bool all_channels = false;
-  // When set, a file that resolves (symlinks, `..`) outside this folder is refused: the server
-  // confines a job to its dataset.
+  // When set, a file that resolves (symlinks, `..`) outside this folder is refused and never
+  // opened (ResolveInDataset): the server confines a job to its dataset.
   std::string confine_to;
 };
 

@@ -6,13 +6,18 @@
 #include <fstream>
 #include <sstream>
 
+#include "core/path_util.h"
+
 namespace matfit {
 
-StatusOr<std::vector<TextLine>> ReadTextLines(const std::string& path) {
+StatusOr<std::vector<TextLine>> ReadTextLines(const std::string& path,
+                                              const std::string& confine_to) {
+  auto real = ResolveInDataset(path, confine_to);
+  if (!real.ok()) return real.status();
   std::error_code ec;
-  if (!std::filesystem::is_regular_file(path, ec))
-    return NotFound("file '" + path + "' does not exist");
-  std::ifstream in(path);
+  if (!std::filesystem::is_regular_file(*real, ec))
+    return NotFound("file '" + DatasetRelative(path, confine_to) + "' does not exist");
+  std::ifstream in(*real);
   if (!in) return IoError("cannot open '" + path + "'");
   std::vector<TextLine> lines;
   std::string raw;

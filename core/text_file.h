@@ -14,8 +14,10 @@ struct TextLine {
   std::vector<std::string> tokens;  // split on white space
 };
 
-// Reads the non-empty lines of `path` that are not comments ('#' first).
-StatusOr<std::vector<TextLine>> ReadTextLines(const std::string& path);
+// Reads the non-empty lines of `path` that are not comments ('#' first). With `confine_to`, the
+// file must resolve inside that folder (ResolveInDataset: the server's dataset sandbox).
+StatusOr<std::vector<TextLine>> ReadTextLines(const std::string& path,
+                                              const std::string& confine_to = "");
 
 // Strict number parsing: the whole token must be a finite number.
 bool ParseFiniteDouble(const std::string& token, double* out);

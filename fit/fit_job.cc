@@ -7,6 +7,7 @@
 #include "core/atomic_file.h"
 #include "core/pack/pack.h"
 #include "core/pack/pack_reader.h"
+#include "core/path_util.h"
 #include "core/stack_ops.h"
 #include "core/synth/truth_io.h"
 #include "fit/assess.h"
@@ -133,7 +134,8 @@ StatusOr<FitJobResult> RunFitJob(const FitJobOptions& o, const StageProgress& pr
     const std::string truth_dir = synth::FindTruthFolder(o.input);
     if (!truth_dir.empty()) {
       if (!stages.Begin("truth")) return Cancelled();
-      if (auto truth = synth::ReadTruth(truth_dir); truth.ok() && truth->width == stack->width())
+      if (auto truth = synth::ReadTruth(truth_dir, o.read.confine_to);
+          truth.ok() && truth->width == stack->width())
         r.truth = CompareToTruth(r.fit.maps, *truth, r.fit.status);
       stages.End();
     }
@@ -217,12 +219,13 @@ StatusOr<FitJobResult> RunFitJob(const FitJobOptions& o, const StageProgress& pr
   const std::string truth_dir = synth::FindTruthFolder(o.input);
   if (!truth_dir.empty()) {
     if (!stages.Begin("truth")) return Cancelled();
-    auto truth = synth::ReadTruth(truth_dir);
+    auto truth = synth::ReadTruth(truth_dir, o.read.confine_to);
     if (truth.ok() && truth->width == stack->width() && truth->height == stack->height())
       r.truth = CompareToTruth(fit->maps, *truth, fitted_status);
     else
       fit->warnings.push_back(
-          "truth folder '" + truth_dir + "' could not be used: " +
+          "truth folder '" + DatasetRelative(truth_dir, o.read.confine_to) +
+          "' could not be used: " +
           (truth.ok() ? std::string("size differs") : truth.status().message()));
     stages.End();
   }

@@ -8,6 +8,7 @@
 
 #include "core/dataset/dataset.h"
 #include "core/image_io.h"
+#include "core/path_util.h"
 #include "leaf/scan.h"
 
 namespace matfit::leaf {
@@ -94,7 +95,9 @@ StatusOr<LeafScan> ReadLeafScan(const std::string& dir, const std::string& manif
 
   json m = json::object();
   if (!manifest.empty()) {
-    std::ifstream in(manifest);
+    auto real = ResolveInDataset(manifest, confine_to);  // the sandbox, as for every file
+    if (!real.ok()) return Status(real.status().code(), "leaf manifest " + real.status().message());
+    std::ifstream in(*real);
     if (!in) return NotFound("cannot open leaf manifest '" + manifest + "'");
     std::stringstream text;
     text << in.rdbuf();

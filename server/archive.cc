@@ -5,8 +5,13 @@
 #include <fcntl.h>
 #include <unistd.h>
 
+#include <algorithm>
+#include <cerrno>
+#include <cstring>
 #include <filesystem>
+#include <limits>
 #include <memory>
+#include <set>
 #include <vector>
 
 namespace matfit::server {
@@ -39,7 +44,8 @@ bool IsUtf8(const std::string& s) {
   return true;
 }
 
-// Splits an entry name into safe components, or explains why it is unsafe.
+// Splits an entry name into safe components, or explains why it is unsafe. `.` components are
+// dropped, so `./` (the root itself) gives no components and `./a` gives {a}.
 bool SafeComponents(const std::string& name, std::vector<std::string>* parts, std::string* why) {
   if (name.empty()) return *why = "has an empty name", false;
   if (!IsUtf8(name)) return *why = "has a name that is not UTF-8", false;
@@ -57,8 +63,15 @@ bool SafeComponents(const std::string& name, std::vector<std::string>* parts, st
     if (!c.empty() && c != ".") parts->push_back(c);
     start = end + 1;
   }
-  if (parts->empty()) return *why = "names no file", false;
   return true;
+}
+
+// A disk (or quota) that filled: 507 for the client, not a server fault.
+bool IsNoSpace(int err) { return err == ENOSPC || err == EDQUOT; }
+
+std::string Size(int64_t bytes) {
+  return bytes >= (int64_t(1) << 20) ? std::to_string(bytes >> 20) + " MiB"
+                                     : std::to_string(std::max<int64_t>(1, bytes >> 10)) + " KiB";
 }
 
 bool IsMacMetadata(const std::vector<std::string>& parts) {
@@ -70,17 +83,34 @@ bool IsMacMetadata(const std::vector<std::string>& parts) {
 
 bool ArchiveLimits::Check(std::string* why) const {
   if (max_entries < 1) return *why = "archive entry limit must be ≥ 1", false;
+  if (max_folders < 1) return *why = "archive folder limit (--max-folders) must be ≥ 1", false;
   if (max_unpacked_bytes < 1) return *why = "archive unpacked-size limit must be ≥ 1 byte", false;
+  if (max_unpack_ratio < 0)
+    return *why = "archive unpack ratio (--max-unpack-ratio) must be ≥ 1, or 0 for none", false;
+  if (max_unpack_ratio > 0 && min_unpack_budget < 1)
+    return *why = "the smallest unpack budget must be ≥ 1 byte", false;
   return true;
+}
+
+int64_t ArchiveLimits::UnpackBudget(int64_t archive_bytes) const {
+  if (max_unpack_ratio <= 0) return max_unpacked_bytes;
+  const int64_t big = std::numeric_limits<int64_t>::max();
+  const int64_t relative = archive_bytes > big / max_unpack_ratio
+                               ? big
+                               : std::max<int64_t>(0, archive_bytes) * max_unpack_ratio;
+  return std::min(max_unpacked_bytes, std::max(min_unpack_budget, relative));
 }
 
 StatusOr<ArchiveResult> ExtractArchive(const std::string& archive_path, const std::string& dest,
                                        const ArchiveLimits& limits, ArchiveProblem* problem) {
   *problem = ArchiveProblem::kNone;
   std::error_code ec;
-  if (fs::exists(dest, ec)) return InvalidArgument("extraction folder '" + dest + "' exists");
-  if (!fs::create_directories(dest, ec))
-    return IoError("cannot create '" + dest + "': " + ec.message());
+  // Messages name archive entries, never server paths (they reach the client).
+  if (fs::exists(dest, ec)) return InvalidArgument("the extraction folder exists already");
+  if (!fs::create_directories(dest, ec)) {
+    if (IsNoSpace(ec.value())) *problem = ArchiveProblem::kNoSpace;
+    return IoError("cannot create the extraction folder: " + ec.message());
+  }
   bool keep = false;
   struct Cleanup {
     const std::string& dir;
@@ -92,9 +122,30 @@ StatusOr<ArchiveResult> ExtractArchive(const std::string& archive_path, const st
   } cleanup{dest, keep};
   auto fail = [&](ArchiveProblem p, std::string message) -> Status {
     *problem = p;
-    return p == ArchiveProblem::kNone ? IoError(std::move(message))
-                                      : InvalidArgument(std::move(message));
+    return p == ArchiveProblem::kNone || p == ArchiveProblem::kNoSpace
+               ? IoError(std::move(message))
+               : InvalidArgument(std::move(message));
   };
+  ArchiveResult result;
+  auto no_space = [&](const std::string& name) {
+    return fail(ArchiveProblem::kNoSpace,
+                "the server ran out of disk space while unpacking the archive (at entry '" + name +
+                    "', " + Size(result.bytes) +
+                    " unpacked); nothing was kept. Retry later, or ask the operator to free "
+                    "space");
+  };
+  const auto size = fs::file_size(archive_path, ec);
+  const int64_t archive_bytes = ec ? 0 : int64_t(size);
+  const int64_t budget = limits.UnpackBudget(archive_bytes);
+  const std::string over_budget =
+      budget < limits.max_unpacked_bytes
+          ? "the archive unpacks to more than " + Size(budget) + ": the server unpacks at most " +
+                std::to_string(limits.max_unpack_ratio) + " times the upload's size (" +
+                Size(archive_bytes) + "), and at least " + Size(limits.min_unpack_budget) +
+                " (--max-unpack-ratio)"
+          : "the archive unpacks to more than " + Size(limits.max_unpacked_bytes) +
+                " (the server's limit)";
+  std::set<std::string> folders;  // relative paths of the folders the archive makes
 
   ArchivePtr a(archive_read_new(), archive_read_free);
   archive_read_support_filter_gzip(a.get());
@@ -107,7 +158,6 @@ StatusOr<ArchiveResult> ExtractArchive(const std::string& archive_path, const st
     return fail(ArchiveProblem::kMalformed,
                 std::string("the upload is not a .zip, .tar or .tar.gz archive (") +
                     archive_error_string(a.get()) + ")");
-  ArchiveResult result;
   result.dataset_root = dest;
   std::vector<char> buf(1 << 16);
   for (;;) {
@@ -135,25 +185,46 @@ StatusOr<ArchiveResult> ExtractArchive(const std::string& archive_path, const st
     if (type != AE_IFREG && type != AE_IFDIR)
       return fail(ArchiveProblem::kUnsafeEntry,
                   "archive entry '" + name + "' is neither a file nor a folder");
+    if (parts.empty()) {
+      if (type == AE_IFDIR) continue;  // `./`: the extraction folder itself
+      return fail(ArchiveProblem::kUnsafeEntry, "archive entry '" + name + "' names no file");
+    }
     if (IsMacMetadata(parts)) continue;
+    // Folders cost the disk far more than their bytes (an inode each): count them, the parents
+    // a file implies included, before any is made.
+    std::string rel;
+    const size_t folder_parts = type == AE_IFDIR ? parts.size() : parts.size() - 1;
+    for (size_t k = 0; k < folder_parts; ++k) {
+      rel += (k ? "/" : "") + parts[k];
+      folders.insert(rel);
+    }
+    if (int64_t(folders.size()) > limits.max_folders)
+      return fail(ArchiveProblem::kLimit, "the archive has more than " +
+                                              std::to_string(limits.max_folders) +
+                                              " folders (the server's limit, --max-folders)");
     fs::path out(dest);
     for (const auto& p : parts) out /= p;
     if (type == AE_IFDIR) {
       fs::create_directories(out, ec);
+      if (ec && IsNoSpace(ec.value())) return no_space(name);
       if (ec)
         return fail(ArchiveProblem::kUnsafeEntry,
                     "archive entry '" + name + "' conflicts with an earlier entry");
       continue;
     }
     fs::create_directories(out.parent_path(), ec);
+    if (ec && IsNoSpace(ec.value())) return no_space(name);
     if (ec)
       return fail(ArchiveProblem::kUnsafeEntry,
                   "archive entry '" + name + "' cannot be placed (" + ec.message() + ")");
     // O_EXCL | O_NOFOLLOW: never write through an existing file or link (duplicate entries).
     const int fd = ::open(out.c_str(), O_WRONLY | O_CREAT | O_EXCL | O_NOFOLLOW | O_CLOEXEC, 0644);
+    if (fd < 0 && IsNoSpace(errno)) return no_space(name);
     if (fd < 0)
       return fail(ArchiveProblem::kUnsafeEntry,
-                  "archive entry '" + name + "' cannot be written (duplicate name?)");
+                  "archive entry '" + name + "' cannot be written (" +
+                      (errno == EEXIST ? std::string("a duplicate name") : std::strerror(errno)) +
+                      ")");
     for (;;) {
       const la_ssize_t n = archive_read_data(a.get(), buf.data(), buf.size());
       if (n == 0) break;
@@ -163,23 +234,28 @@ StatusOr<ArchiveResult> ExtractArchive(const std::string& archive_path, const st
                     "archive entry '" + name + "' is corrupt: " + archive_error_string(a.get()));
       }
       result.bytes += n;
-      if (result.bytes > limits.max_unpacked_bytes) {
+      if (result.bytes > budget) {
         ::close(fd);
-        return fail(ArchiveProblem::kLimit, "the archive unpacks to more than " +
-                                                std::to_string(limits.max_unpacked_bytes >> 20) +
-                                                " MiB (the server's limit)");
+        return fail(ArchiveProblem::kLimit, over_budget);
       }
       for (la_ssize_t off = 0; off < n;) {
         const ssize_t w = ::write(fd, buf.data() + off, size_t(n - off));
         if (w <= 0) {
+          const int err = w < 0 ? errno : ENOSPC;  // a write of 0 bytes: the disk is full
           ::close(fd);
-          return fail(ArchiveProblem::kNone, "writing archive entry '" + name + "' failed");
+          if (IsNoSpace(err)) return no_space(name);
+          return fail(ArchiveProblem::kNone,
+                      "writing archive entry '" + name + "' failed: " + std::strerror(err));
         }
         off += w;
       }
     }
-    if (::close(fd) != 0)
-      return fail(ArchiveProblem::kNone, "writing archive entry '" + name + "' failed");
+    if (::close(fd) != 0) {
+      const int err = errno;
+      if (IsNoSpace(err)) return no_space(name);
+      return fail(ArchiveProblem::kNone,
+                  "writing archive entry '" + name + "' failed: " + std::strerror(err));
+    }
   }
   // One top-level folder and nothing else: that folder is the dataset.
   std::vector<fs::path> top;

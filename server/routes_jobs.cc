@@ -202,9 +202,10 @@ void Server::Impl::RegisterJobRoutes() {
       fs::remove(upload, ec);
       if (!ex.ok())
         return SendErrorAndClose(res,
-                                 problem == ArchiveProblem::kLimit  ? 413
-                                 : problem == ArchiveProblem::kNone ? 500
-                                                                    : 400,
+                                 problem == ArchiveProblem::kLimit     ? 413
+                                 : problem == ArchiveProblem::kNoSpace ? 507
+                                 : problem == ArchiveProblem::kNone    ? 500
+                                                                       : 400,
                                  ex.status().message(), "file");
       if (Status st = ValidateDataset(*spec, ex->dataset_root); !st.ok())
         return SendErrorAndClose(res, 422, st.message(), "file");

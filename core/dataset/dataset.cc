@@ -5,6 +5,7 @@
 
 #include "core/dataset/btf_names.h"
 #include "core/dataset/stack_loader.h"
+#include "core/path_util.h"
 
 namespace matfit {
 namespace {
@@ -65,9 +66,12 @@ bool ReadOptions::Check(std::string* why) const {
   return true;
 }
 
-StatusOr<Layout> DetectLayout(const std::string& path, std::string* reason) {
+StatusOr<Layout> DetectLayout(const std::string& path, std::string* reason,
+                              const std::string& confine_to) {
   std::error_code ec;
   const fs::path p(path);
+  // Confined (the server): the folder is the client's dataset, not a server path to show.
+  const std::string shown = confine_to.empty() ? "'" + path + "'" : "the dataset folder";
   if (!fs::exists(p, ec)) return NotFound("'" + path + "' does not exist");
   if (fs::is_regular_file(p, ec)) {
     if (p.extension() == ".lp") {
@@ -79,7 +83,8 @@ StatusOr<Layout> DetectLayout(const std::string& path, std::string* reason) {
                            "folder instead");
   }
   if (fs::is_empty(p, ec))
-    return DataError("dataset folder '" + path + "' is empty: expected images and a light file");
+    return DataError((confine_to.empty() ? "dataset folder '" + path + "'" : shown) +
+                     " is empty: expected images and a light file");
   if (fs::exists(p / "filenames.txt", ec) && fs::exists(p / "light_directions.txt", ec)) {
     *reason = "filenames.txt and light_directions.txt (DiLiGenT)";
     return Layout::kDiligent;
@@ -94,15 +99,17 @@ StatusOr<Layout> DetectLayout(const std::string& path, std::string* reason) {
   if (lps.size() > 1) {
     std::string list;
     for (const auto& s : lps) list += (list.empty() ? "" : ", ") + s;
-    return InvalidArgument("'" + path + "' holds several .lp files (" + list +
-                           "); pass the one to read, e.g. '" + (p / lps[0]).string() + "'");
+    return InvalidArgument(shown + " holds several .lp files (" + list +
+                           "); keep only the one to read, or pass it, e.g. '" +
+                           DatasetRelative((p / lps[0]).string(), confine_to) + "'");
   }
   const std::string name = p.filename().string();
-  const std::string lights = FindLightsTxt(path);
+  const std::string lights = FindLightsTxt(path, confine_to);
   if (!lights.empty()) {
     for (const auto& e : fs::directory_iterator(p, ec))
       if (e.path().stem() == name + ".0") {
-        *reason = "'" + lights + "' and numbered images " + name + ".N";
+        *reason =
+            "'" + DatasetRelative(lights, confine_to) + "' and numbered images " + name + ".N";
         return Layout::kLightsTxt;
       }
   }
@@ -114,11 +121,16 @@ StatusOr<Layout> DetectLayout(const std::string& path, std::string* reason) {
     *reason = "image names like 'tl000_pl000_tv000_pv000' (UTIA)";
     return Layout::kUtia;
   }
-  return DataError("cannot tell the layout of '" + path +
-                   "': found no filenames.txt (DiLiGenT), no .lp file, no lights.txt with images "
+  const std::string parent_note =
+      !confine_to.empty() && ParentHasLightsTxt(path)
+          ? " (the lights.txt in the parent folder lies outside the dataset folder and is not "
+            "read: copy it into the dataset folder)"
+          : "";
+  return DataError("cannot tell the layout of " + shown +
+                   ": found no filenames.txt (DiLiGenT), no .lp file, no lights.txt with images "
                    "named " +
-                   name +
-                   ".0.*, and no BTF-named images; see docs/formats.md or pass "
+                   name + ".0.*" + parent_note +
+                   ", and no BTF-named images; see docs/formats.md or pass "
                    "--layout");
 }
 
@@ -127,7 +139,7 @@ StatusOr<LightStack> ReadDataset(const std::string& path, const ReadOptions& opt
   if (!options.Check(&why)) return InvalidArgument(why);
   Layout layout = options.layout;
   if (layout == Layout::kAuto) {
-    auto detected = DetectLayout(path, &why);
+    auto detected = DetectLayout(path, &why, options.confine_to);
     if (!detected.ok()) return detected.status();
     layout = *detected;
   }

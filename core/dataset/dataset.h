@@ -31,14 +31,19 @@ struct ReadOptions {
   std::optional<ViewAngles> view;
   ColorSpaceChoice color_space = ColorSpaceChoice::kAuto;  // override of the image rules
   ProgressFn progress;  // called as images are decoded; may be empty
-  // When set, every file the dataset names must resolve inside this folder (the server).
+  // When set, every file the dataset names must resolve inside this folder (the server): each is
+  // opened through ResolveInDataset (core/path_util.h), symlinks and `..` resolved, and refused
+  // with a message naming it relative to the folder. lights.txt is not looked for above it.
   std::string confine_to;
 
   bool Check(std::string* why) const;
 };
 
 // Which layout `path` (a folder, or a `.lp` file) is in, with the evidence in *reason.
-StatusOr<Layout> DetectLayout(const std::string& path, std::string* reason);
+// confine_to: as ReadOptions::confine_to (no lights.txt from outside it; messages name no
+// server path).
+StatusOr<Layout> DetectLayout(const std::string& path, std::string* reason,
+                              const std::string& confine_to = "");
 
 // Reads a dataset. Errors name the file (and line) that was wrong and what would fix it.
 StatusOr<LightStack> ReadDataset(const std::string& path, const ReadOptions& options = {});

@@ -13,8 +13,9 @@ namespace {
 namespace fs = std::filesystem;
 
 // Reads `path` as rows of three finite numbers.
-StatusOr<std::vector<Vec3>> ReadTriples(const std::string& path, const char* what) {
-  auto lines = ReadTextLines(path);
+StatusOr<std::vector<Vec3>> ReadTriples(const std::string& path, const char* what,
+                                        const std::string& confine_to) {
+  auto lines = ReadTextLines(path, confine_to);
   if (!lines.ok()) return lines.status();
   std::vector<Vec3> rows;
   for (const TextLine& l : *lines) {
@@ -36,11 +37,11 @@ StatusOr<LightStack> ReadDiligent(const std::string& dir, const ReadOptions& o) 
   const std::string names_path = (d / "filenames.txt").string();
   const std::string dirs_path = (d / "light_directions.txt").string();
   const std::string ints_path = (d / "light_intensities.txt").string();
-  auto names = ReadTextLines(names_path);
+  auto names = ReadTextLines(names_path, o.confine_to);
   if (!names.ok()) return names.status();
-  auto dirs = ReadTriples(dirs_path, "light direction x y z");
+  auto dirs = ReadTriples(dirs_path, "light direction x y z", o.confine_to);
   if (!dirs.ok()) return dirs.status();
-  auto ints = ReadTriples(ints_path, "light intensity r g b");
+  auto ints = ReadTriples(ints_path, "light intensity r g b", o.confine_to);
   if (!ints.ok()) return ints.status();
   const size_t n = names->size();
   if (n == 0) return DataError("'" + names_path + "' lists no images");
@@ -79,7 +80,7 @@ StatusOr<LightStack> ReadDiligent(const std::string& dir, const ReadOptions& o) 
   const fs::path mask = d / "mask.png";
   std::error_code ec;
   if (fs::exists(mask, ec)) {
-    auto m = ReadMaskImage(mask.string(), stack->width(), stack->height());
+    auto m = ReadMaskImage(mask.string(), stack->width(), stack->height(), o);
     if (!m.ok()) return m.status();
     stack->mask = std::move(*m);
   }

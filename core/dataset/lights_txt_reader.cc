@@ -6,6 +6,7 @@
 #include "core/dataset/btf_names.h"
 #include "core/dataset/dataset.h"
 #include "core/dataset/stack_loader.h"
+#include "core/path_util.h"
 #include "core/text_file.h"
 
 namespace matfit {
@@ -25,20 +26,31 @@ std::string FindNumbered(const fs::path& dir, const std::string& stem) {
 
 }  // namespace
 
-std::string FindLightsTxt(const std::string& dir) {
+std::string FindLightsTxt(const std::string& dir, const std::string& confine_to) {
   std::error_code ec;
-  for (const fs::path& p :
-       {fs::path(dir) / "lights.txt", fs::path(dir).parent_path() / "lights.txt"})
-    if (fs::is_regular_file(p, ec)) return p.string();
-  return {};
+  const fs::path here = fs::path(dir) / "lights.txt";
+  if (fs::is_regular_file(here, ec)) return here.string();  // a link is judged when opened
+  const fs::path parent = fs::path(dir).parent_path();
+  if (!confine_to.empty() && !PathWithin(parent.string(), confine_to)) return {};
+  return fs::is_regular_file(parent / "lights.txt", ec) ? (parent / "lights.txt").string()
+                                                        : std::string();
+}
+
+bool ParentHasLightsTxt(const std::string& dir) {
+  std::error_code ec;
+  return fs::is_regular_file(fs::path(dir).parent_path() / "lights.txt", ec);
 }
 
 StatusOr<LightStack> ReadLightsTxt(const std::string& dir_in, const ReadOptions& o) {
   std::string dir = dir_in;
   while (dir.size() > 1 && dir.back() == '/') dir.pop_back();
-  const std::string lights_path = FindLightsTxt(dir);
+  const std::string lights_path = FindLightsTxt(dir, o.confine_to);
+  if (lights_path.empty() && !o.confine_to.empty() && ParentHasLightsTxt(dir))
+    return NotFound(
+        "no lights.txt in the dataset folder; the lights.txt in its parent folder lies outside "
+        "the dataset folder and is not read: copy it into the dataset folder");
   if (lights_path.empty()) return NotFound("no lights.txt in '" + dir + "' or its parent folder");
-  auto lines = ReadTextLines(lights_path);
+  auto lines = ReadTextLines(lights_path, o.confine_to);
   if (!lines.ok()) return lines.status();
   if (lines->empty()) return DataError("'" + lights_path + "' is empty; expected a light count");
   int count = 0;
@@ -79,7 +91,7 @@ StatusOr<LightStack> ReadLightsTxt(const std::string& dir_in, const ReadOptions&
   if (!stack.ok()) return stack.status();
   const std::string mask = FindNumbered(dir, name + ".mask");
   if (!mask.empty()) {
-    auto m = ReadMaskImage(mask, stack->width(), stack->height());
+    auto m = ReadMaskImage(mask, stack->width(), stack->height(), o);
     if (!m.ok()) return m.status();
     stack->mask = std::move(*m);
   }

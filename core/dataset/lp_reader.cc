@@ -5,7 +5,6 @@
 
 #include "core/dataset/dataset.h"
 #include "core/dataset/stack_loader.h"
-#include "core/path_util.h"
 #include "core/text_file.h"
 
 namespace matfit {
@@ -14,10 +13,7 @@ namespace fs = std::filesystem;
 }
 
 StatusOr<LightStack> ReadLp(const std::string& path, const ReadOptions& o) {
-  if (!o.confine_to.empty() && !PathWithin(path, o.confine_to))
-    return InvalidArgument("light file '" + path + "' lies outside the dataset folder '" +
-                           o.confine_to + "'");
-  auto lines = ReadTextLines(path);
+  auto lines = ReadTextLines(path, o.confine_to);  // confined like every dataset file
   if (!lines.ok()) return lines.status();
   if (lines->empty()) return DataError("'" + path + "' is empty; expected a light count on line 1");
   const TextLine& header = lines->front();
@@ -74,7 +70,7 @@ StatusOr<LightStack> ReadLp(const std::string& path, const ReadOptions& o) {
   const fs::path mask = base / "mask.png";
   std::error_code ec;
   if (fs::is_regular_file(mask, ec)) {
-    auto m = ReadMaskImage(mask.string(), stack->width(), stack->height());
+    auto m = ReadMaskImage(mask.string(), stack->width(), stack->height(), o);
     if (!m.ok()) return m.status();
     stack->mask = std::move(*m);
   }

@@ -6,6 +6,7 @@
 #include <mutex>
 
 #include "core/parallel.h"
+#include "core/path_util.h"
 
 namespace matfit {
 
@@ -142,15 +143,17 @@ StatusOr<LightStack> LoadStack(const std::vector<std::string>& files,
   return Load(files, std::move(lights), options, progress, /*as_float=*/true, &uniform);
 }
 
-StatusOr<std::vector<uint8_t>> ReadMaskImage(const std::string& path, int width, int height) {
+StatusOr<std::vector<uint8_t>> ReadMaskImage(const std::string& path, int width, int height,
+                                             const ReadOptions& o) {
   ImageReadOptions opt;
   opt.color_space = ColorSpaceChoice::kLinear;  // masks are data, not colour
+  opt.confine_to = o.confine_to;
   auto img = ReadImage(path, opt);
   if (!img.ok()) return Status(img.status().code(), "mask: " + img.status().message());
   if (img->width() != width || img->height() != height)
-    return DataError("mask '" + path + "' is " + std::to_string(img->width()) + "x" +
-                     std::to_string(img->height()) + " but the images are " +
-                     std::to_string(width) + "x" + std::to_string(height));
+    return DataError("mask '" + DatasetRelative(path, o.confine_to) + "' is " +
+                     std::to_string(img->width()) + "x" + std::to_string(img->height()) +
+                     " but the images are " + std::to_string(width) + "x" + std::to_string(height));
   std::vector<uint8_t> mask(size_t(width) * height);
   auto plane = img->Plane(0);
   for (size_t i = 0; i < mask.size(); ++i) mask[i] = plane[i] > 0.5f ? 1 : 0;

@@ -6,6 +6,7 @@
 #include <string>
 #include <vector>
 
+#include "core/dataset/dataset.h"
 #include "core/image_io.h"
 #include "core/light_stack.h"
 #include "core/progress.h"
@@ -21,8 +22,9 @@ StatusOr<LightStack> LoadStack(const std::vector<std::string>& files,
                                const ProgressFn& progress);
 
 // Reads a mask image (white = sample): first channel > 0.5 after linearisation. Its size
-// must be width × height.
-StatusOr<std::vector<uint8_t>> ReadMaskImage(const std::string& path, int width, int height);
+// must be width × height. Confined to o.confine_to like every dataset file.
+StatusOr<std::vector<uint8_t>> ReadMaskImage(const std::string& path, int width, int height,
+                                             const ReadOptions& o);
 
 // Checks a light direction read from `where` (e.g. "lights.txt:3"): finite, non-zero;
 // returns the unit vector and fills theta/phi.
@@ -33,6 +35,9 @@ StatusOr<LightSample> MakeLight(const Vec3& direction, const std::string& where)
 namespace matfit {
 // Last component of a folder path, ignoring trailing slashes ("a/b/" → "b").
 std::string FolderName(const std::string& dir);
-// lights.txt in `dir` or its parent folder, or empty.
-std::string FindLightsTxt(const std::string& dir);
+// lights.txt in `dir` or its parent folder, or empty. With `confine_to`, the parent folder is
+// looked in only when it lies inside that folder (for the server's datasets it never does).
+std::string FindLightsTxt(const std::string& dir, const std::string& confine_to = "");
+// Whether the parent folder of `dir` holds a lights.txt (for messages).
+bool ParentHasLightsTxt(const std::string& dir);
 }  // namespace matfit

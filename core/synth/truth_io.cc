@@ -6,6 +6,7 @@
 
 #include "core/image_io.h"
 #include "core/model/model.h"
+#include "core/path_util.h"
 
 namespace matfit::synth {
 namespace {
@@ -20,15 +21,17 @@ std::string FindTruthFolder(const std::string& source) {
   return fs::exists(truth / "params.json", ec) ? truth.string() : std::string();
 }
 
-StatusOr<MaterialMaps> ReadTruth(const std::string& dir) {
+StatusOr<MaterialMaps> ReadTruth(const std::string& dir, const std::string& confine_to) {
   MaterialMaps m;
   ImageReadOptions linear;
   linear.color_space = ColorSpaceChoice::kLinear;
+  linear.confine_to = confine_to;
   auto read = [&](const char* name, bool required, Image* out) -> Status {
     const std::string path = (fs::path(dir) / name).string();
     std::error_code ec;
     if (!fs::exists(path, ec))
-      return required ? NotFound("truth map '" + path + "' is missing") : Status::Ok();
+      return required ? NotFound("truth map '" + DatasetRelative(path, confine_to) + "' is missing")
+                      : Status::Ok();
     auto img = ReadImage(path, linear);
     if (!img.ok()) return img.status();
     *out = std::move(*img);
@@ -44,7 +47,9 @@ StatusOr<MaterialMaps> ReadTruth(const std::string& dir) {
   MATFIT_RETURN_IF_ERROR(read("thickness.exr", false, &m.thickness));
   MATFIT_RETURN_IF_ERROR(read("translucency.exr", false, &m.translucency));
   // The generating model, so that fits of the same family can compare their parameters.
-  std::ifstream pj((fs::path(dir) / "params.json").string());
+  // Optional: when it is missing or lies outside the sandbox, the model is just not known.
+  auto pj_path = ResolveInDataset((fs::path(dir) / "params.json").string(), confine_to);
+  std::ifstream pj(pj_path.ok() ? *pj_path : std::string());
   const nlohmann::json params = nlohmann::json::parse(pj, nullptr, false);
   if (params.is_object() && params.contains("model") && params["model"].is_object()) {
     const std::string name = params["model"].value("name", "");
@@ -53,7 +58,8 @@ StatusOr<MaterialMaps> ReadTruth(const std::string& dir) {
   m.width = m.normal.width();
   m.height = m.normal.height();
   if (m.albedo.width() != m.width || m.mask.width() != m.width)
-    return DataError("truth maps in '" + dir + "' have different sizes");
+    return DataError("truth maps in '" + DatasetRelative(dir, confine_to) +
+                     "' have different sizes");
   return m;
 }
 

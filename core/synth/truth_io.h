@@ -11,7 +11,8 @@ namespace matfit::synth {
 // The truth folder of a dataset at `source` (a folder, or a .lp file inside one), or empty.
 std::string FindTruthFolder(const std::string& source);
 
-// Reads normal.exr, albedo.exr and mask.png (required) plus any optional maps present.
-StatusOr<MaterialMaps> ReadTruth(const std::string& truth_dir);
+// Reads normal.exr, albedo.exr and mask.png (required) plus any optional maps present. With
+// `confine_to` (the server's dataset folder) every file must resolve inside it.
+StatusOr<MaterialMaps> ReadTruth(const std::string& truth_dir, const std::string& confine_to = "");
 
 }  // namespace matfit::synth
