@@ -5,9 +5,13 @@
 #include <fcntl.h>
 #include <unistd.h>
 
+#include <cerrno>
+#include <cstring>
 #include <filesystem>
 #include <memory>
 #include <vector>
+
+#include "server/text.h"
 
 namespace matfit::server {
 namespace {
@@ -16,33 +20,12 @@ namespace fs = std::filesystem;
 
 using ArchivePtr = std::unique_ptr<struct archive, int (*)(struct archive*)>;
 
-// Well-formed UTF-8 (names end up in JSON and in messages); overlong forms are not checked.
-bool IsUtf8(const std::string& s) {
-  for (size_t i = 0; i < s.size();) {
-    const unsigned char c = static_cast<unsigned char>(s[i]);
-    size_t n;  // continuation bytes
-    if (c < 0x80)
-      n = 0;
-    else if ((c & 0xE0) == 0xC0)
-      n = 1;
-    else if ((c & 0xF0) == 0xE0)
-      n = 2;
-    else if ((c & 0xF8) == 0xF0)
-      n = 3;
-    else
-      return false;
-    if (i + n >= s.size() + (n == 0)) return false;
-    for (size_t k = 1; k <= n; ++k)
-      if ((static_cast<unsigned char>(s[i + k]) & 0xC0) != 0x80) return false;
-    i += n + 1;
-  }
-  return true;
-}
-
 // Splits an entry name into safe components, or explains why it is unsafe.
 bool SafeComponents(const std::string& name, std::vector<std::string>* parts, std::string* why) {
   if (name.empty()) return *why = "has an empty name", false;
-  if (!IsUtf8(name)) return *why = "has a name that is not UTF-8", false;
+  // Names end up in JSON (job records, messages): UTF-8 only.
+  if (!IsUtf8(name))
+    return *why = "has a name that is not UTF-8 (re-create the archive with UTF-8 names)", false;
   if (name.find('\0') != std::string::npos) return *why = "has a NUL byte in its name", false;
   if (name.find('\\') != std::string::npos)
     return *why = "uses '\\' in its name; archive names must use '/'", false;
@@ -126,15 +109,15 @@ StatusOr<ArchiveResult> ExtractArchive(const std::string& archive_path, const st
     std::vector<std::string> parts;
     std::string why;
     if (!SafeComponents(name, &parts, &why))
-      return fail(ArchiveProblem::kUnsafeEntry, "archive entry '" + name + "' " + why);
+      return fail(ArchiveProblem::kUnsafeEntry, "archive entry '" + Printable(name) + "' " + why);
     const auto type = archive_entry_filetype(e);
     if (archive_entry_hardlink(e) || type == AE_IFLNK)
       return fail(ArchiveProblem::kUnsafeEntry,
-                  "archive entry '" + name +
+                  "archive entry '" + Printable(name) +
                       "' is a link; links are refused (archive the files themselves)");
     if (type != AE_IFREG && type != AE_IFDIR)
       return fail(ArchiveProblem::kUnsafeEntry,
-                  "archive entry '" + name + "' is neither a file nor a folder");
+                  "archive entry '" + Printable(name) + "' is neither a file nor a folder");
     if (IsMacMetadata(parts)) continue;
     fs::path out(dest);
     for (const auto& p : parts) out /= p;
@@ -142,25 +125,26 @@ StatusOr<ArchiveResult> ExtractArchive(const std::string& archive_path, const st
       fs::create_directories(out, ec);
       if (ec)
         return fail(ArchiveProblem::kUnsafeEntry,
-                    "archive entry '" + name + "' conflicts with an earlier entry");
+                    "archive entry '" + Printable(name) + "' conflicts with an earlier entry");
       continue;
     }
     fs::create_directories(out.parent_path(), ec);
     if (ec)
-      return fail(ArchiveProblem::kUnsafeEntry,
-                  "archive entry '" + name + "' cannot be placed (" + ec.message() + ")");
+      return fail(ArchiveProblem::kUnsafeEntry, "archive entry '" + Printable(name) +
+                                                    "' cannot be placed (" + ec.message() + ")");
     // O_EXCL | O_NOFOLLOW: never write through an existing file or link (duplicate entries).
     const int fd = ::open(out.c_str(), O_WRONLY | O_CREAT | O_EXCL | O_NOFOLLOW | O_CLOEXEC, 0644);
     if (fd < 0)
       return fail(ArchiveProblem::kUnsafeEntry,
-                  "archive entry '" + name + "' cannot be written (duplicate name?)");
+                  "archive entry '" + Printable(name) + "' cannot be written (duplicate name?)");
     for (;;) {
       const la_ssize_t n = archive_read_data(a.get(), buf.data(), buf.size());
       if (n == 0) break;
       if (n < 0) {
         ::close(fd);
-        return fail(ArchiveProblem::kMalformed,
-                    "archive entry '" + name + "' is corrupt: " + archive_error_string(a.get()));
+        return fail(
+            ArchiveProblem::kMalformed,
+            "archive entry '" + Printable(name) + "' is corrupt: " + archive_error_string(a.get()));
       }
       result.bytes += n;
       if (result.bytes > limits.max_unpacked_bytes) {
@@ -172,14 +156,17 @@ StatusOr<ArchiveResult> ExtractArchive(const std::string& archive_path, const st
       for (la_ssize_t off = 0; off < n;) {
         const ssize_t w = ::write(fd, buf.data() + off, size_t(n - off));
         if (w <= 0) {
+          const std::string err = w < 0 ? std::strerror(errno) : "nothing written";
           ::close(fd);
-          return fail(ArchiveProblem::kNone, "writing archive entry '" + name + "' failed");
+          return fail(ArchiveProblem::kNone,
+                      "writing archive entry '" + Printable(name) + "' failed: " + err);
         }
         off += w;
       }
     }
     if (::close(fd) != 0)
-      return fail(ArchiveProblem::kNone, "writing archive entry '" + name + "' failed");
+      return fail(ArchiveProblem::kNone, "writing archive entry '" + Printable(name) +
+                                             "' failed: " + std::strerror(errno));
   }
   // One top-level folder and nothing else: that folder is the dataset.
   std::vector<fs::path> top;

@@ -3,13 +3,13 @@
 #include <memory>
 
 #include "server/server_impl.h"
+#include "server/text.h"
 
 namespace matfit::server {
 
 void SendJson(httplib::Response& res, int status, const nlohmann::json& body) {
   res.status = status;
-  res.set_content(body.dump(2, ' ', false, nlohmann::json::error_handler_t::replace) + "\n",
-                  "application/json");
+  res.set_content(JsonText(body, 2) + "\n", "application/json");
 }
 
 void SendError(httplib::Response& res, int status, const std::string& message,
@@ -23,7 +23,7 @@ void SendErrorAndClose(httplib::Response& res, int status, const std::string& me
                        const std::string& field) {
   nlohmann::json e = {{"status", status}, {"message", message}};
   if (!field.empty()) e["field"] = field;
-  auto body = std::make_shared<std::string>(nlohmann::json{{"error", e}}.dump(2) + "\n");
+  auto body = std::make_shared<std::string>(JsonText({{"error", e}}, 2) + "\n");
   res.status = status;
   res.set_header("Connection", "close");
   res.set_content_provider(body->size(), "application/json",
@@ -31,6 +31,25 @@ void SendErrorAndClose(httplib::Response& res, int status, const std::string& me
                              sink.write(body->data() + offset, length);
                              return false;  // all written; "failing" closes the connection
                            });
+}
+
+bool RejectMalformedTarget(const httplib::Request& req, httplib::Response& res) {
+  for (const auto& [name, value] : req.params) {
+    if (!IsUtf8(name)) {
+      SendErrorAndClose(res, 400,
+                        "query parameter name '" + Printable(name) + "' is not UTF-8 text",
+                        Printable(name));
+      return true;
+    }
+    if (!IsUtf8(value)) {
+      SendErrorAndClose(
+          res, 400,
+          "query parameter '" + name + "' is not UTF-8 text (got '" + Printable(value) + "')",
+          name);
+      return true;
+    }
+  }
+  return false;
 }
 
 std::string ContentTypeFor(const std::string& path) {

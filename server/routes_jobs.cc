@@ -11,6 +11,7 @@
 #include "server/job_spec.h"
 #include "server/log.h"
 #include "server/server_impl.h"
+#include "server/text.h"
 
 namespace matfit::server {
 namespace {
@@ -133,11 +134,13 @@ void Server::Impl::RegisterJobRoutes() {
       std::map<std::string, std::string> fields;
       std::string current, problem_field;
       std::unique_ptr<FILE, int (*)(FILE*)> out(nullptr, std::fclose);
-      bool has_file = false, too_big = false, write_failed = false, unknown = false;
+      bool has_file = false, too_big = false, write_failed = false, unknown = false,
+           not_utf8 = false;
       int64_t bytes = 0;
       const bool ok = reader(
           [&](const httplib::MultipartFormData& part) {
             current = part.name;
+            if (!IsUtf8(current)) return problem_field = current, not_utf8 = true, false;
             static const std::set<std::string> kFields = {"file", "model",   "view",
                                                           "mode", "holdout", "budget"};
             if (!kFields.count(current)) return problem_field = current, unknown = true, false;
@@ -175,12 +178,18 @@ void Server::Impl::RegisterJobRoutes() {
                                      std::to_string(options.max_upload_bytes >> 20) + " MiB",
                                  "file");
       if (write_failed) return SendErrorAndClose(res, 507, "the server could not store the upload");
+      if (not_utf8)
+        return SendErrorAndClose(res, 400,
+                                 "form field name '" + Printable(problem_field) +
+                                     "' is not UTF-8 text; use file, model, view, mode, holdout, "
+                                     "budget",
+                                 Printable(problem_field));
       if (unknown)
         return SendErrorAndClose(
             res, 400,
-            "form field '" + problem_field +
+            "form field '" + Printable(problem_field) +
                 "' is not an option; use file, model, view, mode, holdout, budget",
-            problem_field);
+            Printable(problem_field));
       if (!problem_field.empty())
         return SendErrorAndClose(
             res, 400, "form field '" + problem_field + "' is repeated or longer than 4 KiB",
@@ -193,6 +202,13 @@ void Server::Impl::RegisterJobRoutes() {
             "form field 'file' (the dataset archive: .zip, .tar or .tar.gz) is "
             "required",
             "file");
+      // Values end up in the job record and in messages (JSON): UTF-8 only.
+      for (const auto& [name, value] : fields)
+        if (!IsUtf8(value))
+          return SendErrorAndClose(res, 400,
+                                   "form field '" + name + "' is not UTF-8 text (got '" +
+                                       Printable(value) + "'); send it as UTF-8",
+                                   name);
       spec = ParseJobSpecFields(fields);
       if (!spec.ok())
         return SendErrorAndClose(res, 400, spec.status().message(),
@@ -222,7 +238,7 @@ void Server::Impl::RegisterJobRoutes() {
         return SendErrorAndClose(res, 415,
                                  "POST /api/v1/jobs takes multipart/form-data (an archive in field "
                                  "'file') or application/json ({\"dataset\": ...}), got '" +
-                                     type + "'");
+                                     Printable(type) + "'");
       std::string body;
       bool too_big = false;
       const bool ok = reader([&](const char* data, size_t n) {
@@ -255,7 +271,7 @@ void Server::Impl::RegisterJobRoutes() {
                                  "dataset");
       job.dataset = canonical;
     }
-    job.spec_json = spec->ToJson().dump();
+    job.spec_json = JsonText(spec->ToJson());
     if (Status st = store->Insert(&job); !st.ok()) {
       if (job.uploaded) {
         std::error_code ec;

@@ -141,6 +141,7 @@ void Server::Impl::RegisterRoutes() {
   // Authorisation before routing (and before an upload body is read).
   http.set_pre_routing_handler([this](const httplib::Request& req, httplib::Response& res) {
     t_request_start = std::chrono::steady_clock::now();
+    if (RejectMalformedTarget(req, res)) return httplib::Server::HandlerResponse::Handled;
     if (tokens.empty()) return httplib::Server::HandlerResponse::Unhandled;
     const std::string& p = req.path;
     const bool open = p == "/healthz" || p == "/metrics" || p == "/api/v1/healthz" ||

@@ -80,6 +80,9 @@ void SendJson(httplib::Response& res, int status, const nlohmann::json& body);
 // which makes the library drop the keep-alive connection.
 void SendErrorAndClose(httplib::Response& res, int status, const std::string& message,
                        const std::string& field = "");
+// Refuses (400, closing the connection) a request whose query parameter names or values are not
+// UTF-8 text: they end up in JSON. True when it did.
+bool RejectMalformedTarget(const httplib::Request& req, httplib::Response& res);
 // Streams a file (never loaded whole into memory); 404 JSON when it is missing.
 void SendFile(httplib::Response& res, const std::string& path, const std::string& content_type);
 std::string ContentTypeFor(const std::string& path);

@@ -1,0 +1,124 @@
+// Issue #22, what the service sends back and keeps: content types from the route and no control
+// bytes in paths (stored XSS via a NUL byte), no server paths in packs, non-UTF-8 input gets 400,
+// a full disk fails a job with the reason and never caches an empty preview, and the preview
+// cache is bounded with small previews never queued behind large ones.
+#include <fcntl.h>
+#include <sqlite3.h>
+#include <sys/mount.h>
+#include <unistd.h>
+
+#include <cerrno>
+#include <cstring>
+#include <future>
+
+#include "tests/server/server_fixture.h"
+
+namespace matfit::server::testing_fixture {
+namespace {
+
+bool IsUtf8Json(const std::string& body) {
+  return !json::parse(body, nullptr, false).is_discarded();
+}
+
+class HardeningTest : public ServerTest {
+ protected:
+  // A succeeded `mean` fit of the ring fixture uploaded under `top`; returns its id.
+  std::string FinishedJob(const std::string& top = "plastic-ring12") {
+    const std::string zip = (tmp_ / ("job" + std::to_string(jobs_++) + ".zip")).string();
+    {
+      ArchiveWriter w(zip, ArchiveWriter::Format::kZip);
+      w.Folder(kFixtures + "/plastic-ring12", top);
+    }
+    auto r = Upload(zip, {{"model", "mean"}});
+    EXPECT_TRUE(r);
+    if (!r) return "";
+    EXPECT_EQ(r->status, 202) << r->body;
+    const std::string id = json::parse(r->body, nullptr, false).value("id", "");
+    EXPECT_EQ(WaitFor(id, Finished)["state"], "succeeded");
+    return id;
+  }
+  // Bytes of every file under the preview cache.
+  int64_t PreviewCacheBytes() {
+    int64_t n = 0;
+    for (const auto& e :
+         fs::recursive_directory_iterator(fs::path(opts_.data_dir) / "cache" / "previews"))
+      if (e.is_regular_file()) n += int64_t(e.file_size());
+    return n;
+  }
+  int jobs_ = 0;
+};
+
+// ---- 7. Non-UTF-8 input -----------------------------------------------------------------------
+
+TEST_F(HardeningTest, NonUtf8InputsGet400NamingTheField) {
+  Start();
+  const std::string plastic = ZipFixture("plastic-ring12");
+  const std::string bad = "\xff\xfe\xc3";
+  struct Case {
+    std::string what, archive;
+    std::vector<std::pair<std::string, std::string>> fields;
+    std::string field;
+  };
+  auto tar = [&](const std::string& name, ArchiveWriter::Format f, const std::string& entry) {
+    const std::string p = (tmp_ / name).string();
+    ArchiveWriter w(p, f);
+    w.Folder(kFixtures + "/plastic-ring12", "set");
+    w.File(entry, "x");
+    return p;
+  };
+  const std::vector<Case> cases = {
+      {"field value", plastic, {{"model", "lambert" + bad}}, "model"},
+      {"view value", plastic, {{"view", bad}}, "view"},
+      {"mode value", plastic, {{"mode", bad}}, "mode"},
+      {"field name", plastic, {{"mo" + bad, "lambert"}}, ""},
+      {"archive entry (tar)",
+       tar("e.tar", ArchiveWriter::Format::kTar, "set/" + bad + ".png"),
+       {},
+       "file"},
+      {"archive entry (zip)",
+       tar("e.zip", ArchiveWriter::Format::kZip, "set/" + bad + ".png"),
+       {},
+       "file"},
+  };
+  for (const auto& c : cases) {
+    auto r = Upload(c.archive, c.fields);
+    ASSERT_TRUE(r) << c.what;
+    EXPECT_EQ(r->status, 400) << c.what << ": " << r->body;
+    ASSERT_TRUE(IsUtf8Json(r->body)) << c.what << ": " << r->body;
+    const json e = json::parse(r->body);
+    if (!c.field.empty()) {
+      EXPECT_EQ(e["error"].value("field", ""), c.field) << c.what << ": " << r->body;
+    }
+    EXPECT_NE(e["error"].value("message", "").find("UTF-8"), std::string::npos)
+        << c.what << ": " << r->body;
+    ExpectDataClean(0);
+  }
+  // Query parameters (names and values), and a header that ends up in a message.
+  const std::string id = FinishedJob();
+  const std::string enc = "%ff%fe%c3";
+  const std::pair<std::string, std::string> queries[] = {
+      {"/api/v1/jobs?state=" + enc, "state"},
+      {"/api/v1/packs/" + id + "/preview.png?scene=" + enc, "scene"},
+      {"/api/v1/packs/" + id + "/preview.png?theta=" + enc, "theta"},
+      {"/api/v1/jobs?" + enc + "=1", ""},
+  };
+  for (const auto& [q, field] : queries) {
+    auto r = client_->Get(q.c_str());
+    ASSERT_TRUE(r) << q;
+    EXPECT_EQ(r->status, 400) << q << ": " << r->body;
+    ASSERT_TRUE(IsUtf8Json(r->body)) << q;
+    const json e = json::parse(r->body);
+    if (!field.empty()) {
+      EXPECT_EQ(e["error"].value("field", ""), field) << q;
+    }
+    EXPECT_NE(e["error"].value("message", "").find("UTF-8"), std::string::npos) << r->body;
+  }
+  const std::string reply = RawExchange(
+      server_->port(), "POST /api/v1/jobs HTTP/1.1\r\nHost: x\r\nContent-Type: text/" + bad +
+                           "\r\nContent-Length: 2\r\nConnection: close\r\n\r\n{}");
+  EXPECT_EQ(reply.rfind("HTTP/1.1 415", 0), 0u) << reply;
+  EXPECT_TRUE(IsUtf8Json(reply.substr(reply.find("\r\n\r\n") + 4))) << reply;
+}
+
+}  // namespace
+}  // namespace matfit::server::testing_fixture
