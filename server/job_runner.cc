@@ -74,7 +74,8 @@ Status ValidateDataset(const JobSpec& spec, const std::string& dir) {
 }
 
 StatusOr<std::string> RunJob(const JobSpec& spec, const std::string& dataset,
-                             const std::string& out_dir, const JobProgress& progress) {
+                             const std::string& out_dir, const JobProgress& progress,
+                             const std::string& source_label) {
   const bool leaf = spec.mode == "leaf", select = spec.model == "auto";
   auto stage = [&](const std::string& s, int64_t d, int64_t t) {
     return Forward(progress, leaf, select, s, d, t);
@@ -82,6 +83,7 @@ StatusOr<std::string> RunJob(const JobSpec& spec, const std::string& dataset,
   if (leaf) {
     leaf::LeafJobOptions o;
     o.input = dataset;
+    o.source_label = source_label;
     o.out = out_dir;
     o.overwrite = true;
     o.confine = true;
@@ -108,6 +110,7 @@ StatusOr<std::string> RunJob(const JobSpec& spec, const std::string& dataset,
   }
   fit::FitJobOptions o;
   o.input = dataset;
+  o.source_label = source_label;
   o.model = spec.model;
   o.holdout = spec.holdout;
   o.budget = spec.budget;

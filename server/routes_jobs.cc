@@ -221,9 +221,12 @@ void Server::Impl::RegisterJobRoutes() {
                                  problem == ArchiveProblem::kLimit  ? 413
                                  : problem == ArchiveProblem::kNone ? 500
                                                                     : 400,
-                                 ex.status().message(), "file");
-      if (Status st = ValidateDataset(*spec, ex->dataset_root); !st.ok())
-        return SendErrorAndClose(res, 422, st.message(), "file");
+                                 ForClients(ex.status().message()), "file");
+      if (Status st = ValidateDataset(*spec, ex->dataset_root); !st.ok()) {
+        JobRecord unpacked;  // the reader's paths, relative to the archive's dataset folder
+        unpacked.dataset = ex->dataset_root, unpacked.uploaded = true;
+        return SendErrorAndClose(res, 422, ForClients(st.message(), &unpacked), "file");
+      }
       // Move into place; the dataset path keeps the archive's top folder, if any.
       const std::string rel = fs::relative(ex->dataset_root, staging.dir + "/dataset", ec).string();
       const std::string final_dir = DatasetsDir() + "/" + id;

@@ -40,6 +40,27 @@ double NowSeconds() {
   return std::chrono::duration<double>(std::chrono::system_clock::now().time_since_epoch()).count();
 }
 
+std::string Server::Impl::SourceLabel(const JobRecord& j) const {
+  if (!j.uploaded) return j.dataset;  // a folder the client named itself
+  std::error_code ec;
+  const std::string rel = fs::relative(j.dataset, DatasetsDir() + "/" + j.id, ec).generic_string();
+  return "upload " + j.id + (ec || rel.empty() || rel == "." ? "" : "/" + rel);
+}
+
+std::string Server::Impl::ForClients(std::string message, const JobRecord* job) const {
+  auto replace_all = [&](const std::string& from, const std::string& to) {
+    for (size_t at = 0; (at = message.find(from, at)) != std::string::npos; at += to.size())
+      message.replace(at, from.size(), to);
+  };
+  if (job && job->uploaded) {
+    replace_all(job->dataset + "/", "");
+    replace_all(job->dataset, "the dataset folder");
+  }
+  replace_all(data + "/", "");
+  replace_all(data, "the data folder");
+  return message;
+}
+
 bool ServerOptions::Check(std::string* why) const {
   if (data_dir.empty())
     return *why = "--data DIR is required (jobs, datasets and packs live there)", false;
@@ -203,6 +224,7 @@ void Server::Impl::RegisterRoutes() {
   // whichever connection it asks on. Their latency is the time to the first response byte; the
   // log line, written after the response, has the whole time.
   http.set_post_routing_handler([this](const httplib::Request& req, httplib::Response& res) {
+    AddSecurityHeaders(res);
     const double s =
         std::chrono::duration<double>(std::chrono::steady_clock::now() - t_request_start).count();
     metrics.ObserveRequest(RouteOf(req.path), req.method, res.status, s);
@@ -347,7 +369,7 @@ void Server::Impl::RunOne(const JobRecord& job) {
     if (job.cancel_requested) lj->cancel = true;
     try {  // a job must never take the server down (or, re-queued, take it down again)
       r = lj->cancel ? StatusOr<std::string>(Status(StatusCode::kCancelled, "cancelled"))
-                     : RunJob(*spec, job.dataset, PackDir(job.id), progress);
+                     : RunJob(*spec, job.dataset, PackDir(job.id), progress, SourceLabel(job));
     } catch (const std::exception& e) {
       r = Status(StatusCode::kInternal, std::string("internal error: ") + e.what());
     }
@@ -367,7 +389,8 @@ void Server::Impl::RunOne(const JobRecord& job) {
                         seconds);
   } else {
     final_state = "failed";
-    (void)store->Finish(job.id, JobState::kFailed, r.status().message(), "", NowSeconds(), seconds);
+    (void)store->Finish(job.id, JobState::kFailed, ForClients(r.status().message(), &job), "",
+                        NowSeconds(), seconds);
   }
   if (final_state != "requeued") metrics.ObserveJob(final_state, seconds);
   LogEvent(final_state == "failed" ? "warn" : "info", "job_finished",

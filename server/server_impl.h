@@ -67,6 +67,12 @@ struct Server::Impl {
   void WorkerLoop();
   void RunOne(const JobRecord& job);
   nlohmann::json JobJson(const JobRecord& j);
+  // What a pack names as its input: "upload ID/NAME" for uploads (NAME: the archive's top
+  // folder, if any), the folder the client named otherwise.
+  std::string SourceLabel(const JobRecord& j) const;
+  // `message` for a client: the server's own folders removed (paths in an uploaded dataset
+  // become relative to it, other paths relative to the data folder). The log keeps the original.
+  std::string ForClients(std::string message, const JobRecord* job = nullptr) const;
   void RemoveJobFiles(const JobRecord& j);
 };
 
@@ -80,12 +86,19 @@ void SendJson(httplib::Response& res, int status, const nlohmann::json& body);
 // which makes the library drop the keep-alive connection.
 void SendErrorAndClose(httplib::Response& res, int status, const std::string& message,
                        const std::string& field = "");
-// Refuses (400, closing the connection) a request whose query parameter names or values are not
-// UTF-8 text: they end up in JSON. True when it did.
+// Refuses (400, closing the connection) a request whose path has a control byte (a NUL would
+// cut the file name short: `material.json%00.html`) or is not UTF-8, or whose query parameter
+// names or values are not UTF-8 text (they end up in JSON). True when it did.
 bool RejectMalformedTarget(const httplib::Request& req, httplib::Response& res);
+// X-Content-Type-Options: nosniff on every response, and a Content-Security-Policy that allows
+// nothing (no scripts, sandboxed) on every response that is not the viewer's HTML page.
+void AddSecurityHeaders(httplib::Response& res);
 // Streams a file (never loaded whole into memory); 404 JSON when it is missing.
 void SendFile(httplib::Response& res, const std::string& path, const std::string& content_type);
-std::string ContentTypeFor(const std::string& path);
+// Content types by route, never from a client's path: a file of a pack (only the kinds a pack
+// holds; anything else is application/octet-stream, never HTML) and an embedded viewer file.
+std::string PackFileType(const std::string& name);
+std::string ViewerFileType(const std::string& name);
 // Route label for metrics: the pattern, not the raw path ("/api/v1/jobs/{id}").
 std::string RouteOf(const std::string& path);
 

@@ -120,5 +120,103 @@ TEST_F(HardeningTest, NonUtf8InputsGet400NamingTheField) {
   EXPECT_TRUE(IsUtf8Json(reply.substr(reply.find("\r\n\r\n") + 4))) << reply;
 }
 
+// ---- 3. Stored XSS via a NUL byte -----------------------------------------------------------
+
+// The top folder of the uploaded archive: markup, which material.json used to repeat.
+const std::string kMarkupName = "<svg onload=alert(1)>";
+
+TEST_F(HardeningTest, ControlBytesInPathsAre400AndPackFilesKeepTheirRoutesType) {
+  Start();
+  const std::string id = FinishedJob(kMarkupName);
+  ASSERT_FALSE(id.empty());
+  const std::string base = "/api/v1/packs/" + id;
+  // The NUL byte of the issue, and its cousins: never a 200, never text/html.
+  for (const std::string tail : {"/material.json%00.html", "/material.json%00", "/material.json%01",
+                                 "/material.json%1f.html", "/material.json%7f",
+                                 "/material.json%0d%0aX-Evil:%201", "%00/material.json"}) {
+    auto r = client_->Get((base + tail).c_str());
+    ASSERT_TRUE(r) << tail;
+    EXPECT_EQ(r->status, 400) << tail << ": " << r->body;
+    EXPECT_EQ(r->get_header_value("Content-Type"), "application/json") << tail;
+    EXPECT_FALSE(r->has_header("X-Evil")) << tail;
+    const json e = json::parse(r->body, nullptr, false);
+    EXPECT_NE(e["error"].value("message", "").find("control"), std::string::npos) << r->body;
+  }
+  auto job = client_->Get(("/api/v1/jobs/" + id + "%00").c_str());
+  ASSERT_TRUE(job);
+  EXPECT_EQ(job->status, 400);
+
+  // Each route's own type, whatever the path ends with; nosniff and a CSP everywhere.
+  const std::pair<std::string, std::string> typed[] = {
+      {base + "/material.json", "application/json"},
+      {base + "/material.gltf", "model/gltf+json"},
+      {base + "/maps/albedo.png", "image/png"},
+      {base + "/maps/albedo.exr", "image/x-exr"},
+      {base + "/report", "application/json"},
+      {base + "/preview.png?size=16", "image/png"},
+      {base, "application/zip"},
+      {"/api/v1/jobs/" + id, "application/json"},
+      {"/api/v1/no-such-route", "application/json"},
+      {base + "/no-such-file.html", "application/json"},
+  };
+  for (const auto& [path, type] : typed) {
+    auto r = client_->Get(path.c_str());
+    ASSERT_TRUE(r) << path;
+    EXPECT_EQ(r->get_header_value("Content-Type"), type) << path << " (" << r->status << ")";
+    EXPECT_EQ(r->get_header_value("X-Content-Type-Options"), "nosniff") << path;
+    const std::string csp = r->get_header_value("Content-Security-Policy");
+    EXPECT_NE(csp.find("default-src 'none'"), std::string::npos) << path << ": " << csp;
+    EXPECT_NE(csp.find("sandbox"), std::string::npos) << path << ": " << csp;
+  }
+  // The viewer page is HTML (it runs scripts), and gets nosniff too.
+  auto page = client_->Get("/api/v1/viewer/static/index.html");
+  ASSERT_TRUE(page);
+  EXPECT_EQ(page->status, 200);
+  EXPECT_EQ(page->get_header_value("Content-Type"), "text/html; charset=utf-8");
+  EXPECT_EQ(page->get_header_value("X-Content-Type-Options"), "nosniff");
+}
+
+TEST_F(HardeningTest, PacksAndJobRecordsHoldNoServerPaths) {
+  Start();
+  const std::string id = FinishedJob(kMarkupName);
+  ASSERT_FALSE(id.empty());
+  const std::string data = fs::canonical(opts_.data_dir).string();
+  for (const std::string file : {"/material.json", "/report.json", "/material.gltf"}) {
+    auto r = client_->Get(("/api/v1/packs/" + id + file).c_str());
+    ASSERT_TRUE(r);
+    ASSERT_EQ(r->status, 200) << file;
+    EXPECT_EQ(r->body.find(data), std::string::npos) << file << " names the data folder";
+    EXPECT_EQ(r->body.find(tmp_.string()), std::string::npos) << file << " names a server path";
+  }
+  // The provenance names the job and the dataset by its name inside the upload: data, in JSON.
+  const json material = Get("/api/v1/packs/" + id + "/material.json");
+  const std::string input = material["provenance"]["input"];
+  EXPECT_NE(input.find(id), std::string::npos) << input;
+  EXPECT_NE(input.find(kMarkupName), std::string::npos) << input;
+  EXPECT_EQ(json::parse(Slurp(fs::path(opts_.data_dir) / "packs" / id / "report.json"))["source"],
+            input);
+  auto job = client_->Get(("/api/v1/jobs/" + id).c_str());
+  ASSERT_TRUE(job);
+  EXPECT_EQ(job->body.find(data), std::string::npos) << job->body;
+}
+
+TEST_F(HardeningTest, AFailedJobsMessageNamesNoServerPath) {
+  Start();
+  // An .lp naming an image that is not in the upload: the reader's message names the file.
+  const std::string zip = (tmp_ / "missing.zip").string();
+  {
+    ArchiveWriter w(zip, ArchiveWriter::Format::kZip);
+    w.Folder(kFixtures + "/plastic-ring12", "set", "img_003.png");
+  }
+  auto r = Upload(zip, {{"model", "mean"}});
+  ASSERT_TRUE(r);
+  ASSERT_EQ(r->status, 202) << r->body;
+  const json j = WaitFor(json::parse(r->body)["id"], Finished);
+  ASSERT_EQ(j["state"], "failed");
+  const std::string error = j["error"];
+  EXPECT_NE(error.find("img_003.png"), std::string::npos) << error;
+  EXPECT_EQ(error.find(fs::canonical(opts_.data_dir).string()), std::string::npos) << error;
+}
+
 }  // namespace
 }  // namespace matfit::server::testing_fixture
