@@ -46,7 +46,7 @@ bool ParseNumber(const std::string& s, double* v) {
 void Server::Impl::RegisterPackRoutes() {
   // The job must exist and have succeeded; otherwise an error response is sent.
   auto pack_of = [this](const std::string& id, httplib::Response& res) -> std::optional<JobRecord> {
-    auto j = store->Get(id);
+    auto j = GetJob(id);
     if (!j) {
       SendError(res, 404, "no job '" + id + "'");
       return std::nullopt;

@@ -4,8 +4,10 @@
 #include <sys/file.h>
 #include <unistd.h>
 
+#include <cerrno>
 #include <chrono>
 #include <cmath>
+#include <cstring>
 #include <filesystem>
 #include <random>
 #include <set>
@@ -241,7 +243,7 @@ void Server::Impl::RegisterRoutes() {
   });
 
   auto health = [this](const httplib::Request&, httplib::Response& res) {
-    const auto counts = store->CountByState();
+    const auto counts = CountByState();
     SendJson(res, 200,
              {{"status", draining ? "draining" : "ok"},
               {"version", kMatfitVersion},
@@ -254,7 +256,7 @@ void Server::Impl::RegisterRoutes() {
   http.Get("/api/v1/healthz", health);
   auto metrics_page = [this](const httplib::Request&, httplib::Response& res) {
     std::map<std::string, int64_t> jobs;
-    for (const auto& [s, n] : store->CountByState()) jobs[JobStateName(s)] = n;
+    for (const auto& [s, n] : CountByState()) jobs[JobStateName(s)] = n;
     int busy;
     {
       std::lock_guard<std::mutex> lock(mutex);
@@ -317,6 +319,10 @@ void Server::Shutdown() {
   m.wake.notify_all();
   for (auto& w : m.workers) w.join();
   m.workers.clear();
+  // A last try for final states the database has not taken (left "running", a job would be
+  // re-queued at the next start).
+  if (Status st = m.RetryPending(true); !st.ok())
+    LogEvent("error", "job_state_unsaved", {{"error", st.message()}});
   {
     std::lock_guard<std::mutex> lock(m.shutdown_mutex);
     m.shutdown_done = true;
@@ -325,8 +331,80 @@ void Server::Shutdown() {
   LogEvent("info", "stopped", json::object());
 }
 
+void Server::Impl::RecordFinal(const std::string& id, PendingFinal f) {
+  Status st;
+  for (const int ms : {0, 50, 200, 800}) {  // a busy or briefly failing database
+    std::this_thread::sleep_for(std::chrono::milliseconds(ms));
+    st = store->Finish(id, f.state, f.error, f.summary_json, f.finished, f.run_seconds);
+    if (st.ok()) return;
+  }
+  // The database cannot take it (disk full, I/O error): keep it, show it, write it later.
+  LogEvent("error", "job_state_unsaved",
+           {{"id", id}, {"state", JobStateName(f.state)}, {"error", st.message()}});
+  f.tries = 4, f.next_try = NowSeconds() + f.delay;
+  std::lock_guard<std::mutex> lock(pending_mutex);
+  pending[id] = std::move(f);
+}
+
+Status Server::Impl::RetryPending(bool force, const std::string& only) {
+  std::vector<std::pair<std::string, PendingFinal>> due;
+  {
+    std::lock_guard<std::mutex> lock(pending_mutex);
+    const double now = NowSeconds();
+    for (const auto& [id, f] : pending)
+      if (only.empty() ? force || now >= f.next_try : id == only) due.emplace_back(id, f);
+  }
+  Status result;
+  for (const auto& [id, f] : due) {
+    const Status st =
+        store->Finish(id, f.state, f.error, f.summary_json, f.finished, f.run_seconds);
+    std::lock_guard<std::mutex> lock(pending_mutex);
+    const auto it = pending.find(id);
+    if (it == pending.end()) continue;  // written meanwhile by another thread
+    if (st.ok()) {
+      LogEvent("info", "job_state_saved",
+               {{"id", id}, {"state", JobStateName(f.state)}, {"tries", it->second.tries + 1}});
+      pending.erase(it);
+    } else {
+      PendingFinal& p = it->second;
+      ++p.tries;
+      p.delay = std::min(p.delay * 2, 5.0);  // back off, but land soon after space is freed
+      p.next_try = NowSeconds() + p.delay;
+      result = st;
+    }
+  }
+  return result;
+}
+
+bool Server::Impl::ApplyPending(JobRecord* j) {
+  std::lock_guard<std::mutex> lock(pending_mutex);
+  const auto it = pending.find(j->id);
+  if (it == pending.end()) return false;
+  const PendingFinal& f = it->second;
+  j->state = f.state, j->error = f.error, j->finished = f.finished;
+  j->run_seconds = f.run_seconds;
+  j->summary_json = f.summary_json.empty() ? "{}" : f.summary_json;
+  if (f.state == JobState::kSucceeded) j->progress = 1;
+  return true;
+}
+
+std::map<JobState, int64_t> Server::Impl::CountByState() {
+  auto counts = store->CountByState();
+  std::lock_guard<std::mutex> lock(pending_mutex);
+  for (const auto& [id, f] : pending)  // their rows still say "running"
+    if (counts[JobState::kRunning] > 0) --counts[JobState::kRunning], ++counts[f.state];
+  return counts;
+}
+
+std::optional<JobRecord> Server::Impl::GetJob(const std::string& id) {
+  auto j = store->Get(id);
+  if (j) ApplyPending(&*j);
+  return j;
+}
+
 void Server::Impl::WorkerLoop() {
   while (!draining) {
+    (void)RetryPending(false);  // final states the database could not take yet
     auto job = store->ClaimNext(NowSeconds());
     if (!job) {
       std::unique_lock<std::mutex> lock(mutex);
@@ -359,8 +437,9 @@ void Server::Impl::RunOne(const JobRecord& job) {
     }
     if (now - last_persist > std::chrono::seconds(1)) {  // persisted about once a second
       last_persist = now;
-      (void)store->UpdateProgress(job.id, f, stage);
+      (void)store->UpdateProgress(job.id, f, stage);  // best effort: the final state is not
       if (auto r = store->Get(job.id); r && r->cancel_requested) lj->cancel = true;
+      (void)RetryPending(false);  // other jobs' final states, while this one runs
     }
     return !lj->cancel.load();
   };
@@ -377,22 +456,27 @@ void Server::Impl::RunOne(const JobRecord& job) {
   const double seconds =
       std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   std::string final_state;
-  if (r.ok()) {
-    final_state = "succeeded";
-    (void)store->Finish(job.id, JobState::kSucceeded, "", *r, NowSeconds(), seconds);
-  } else if (r.status().code() == StatusCode::kCancelled && hard_stop) {
+  if (r.status().code() == StatusCode::kCancelled && hard_stop) {
     final_state = "requeued";
-    (void)store->Requeue(job.id);
-  } else if (r.status().code() == StatusCode::kCancelled) {
-    final_state = "cancelled";
-    (void)store->Finish(job.id, JobState::kCancelled, "cancelled while running", "", NowSeconds(),
-                        seconds);
+    // A failed write leaves the row "running": the next start-up re-queues it the same way.
+    if (Status st = store->Requeue(job.id); !st.ok())
+      LogEvent("error", "job_state_unsaved", {{"id", job.id}, {"error", st.message()}});
   } else {
-    final_state = "failed";
-    (void)store->Finish(job.id, JobState::kFailed, ForClients(r.status().message(), &job), "",
-                        NowSeconds(), seconds);
+    PendingFinal f;
+    f.finished = NowSeconds(), f.run_seconds = seconds;
+    if (r.ok()) {
+      f.state = JobState::kSucceeded, f.summary_json = *r;
+    } else if (r.status().code() == StatusCode::kCancelled) {
+      f.state = JobState::kCancelled, f.error = "cancelled while running";
+    } else {
+      f.state = JobState::kFailed, f.error = ForClients(r.status().message(), &job);
+      if (f.error.find(std::strerror(ENOSPC)) != std::string::npos)
+        f.error = "the server's disk is full (ENOSPC); free space and submit again: " + f.error;
+    }
+    final_state = JobStateName(f.state);
+    RecordFinal(job.id, std::move(f));
+    metrics.ObserveJob(final_state, seconds);
   }
-  if (final_state != "requeued") metrics.ObserveJob(final_state, seconds);
   LogEvent(final_state == "failed" ? "warn" : "info", "job_finished",
            {{"id", job.id},
             {"state", final_state},

@@ -32,6 +32,16 @@ struct LiveJob {
   std::string stage;
 };
 
+// A job's final state that the database has not taken yet (disk full, I/O error). GET and
+// DELETE show it; it is written again, with backoff, until it lands.
+struct PendingFinal {
+  JobState state = JobState::kFailed;
+  std::string error, summary_json;
+  double finished = 0, run_seconds = 0;
+  int tries = 0;
+  double delay = 0.5, next_try = 0;  // seconds; Unix time of the next write
+};
+
 struct Server::Impl {
   ServerOptions options;
   std::string data;  // absolute data folder
@@ -50,6 +60,8 @@ struct Server::Impl {
   std::condition_variable wake, idle;
   std::map<std::string, std::shared_ptr<LiveJob>> live;
   std::atomic<bool> draining{false}, hard_stop{false}, stopped{false};
+  std::mutex pending_mutex;  // guards pending
+  std::map<std::string, PendingFinal> pending;
   std::mutex shutdown_mutex;
   std::condition_variable shutdown_cv;
   bool shutdown_done = false;
@@ -66,6 +78,17 @@ struct Server::Impl {
   void RegisterPackRoutes();
   void WorkerLoop();
   void RunOne(const JobRecord& job);
+  // The one way a job's final state is recorded: written at once (retrying briefly); when the
+  // database cannot take it, kept in `pending` and written again by RetryPending.
+  void RecordFinal(const std::string& id, PendingFinal final_state);
+  // Writes the pending final states that are due (all of them with force); returns the status
+  // of writing `only` when given (only that one is tried then).
+  Status RetryPending(bool force, const std::string& only = "");
+  // A job as the store has it, with its pending final state applied; nullopt when unknown.
+  std::optional<JobRecord> GetJob(const std::string& id);
+  // Applies a pending final state to a record read from the store; true when there was one.
+  bool ApplyPending(JobRecord* j);
+  std::map<JobState, int64_t> CountByState();  // the store's counts, pending states applied
   nlohmann::json JobJson(const JobRecord& j);
   // What a pack names as its input: "upload ID/NAME" for uploads (NAME: the archive's top
   // folder, if any), the folder the client named otherwise.

@@ -218,5 +218,153 @@ TEST_F(HardeningTest, AFailedJobsMessageNamesNoServerPath) {
   EXPECT_EQ(error.find(fs::canonical(opts_.data_dir).string()), std::string::npos) << error;
 }
 
+// ---- 4. A full disk fails the job with the reason -------------------------------------------
+
+// A tmpfs mounted at tmp_/disk (needs root): a real disk that can be filled.
+class FullDiskTest : public HardeningTest {
+ protected:
+  void Mount(const std::string& size) {
+    disk_ = tmp_ / "disk";
+    fs::create_directories(disk_);
+    if (::mount("tmpfs", disk_.c_str(), "tmpfs", 0, ("size=" + size).c_str()) != 0) {
+      const std::string why = std::strerror(errno);
+      disk_.clear();
+      GTEST_SKIP() << "cannot mount a tmpfs at " << (tmp_ / "disk") << " (" << why
+                   << "); the full-disk tests need root (CAP_SYS_ADMIN)";
+    }
+    opts_.data_dir = (disk_ / "data").string();
+  }
+  void TearDown() override {
+    client_.reset();
+    server_.reset();
+    if (!disk_.empty()) ::umount2(disk_.c_str(), MNT_DETACH);
+    ServerTest::TearDown();
+  }
+  // Writes a filler file until the disk is full (ENOSPC).
+  void Fill() {
+    const fs::path p = disk_ / "filler";
+    const int fd = ::open(p.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
+    ASSERT_GE(fd, 0);
+    std::string chunk(1 << 20, 'f');
+    size_t n = chunk.size();
+    for (;;) {
+      const ssize_t w = ::write(fd, chunk.data(), n);
+      if (w < 0 && errno == ENOSPC) {
+        if (n == 1) break;
+        n = std::max<size_t>(1, n / 4);
+        continue;
+      }
+      ASSERT_GT(w, 0) << std::strerror(errno);
+    }
+    ::close(fd);
+    std::error_code ec;
+    ASSERT_EQ(fs::space(disk_, ec).available, 0u);
+  }
+  void Free() { fs::remove(disk_ / "filler"); }
+  // The state column of a job, read from jobs.db directly (what survives a crash).
+  std::string StoredState(const std::string& id) {
+    sqlite3* db = nullptr;
+    const std::string path = opts_.data_dir + "/jobs.db";
+    std::string state;
+    if (sqlite3_open_v2(path.c_str(), &db, SQLITE_OPEN_READONLY, nullptr) == SQLITE_OK) {
+      sqlite3_busy_timeout(db, 2000);
+      sqlite3_stmt* s = nullptr;
+      sqlite3_prepare_v2(db, "SELECT state FROM jobs WHERE id = ?", -1, &s, nullptr);
+      sqlite3_bind_text(s, 1, id.c_str(), -1, SQLITE_TRANSIENT);
+      if (sqlite3_step(s) == SQLITE_ROW)
+        state = reinterpret_cast<const char*>(sqlite3_column_text(s, 0));
+      sqlite3_finalize(s);
+    }
+    sqlite3_close(db);
+    return state;
+  }
+  fs::path disk_;
+};
+
+TEST_F(FullDiskTest, APackWriteOnAFullDiskFailsTheJobAndItsStateLands) {
+  Mount("24m");
+  if (disk_.empty()) return;
+  opts_.allow_roots = {(tmp_ / "datasets").string()};
+  fs::create_directories(tmp_ / "datasets");
+  const std::string dataset = SlowDataset(128);  // on the ordinary disk
+  Start();
+  auto r = SubmitPath({{"dataset", dataset}, {"model", "lambert"}, {"holdout", 8}});
+  ASSERT_TRUE(r);
+  ASSERT_EQ(r->status, 202) << r->body;
+  const std::string id = json::parse(r->body)["id"];
+  // Fill the disk while the job fits: its pack (and its state update) hit ENOSPC.
+  WaitFor(id, [](const json& j) { return j["state"] == "running"; });
+  Fill();
+  const json j = WaitFor(id, Finished, 90);
+  ASSERT_EQ(j["state"], "failed") << j.dump(2);
+  const std::string error = j["error"];
+  EXPECT_NE(error.find("disk is full (ENOSPC)"), std::string::npos) << error;
+  EXPECT_NE(error.find("No space left on device"), std::string::npos) << error;
+  EXPECT_EQ(error.find(fs::canonical(opts_.data_dir).string()), std::string::npos) << error;
+  EXPECT_FALSE(fs::exists(fs::path(opts_.data_dir) / "packs" / id));
+  std::printf("error: %s\n", error.c_str());
+  // The job is not running: DELETE never answers 202 (a cancel nobody will act on).
+  auto del = client_->Delete(("/api/v1/jobs/" + id).c_str());
+  ASSERT_TRUE(del);
+  EXPECT_NE(del->status, 202) << del->body;
+  std::printf("DELETE on the full disk: %d %s\n", del->status, del->body.c_str());
+  if (del->status == 507) {  // the database cannot record the deletion yet
+    EXPECT_NE(json::parse(del->body)["error"]["message"].get<std::string>().find("space"),
+              std::string::npos)
+        << del->body;
+    EXPECT_EQ(Get("/api/v1/jobs/" + id)["state"], "failed");
+  } else {
+    EXPECT_EQ(del->status, 204) << del->body;
+  }
+  // With space again, the final state lands in the database without a restart.
+  Free();
+  if (del->status == 507) {
+    for (int i = 0; i < 100 && StoredState(id) != "failed"; ++i)
+      std::this_thread::sleep_for(std::chrono::milliseconds(100));
+    EXPECT_EQ(StoredState(id), "failed");
+    auto again = client_->Delete(("/api/v1/jobs/" + id).c_str());
+    ASSERT_TRUE(again);
+    EXPECT_EQ(again->status, 204) << again->body;
+  }
+  Get("/api/v1/jobs/" + id, 404);
+  // And a restart does not bring the job back to run again.
+  server_.reset();
+  Start();
+  Get("/api/v1/jobs/" + id, 404);
+}
+
+TEST_F(FullDiskTest, AFinalStateTheDatabaseCannotTakeIsKeptAndShown) {
+  Mount("24m");
+  if (disk_.empty()) return;
+  opts_.allow_roots = {(tmp_ / "datasets").string()};
+  fs::create_directories(tmp_ / "datasets");
+  const std::string dataset = SlowDataset(128);
+  Start();
+  auto r = SubmitPath({{"dataset", dataset}, {"model", "lambert"}, {"holdout", 8}});
+  ASSERT_TRUE(r);
+  ASSERT_EQ(r->status, 202) << r->body;
+  const std::string id = json::parse(r->body)["id"];
+  WaitFor(id, [](const json& j) { return j["state"] == "running"; });
+  Fill();
+  const json j = WaitFor(id, Finished, 90);
+  ASSERT_EQ(j["state"], "failed") << j.dump(2);
+  // While the disk stays full, GET keeps showing the real state, whatever the database holds.
+  std::this_thread::sleep_for(std::chrono::milliseconds(1500));
+  EXPECT_EQ(Get("/api/v1/jobs/" + id)["state"], "failed");
+  EXPECT_EQ(Get("/api/v1/jobs?state=failed")["jobs"].size(), 1u);
+  EXPECT_TRUE(Get("/api/v1/jobs?state=running")["jobs"].empty());
+  const std::string stored = StoredState(id);
+  std::printf("state in jobs.db while the disk is full: %s\n", stored.c_str());
+  Free();
+  for (int i = 0; i < 100 && StoredState(id) != "failed"; ++i)
+    std::this_thread::sleep_for(std::chrono::milliseconds(100));
+  EXPECT_EQ(StoredState(id), "failed");
+  server_.reset();  // a restart keeps it failed (a job left "running" would be re-queued)
+  Start();
+  const json after = Get("/api/v1/jobs/" + id);
+  EXPECT_EQ(after["state"], "failed");
+  EXPECT_EQ(after["attempts"], 1);
+}
+
 }  // namespace
 }  // namespace matfit::server::testing_fixture
