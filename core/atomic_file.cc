@@ -1,10 +1,12 @@
 #include "core/atomic_file.h"
 
+#include <fcntl.h>
 #include <unistd.h>
 
 #include <atomic>
+#include <cerrno>
+#include <cstring>
 #include <filesystem>
-#include <fstream>
 
 namespace matfit {
 namespace {
@@ -42,13 +44,19 @@ Status AtomicFile::Commit() {
 
 Status WriteFileAtomic(const std::string& path, const std::string& contents) {
   AtomicFile file(path);
-  {
-    std::ofstream out(file.temp_path(), std::ios::binary);
-    if (!out) return IoError("cannot create '" + file.temp_path() + "'");
-    out.write(contents.data(), std::streamsize(contents.size()));
-    out.flush();
-    if (!out) return IoError("writing '" + path + "' failed (disk full?)");
+  const int fd = ::open(file.temp_path().c_str(), O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0644);
+  if (fd < 0) return IoError("cannot create '" + file.temp_path() + "': " + std::strerror(errno));
+  for (size_t at = 0; at < contents.size();) {
+    const ssize_t n = ::write(fd, contents.data() + at, contents.size() - at);
+    if (n < 0 && errno == EINTR) continue;
+    if (n <= 0) {
+      const int err = n < 0 ? errno : EIO;
+      ::close(fd);
+      return IoError("writing '" + path + "' failed: " + std::strerror(err));
+    }
+    at += size_t(n);
   }
+  if (::close(fd) != 0) return IoError("writing '" + path + "' failed: " + std::strerror(errno));
   return file.Commit();
 }
 

@@ -1,11 +1,15 @@
 #include "core/image_io.h"
 
+#include <OpenImageIO/filesystem.h>
 #include <OpenImageIO/imageio.h>
 
 #include <algorithm>
+#include <cerrno>
 #include <cmath>
 #include <cstdio>
+#include <cstring>
 #include <filesystem>
+#include <memory>
 #include <vector>
 
 #include "core/atomic_file.h"
@@ -24,6 +28,27 @@ std::string LastOiioError(OIIO::ImageInput* in) {
   std::replace(e.begin(), e.end(), '\n', ' ');
   return e;
 }
+
+// OpenImageIO's writes to a file, keeping the first error (errno): some writers ignore short
+// writes, and a full disk gave empty PNG files that "succeeded".
+class CheckedFileOutput : public OIIO::Filesystem::IOFile {
+ public:
+  explicit CheckedFileOutput(FILE* f) : IOFile(f, Write) {}
+  size_t write(const void* buf, size_t size) override {
+    return Checked(IOFile::write(buf, size), size);
+  }
+  size_t pwrite(const void* buf, size_t size, int64_t offset) override {
+    return Checked(IOFile::pwrite(buf, size, offset), size);
+  }
+  int error() const { return error_; }
+
+ private:
+  size_t Checked(size_t written, size_t size) {
+    if (written != size && error_ == 0) error_ = errno != 0 ? errno : EIO;
+    return written;
+  }
+  int error_ = 0;
+};
 
 // Decides the transfer function of a file being read.
 ColorEncoding ChooseEncoding(const OIIO::ImageSpec& spec, const ImageReadOptions& opt,
@@ -244,10 +269,31 @@ Status WriteImage(const std::string& path, const Image& image, const ImageWriteO
     buffer_type = OIIO::TypeDesc::FLOAT;
   }
   AtomicFile file(path);
-  if (!out->open(file.temp_path(), spec))
+  // Writers that take an I/O proxy write through one that sees every failed write (errno).
+  std::unique_ptr<FILE, int (*)(FILE*)> f(nullptr, std::fclose);
+  std::unique_ptr<CheckedFileOutput> proxy;
+  if (out->supports("ioproxy")) {
+    f.reset(std::fopen(file.temp_path().c_str(), "wb"));
+    if (!f) return IoError("cannot create '" + file.temp_path() + "': " + std::strerror(errno));
+    proxy = std::make_unique<CheckedFileOutput>(f.get());
+    out->set_ioproxy(proxy.get());
+  }
+  const auto write_failed = [&](int err) {
+    return IoError("writing '" + path + "' failed: " + std::strerror(err));
+  };
+  if (!out->open(file.temp_path(), spec)) {
+    if (proxy && proxy->error() != 0) return write_failed(proxy->error());
     return IoError("cannot create '" + file.temp_path() + "': " + out->geterror());
-  if (!out->write_image(buffer_type, pixels) || !out->close())
-    return IoError("writing '" + path + "' failed: " + out->geterror());
+  }
+  const bool written = out->write_image(buffer_type, pixels);
+  const bool closed = out->close();
+  if (proxy && proxy->error() != 0) return write_failed(proxy->error());
+  if (!written || !closed) return IoError("writing '" + path + "' failed: " + out->geterror());
+  if (f) {  // buffered bytes: a full disk shows here
+    errno = 0;
+    if (std::fflush(f.get()) != 0) return write_failed(errno != 0 ? errno : EIO);
+    if (std::fclose(f.release()) != 0) return write_failed(errno != 0 ? errno : EIO);
+  }
   return file.Commit();
 }
 

@@ -145,7 +145,7 @@ StatusOr<FitJobResult> RunFitJob(const FitJobOptions& o, const StageProgress& pr
     ri.images = r.images;
     ri.reconstruction = r.reconstruction;
     ri.truth = r.truth;
-    ri.source = o.input;
+    ri.source = o.source_label.empty() ? o.input : o.source_label;
     ri.timings = &r.timings;
     r.report_json = MakeReportJson(ri);
     if (!o.out.empty()) MATFIT_RETURN_IF_ERROR(WriteFileAtomic(o.out, r.report_json));
@@ -242,12 +242,12 @@ StatusOr<FitJobResult> RunFitJob(const FitJobOptions& o, const StageProgress& pr
   ri.truth = r.truth;
   ri.assessment = &r.assessment;
   if (selection) ri.selection_json = SelectionJson(*selection, scene);
-  ri.source = o.input;
+  ri.source = o.source_label.empty() ? o.input : o.source_label;
   r.report_json = MakeReportJson(ri);  // for material.json's summary; timed again below
 
   PackInfo info;
   info.method = r.fit.method;
-  info.source = o.input;
+  info.source = ri.source;
   info.report_json = r.report_json;
   // report.json is the pack's last file: its timings include the write up to that point.
   info.final_report_json = [&] {

@@ -31,6 +31,9 @@ struct FitJobOptions {
   // Read the dataset and stop: the decode floor (same reader, parallel decode and threads as a
   // fit; no fit, no scores, nothing written). Not with out, report_only or holdout.
   bool decode_only = false;
+  // What report.json and material.json name as the input (empty: `input`). The server passes
+  // a name that does not reveal its own folders.
+  std::string source_label;
 
   bool Check(std::string* why) const;
 };

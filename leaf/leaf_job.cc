@@ -205,7 +205,7 @@ StatusOr<LeafJobResult> RunLeafJob(const LeafJobOptions& o, const LeafProgress& 
       L->warnings.push_back("the leaf touches the image border: it is probably cut off");
     PackInfo info;
     info.method = "leaf";
-    info.source = o.input;
+    info.source = o.source_label.empty() ? o.input : o.source_label;
     info.mm_per_texel = scale_known ? res.mm_per_pixel : 0;
     info.report_json = LeafReport(*L, o.material, flagged);
     info.warnings = L->warnings;
@@ -252,7 +252,7 @@ StatusOr<LeafJobResult> RunLeafJob(const LeafJobOptions& o, const LeafProgress& 
   res.seconds_total = Since(t0);
   json index = {
       {"schema", "matfit.leaves/1"},
-      {"source", o.input},
+      {"source", o.source_label.empty() ? o.input : o.source_label},
       {"size", {{"width", sheet->width}, {"height", sheet->height}}},
       {"scale", {{"mm_per_pixel", res.mm_per_pixel}, {"source", res.scale_source}}},
       {"counts",

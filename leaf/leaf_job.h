@@ -29,6 +29,9 @@ struct LeafJobOptions {
   bool confine = false;               // every file the scan names must lie inside `input`
   // Preview renders of a leaf pack lit from the front / from behind (render/); empty = none.
   std::function<StatusOr<Image>(const MaterialMaps&, bool from_behind)> preview;
+  // What leaves.json and the packs name as the input (empty: `input`). The server passes a
+  // name that does not reveal its own folders.
+  std::string source_label;
   bool Check(std::string* why) const;
 };
 

@@ -14,6 +14,8 @@
 #include <set>
 #include <vector>
 
+#include "server/text.h"
+
 namespace matfit::server {
 namespace {
 
@@ -21,34 +23,13 @@ namespace fs = std::filesystem;
 
 using ArchivePtr = std::unique_ptr<struct archive, int (*)(struct archive*)>;
 
-// Well-formed UTF-8 (names end up in JSON and in messages); overlong forms are not checked.
-bool IsUtf8(const std::string& s) {
-  for (size_t i = 0; i < s.size();) {
-    const unsigned char c = static_cast<unsigned char>(s[i]);
-    size_t n;  // continuation bytes
-    if (c < 0x80)
-      n = 0;
-    else if ((c & 0xE0) == 0xC0)
-      n = 1;
-    else if ((c & 0xF0) == 0xE0)
-      n = 2;
-    else if ((c & 0xF8) == 0xF0)
-      n = 3;
-    else
-      return false;
-    if (i + n >= s.size() + (n == 0)) return false;
-    for (size_t k = 1; k <= n; ++k)
-      if ((static_cast<unsigned char>(s[i + k]) & 0xC0) != 0x80) return false;
-    i += n + 1;
-  }
-  return true;
-}
-
 // Splits an entry name into safe components, or explains why it is unsafe. `.` components are
 // dropped, so `./` (the root itself) gives no components and `./a` gives {a}.
 bool SafeComponents(const std::string& name, std::vector<std::string>* parts, std::string* why) {
   if (name.empty()) return *why = "has an empty name", false;
-  if (!IsUtf8(name)) return *why = "has a name that is not UTF-8", false;
+  // Names end up in JSON (job records, messages): UTF-8 only.
+  if (!IsUtf8(name))
+    return *why = "has a name that is not UTF-8 (re-create the archive with UTF-8 names)", false;
   if (name.find('\0') != std::string::npos) return *why = "has a NUL byte in its name", false;
   if (name.find('\\') != std::string::npos)
     return *why = "uses '\\' in its name; archive names must use '/'", false;
@@ -129,7 +110,7 @@ StatusOr<ArchiveResult> ExtractArchive(const std::string& archive_path, const st
   ArchiveResult result;
   auto no_space = [&](const std::string& name) {
     return fail(ArchiveProblem::kNoSpace,
-                "the server ran out of disk space while unpacking the archive (at entry '" + name +
+                "the server ran out of disk space while unpacking the archive (at entry '" + Printable(name) +
                     "', " + Size(result.bytes) +
                     " unpacked); nothing was kept. Retry later, or ask the operator to free "
                     "space");
@@ -176,18 +157,18 @@ StatusOr<ArchiveResult> ExtractArchive(const std::string& archive_path, const st
     std::vector<std::string> parts;
     std::string why;
     if (!SafeComponents(name, &parts, &why))
-      return fail(ArchiveProblem::kUnsafeEntry, "archive entry '" + name + "' " + why);
+      return fail(ArchiveProblem::kUnsafeEntry, "archive entry '" + Printable(name) + "' " + why);
     const auto type = archive_entry_filetype(e);
     if (archive_entry_hardlink(e) || type == AE_IFLNK)
       return fail(ArchiveProblem::kUnsafeEntry,
-                  "archive entry '" + name +
+                  "archive entry '" + Printable(name) +
                       "' is a link; links are refused (archive the files themselves)");
     if (type != AE_IFREG && type != AE_IFDIR)
       return fail(ArchiveProblem::kUnsafeEntry,
-                  "archive entry '" + name + "' is neither a file nor a folder");
+                  "archive entry '" + Printable(name) + "' is neither a file nor a folder");
     if (parts.empty()) {
       if (type == AE_IFDIR) continue;  // `./`: the extraction folder itself
-      return fail(ArchiveProblem::kUnsafeEntry, "archive entry '" + name + "' names no file");
+      return fail(ArchiveProblem::kUnsafeEntry, "archive entry '" + Printable(name) + "' names no file");
     }
     if (IsMacMetadata(parts)) continue;
     // Folders cost the disk far more than their bytes (an inode each): count them, the parents
@@ -209,20 +190,20 @@ StatusOr<ArchiveResult> ExtractArchive(const std::string& archive_path, const st
       if (ec && IsNoSpace(ec.value())) return no_space(name);
       if (ec)
         return fail(ArchiveProblem::kUnsafeEntry,
-                    "archive entry '" + name + "' conflicts with an earlier entry");
+                    "archive entry '" + Printable(name) + "' conflicts with an earlier entry");
       continue;
     }
     fs::create_directories(out.parent_path(), ec);
     if (ec && IsNoSpace(ec.value())) return no_space(name);
     if (ec)
-      return fail(ArchiveProblem::kUnsafeEntry,
-                  "archive entry '" + name + "' cannot be placed (" + ec.message() + ")");
+      return fail(ArchiveProblem::kUnsafeEntry, "archive entry '" + Printable(name) +
+                                                    "' cannot be placed (" + ec.message() + ")");
     // O_EXCL | O_NOFOLLOW: never write through an existing file or link (duplicate entries).
     const int fd = ::open(out.c_str(), O_WRONLY | O_CREAT | O_EXCL | O_NOFOLLOW | O_CLOEXEC, 0644);
     if (fd < 0 && IsNoSpace(errno)) return no_space(name);
     if (fd < 0)
       return fail(ArchiveProblem::kUnsafeEntry,
-                  "archive entry '" + name + "' cannot be written (" +
+                  "archive entry '" + Printable(name) + "' cannot be written (" +
                       (errno == EEXIST ? std::string("a duplicate name") : std::strerror(errno)) +
                       ")");
     for (;;) {
@@ -230,8 +211,9 @@ StatusOr<ArchiveResult> ExtractArchive(const std::string& archive_path, const st
       if (n == 0) break;
       if (n < 0) {
         ::close(fd);
-        return fail(ArchiveProblem::kMalformed,
-                    "archive entry '" + name + "' is corrupt: " + archive_error_string(a.get()));
+        return fail(
+            ArchiveProblem::kMalformed,
+            "archive entry '" + Printable(name) + "' is corrupt: " + archive_error_string(a.get()));
       }
       result.bytes += n;
       if (result.bytes > budget) {
@@ -245,7 +227,7 @@ StatusOr<ArchiveResult> ExtractArchive(const std::string& archive_path, const st
           ::close(fd);
           if (IsNoSpace(err)) return no_space(name);
           return fail(ArchiveProblem::kNone,
-                      "writing archive entry '" + name + "' failed: " + std::strerror(err));
+                      "writing archive entry '" + Printable(name) + "' failed: " + std::strerror(err));
         }
         off += w;
       }
@@ -254,7 +236,7 @@ StatusOr<ArchiveResult> ExtractArchive(const std::string& archive_path, const st
       const int err = errno;
       if (IsNoSpace(err)) return no_space(name);
       return fail(ArchiveProblem::kNone,
-                  "writing archive entry '" + name + "' failed: " + std::strerror(err));
+                  "writing archive entry '" + Printable(name) + "' failed: " + std::strerror(err));
     }
   }
   // One top-level folder and nothing else: that folder is the dataset.

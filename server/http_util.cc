@@ -3,13 +3,13 @@
 #include <memory>
 
 #include "server/server_impl.h"
+#include "server/text.h"
 
 namespace matfit::server {
 
 void SendJson(httplib::Response& res, int status, const nlohmann::json& body) {
   res.status = status;
-  res.set_content(body.dump(2, ' ', false, nlohmann::json::error_handler_t::replace) + "\n",
-                  "application/json");
+  res.set_content(JsonText(body, 2) + "\n", "application/json");
 }
 
 void SendError(httplib::Response& res, int status, const std::string& message,
@@ -23,7 +23,7 @@ void SendErrorAndClose(httplib::Response& res, int status, const std::string& me
                        const std::string& field) {
   nlohmann::json e = {{"status", status}, {"message", message}};
   if (!field.empty()) e["field"] = field;
-  auto body = std::make_shared<std::string>(nlohmann::json{{"error", e}}.dump(2) + "\n");
+  auto body = std::make_shared<std::string>(JsonText({{"error", e}}, 2) + "\n");
   res.status = status;
   res.set_header("Connection", "close");
   res.set_content_provider(body->size(), "application/json",
@@ -33,14 +33,56 @@ void SendErrorAndClose(httplib::Response& res, int status, const std::string& me
                            });
 }
 
-std::string ContentTypeFor(const std::string& path) {
-  const std::string ext = std::filesystem::path(path).extension().string();
+bool RejectMalformedTarget(const httplib::Request& req, httplib::Response& res) {
+  if (const int c = FirstControlByte(req.path); c >= 0) {
+    char hex[16];
+    std::snprintf(hex, sizeof hex, "0x%02x", unsigned(c));
+    SendErrorAndClose(res, 400,
+                      std::string("the request path contains the control byte ") + hex +
+                          " (URL-encoded as %" + (hex + 2) +
+                          "); paths never contain control characters");
+    return true;
+  }
+  if (!IsUtf8(req.path)) {
+    SendErrorAndClose(res, 400, "the request path '" + Printable(req.path) + "' is not UTF-8 text");
+    return true;
+  }
+  for (const auto& [name, value] : req.params) {
+    if (!IsUtf8(name)) {
+      SendErrorAndClose(res, 400,
+                        "query parameter name '" + Printable(name) + "' is not UTF-8 text",
+                        Printable(name));
+      return true;
+    }
+    if (!IsUtf8(value)) {
+      SendErrorAndClose(
+          res, 400,
+          "query parameter '" + name + "' is not UTF-8 text (got '" + Printable(value) + "')",
+          name);
+      return true;
+    }
+  }
+  return false;
+}
+
+void AddSecurityHeaders(httplib::Response& res) {
+  res.set_header("X-Content-Type-Options", "nosniff");
+  if (res.get_header_value("Content-Type").rfind("text/html", 0) != 0)
+    res.set_header("Content-Security-Policy",
+                   "default-src 'none'; frame-ancestors 'none'; sandbox");
+}
+
+std::string PackFileType(const std::string& name) {
+  const std::string ext = std::filesystem::path(name).extension().string();
   if (ext == ".json") return "application/json";
   if (ext == ".gltf") return "model/gltf+json";
-  if (ext == ".bin") return "application/octet-stream";
   if (ext == ".png") return "image/png";
   if (ext == ".exr") return "image/x-exr";
-  if (ext == ".zip") return "application/zip";
+  return "application/octet-stream";  // .bin, and anything else
+}
+
+std::string ViewerFileType(const std::string& name) {
+  const std::string ext = std::filesystem::path(name).extension().string();
   if (ext == ".html") return "text/html; charset=utf-8";
   if (ext == ".js") return "text/javascript; charset=utf-8";
   if (ext == ".glsl" || ext == ".frag" || ext == ".vert") return "text/plain; charset=utf-8";

@@ -8,6 +8,7 @@
 #include "fit/fit_job.h"
 #include "leaf/leaf_job.h"
 #include "render/cpu_renderer.h"
+#include "server/text.h"
 
 namespace matfit::server {
 namespace {
@@ -73,7 +74,8 @@ Status ValidateDataset(const JobSpec& spec, const std::string& dir) {
 }
 
 StatusOr<std::string> RunJob(const JobSpec& spec, const std::string& dataset,
-                             const std::string& out_dir, const JobProgress& progress) {
+                             const std::string& out_dir, const JobProgress& progress,
+                             const std::string& source_label) {
   const bool leaf = spec.mode == "leaf", select = spec.model == "auto";
   auto stage = [&](const std::string& s, int64_t d, int64_t t) {
     return Forward(progress, leaf, select, s, d, t);
@@ -81,6 +83,7 @@ StatusOr<std::string> RunJob(const JobSpec& spec, const std::string& dataset,
   if (leaf) {
     leaf::LeafJobOptions o;
     o.input = dataset;
+    o.source_label = source_label;
     o.out = out_dir;
     o.overwrite = true;
     o.confine = true;
@@ -95,19 +98,19 @@ StatusOr<std::string> RunJob(const JobSpec& spec, const std::string& dataset,
                         {"name", s.name},
                         {"area_px", s.area_px},
                         {"mean_hl2_error", s.mean_hl2_error}});
-    return json{{"mode", "leaf"},
-                {"leaves", r->leaves},
-                {"twigs", r->twigs},
-                {"markers", r->markers},
-                {"mm_per_pixel", r->mm_per_pixel},
-                {"scale_source", r->scale_source},
-                {"seconds", r->seconds_total},
-                {"packs", leaves},
-                {"warnings", r->warnings}}
-        .dump();
+    return JsonText(json{{"mode", "leaf"},
+                         {"leaves", r->leaves},
+                         {"twigs", r->twigs},
+                         {"markers", r->markers},
+                         {"mm_per_pixel", r->mm_per_pixel},
+                         {"scale_source", r->scale_source},
+                         {"seconds", r->seconds_total},
+                         {"packs", leaves},
+                         {"warnings", r->warnings}});
   }
   fit::FitJobOptions o;
   o.input = dataset;
+  o.source_label = source_label;
   o.model = spec.model;
   o.holdout = spec.holdout;
   o.budget = spec.budget;
@@ -133,7 +136,7 @@ StatusOr<std::string> RunJob(const JobSpec& spec, const std::string& dataset,
             {"warnings", r->fit.warnings}};
   if (r->heldout) s["heldout_rmse"] = r->heldout->rmse;
   if (r->truth && r->truth->has_normal) s["normal_mae_deg"] = r->truth->normal_mae_deg;
-  return s.dump();
+  return JsonText(s);
 }
 
 }  // namespace matfit::server

@@ -19,7 +19,10 @@ using JobProgress = std::function<bool(double fraction, const std::string& stage
 
 // Returns the report summary (JSON object text) of a succeeded job; kCancelled when progress
 // returned false. out_dir is replaced atomically (overwrite: a re-run after a crash).
+// source_label is what the pack names as its input (empty: `dataset`); the server never
+// passes its own folders.
 StatusOr<std::string> RunJob(const JobSpec& spec, const std::string& dataset,
-                             const std::string& out_dir, const JobProgress& progress);
+                             const std::string& out_dir, const JobProgress& progress,
+                             const std::string& source_label = "");
 
 }  // namespace matfit::server

@@ -5,6 +5,7 @@
 #include <nlohmann/json.hpp>
 
 #include "fit/method.h"
+#include "server/text.h"
 
 namespace matfit::server {
 namespace {
@@ -110,7 +111,7 @@ StatusOr<JobSpec> ParseJobSpecJson(const std::string& body, std::string* dataset
       fields[k] = std::to_string(v.get<int64_t>());
     } else if (k == "budget") {
       if (!v.is_number()) return FieldError("budget", "must be a number");
-      fields[k] = v.dump();
+      fields[k] = JsonText(v);
     } else if (v.is_string()) {
       fields[k] = v.get<std::string>();
     } else {

@@ -212,17 +212,23 @@ int JobStore::RequeueRunning() {
   return sqlite3_changes(db_);
 }
 
-bool JobStore::RequestCancel(const std::string& id, double now) {
+bool JobStore::RequestCancel(const std::string& id, double now, Status* write_error) {
   std::lock_guard<std::mutex> lock(mutex_);
   Stmt q(db_,
          "UPDATE jobs SET state = 'cancelled', error = 'cancelled before it started', "
          "finished = ? WHERE id = ? AND state = 'queued'");
   q.Bind(1, now).Bind(2, id);
-  q.Step();
+  if (q.Step() != SQLITE_DONE) {
+    if (write_error) *write_error = SqlError(db_, "cancel " + id);
+    return false;
+  }
   if (sqlite3_changes(db_) > 0) return true;
   Stmt r(db_, "UPDATE jobs SET cancel_requested = 1 WHERE id = ? AND state = 'running'");
   r.Bind(1, id);
-  r.Step();
+  if (r.Step() != SQLITE_DONE) {
+    if (write_error) *write_error = SqlError(db_, "cancel " + id);
+    return false;
+  }
   return sqlite3_changes(db_) > 0;
 }
 
@@ -234,11 +240,15 @@ Status JobStore::Delete(const std::string& id) {
   return Status::Ok();
 }
 
-bool JobStore::DeleteFinished(const std::string& id) {
+bool JobStore::DeleteFinished(const std::string& id, Status* write_error) {
   std::lock_guard<std::mutex> lock(mutex_);
   Stmt s(db_, "DELETE FROM jobs WHERE id = ? AND state IN ('succeeded', 'failed', 'cancelled')");
   s.Bind(1, id);
-  return s.Step() == SQLITE_DONE && sqlite3_changes(db_) > 0;
+  if (s.Step() != SQLITE_DONE) {
+    if (write_error) *write_error = SqlError(db_, "delete " + id);
+    return false;
+  }
+  return sqlite3_changes(db_) > 0;
 }
 
 std::map<JobState, int64_t> JobStore::CountByState() {

@@ -60,10 +60,13 @@ class JobStore {
                 const std::string& summary_json, double now, double run_seconds);
   Status Requeue(const std::string& id);  // running → queued
   int RequeueRunning();                   // at start-up: jobs a dead process left running
-  // queued → cancelled (true); running → cancel_requested = 1 (true); else false.
-  bool RequestCancel(const std::string& id, double now);
+  // queued → cancelled (true); running → cancel_requested = 1 (true); else false. When the
+  // database cannot be written (disk full), false and *write_error says why.
+  bool RequestCancel(const std::string& id, double now, Status* write_error = nullptr);
   Status Delete(const std::string& id);
-  bool DeleteFinished(const std::string& id);  // true when a finished job's row was removed
+  // True when a finished job's row was removed; false when there was none, or (with
+  // *write_error set) when the database cannot be written.
+  bool DeleteFinished(const std::string& id, Status* write_error = nullptr);
   std::map<JobState, int64_t> CountByState();
   std::vector<std::string> AllIds();
 

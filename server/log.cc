@@ -7,6 +7,8 @@
 #include <mutex>
 #include <nlohmann/json.hpp>
 
+#include "server/text.h"
+
 namespace matfit::server {
 namespace {
 std::atomic<bool> g_quiet{false};
@@ -29,7 +31,7 @@ void LogEvent(const char* level, const char* event, const nlohmann::json& fields
   nlohmann::json line = {{"ts", ts}, {"level", level}, {"event", event}};
   if (fields.is_object())
     for (const auto& [k, v] : fields.items()) line[k] = v;
-  const std::string text = line.dump(-1, ' ', false, nlohmann::json::error_handler_t::replace);
+  const std::string text = JsonText(line);
   std::lock_guard<std::mutex> lock(g_mutex);
   std::fprintf(stderr, "%s\n", text.c_str());
 }

@@ -1,5 +1,6 @@
 // POST/GET/DELETE /api/v1/jobs: submission (multipart archive upload or a JSON body naming a
 // dataset under an allow-listed root), status and cancellation.
+#include <algorithm>
 #include <cstdio>
 #include <filesystem>
 #include <random>
@@ -11,6 +12,7 @@
 #include "server/job_spec.h"
 #include "server/log.h"
 #include "server/server_impl.h"
+#include "server/text.h"
 
 namespace matfit::server {
 namespace {
@@ -133,11 +135,13 @@ void Server::Impl::RegisterJobRoutes() {
       std::map<std::string, std::string> fields;
       std::string current, problem_field;
       std::unique_ptr<FILE, int (*)(FILE*)> out(nullptr, std::fclose);
-      bool has_file = false, too_big = false, write_failed = false, unknown = false;
+      bool has_file = false, too_big = false, write_failed = false, unknown = false,
+           not_utf8 = false;
       int64_t bytes = 0;
       const bool ok = reader(
           [&](const httplib::MultipartFormData& part) {
             current = part.name;
+            if (!IsUtf8(current)) return problem_field = current, not_utf8 = true, false;
             static const std::set<std::string> kFields = {"file", "model",   "view",
                                                           "mode", "holdout", "budget"};
             if (!kFields.count(current)) return problem_field = current, unknown = true, false;
@@ -175,12 +179,18 @@ void Server::Impl::RegisterJobRoutes() {
                                      std::to_string(options.max_upload_bytes >> 20) + " MiB",
                                  "file");
       if (write_failed) return SendErrorAndClose(res, 507, "the server could not store the upload");
+      if (not_utf8)
+        return SendErrorAndClose(res, 400,
+                                 "form field name '" + Printable(problem_field) +
+                                     "' is not UTF-8 text; use file, model, view, mode, holdout, "
+                                     "budget",
+                                 Printable(problem_field));
       if (unknown)
         return SendErrorAndClose(
             res, 400,
-            "form field '" + problem_field +
+            "form field '" + Printable(problem_field) +
                 "' is not an option; use file, model, view, mode, holdout, budget",
-            problem_field);
+            Printable(problem_field));
       if (!problem_field.empty())
         return SendErrorAndClose(
             res, 400, "form field '" + problem_field + "' is repeated or longer than 4 KiB",
@@ -193,6 +203,13 @@ void Server::Impl::RegisterJobRoutes() {
             "form field 'file' (the dataset archive: .zip, .tar or .tar.gz) is "
             "required",
             "file");
+      // Values end up in the job record and in messages (JSON): UTF-8 only.
+      for (const auto& [name, value] : fields)
+        if (!IsUtf8(value))
+          return SendErrorAndClose(res, 400,
+                                   "form field '" + name + "' is not UTF-8 text (got '" +
+                                       Printable(value) + "'); send it as UTF-8",
+                                   name);
       spec = ParseJobSpecFields(fields);
       if (!spec.ok())
         return SendErrorAndClose(res, 400, spec.status().message(),
@@ -206,9 +223,12 @@ void Server::Impl::RegisterJobRoutes() {
                                  : problem == ArchiveProblem::kNoSpace ? 507
                                  : problem == ArchiveProblem::kNone    ? 500
                                                                        : 400,
-                                 ex.status().message(), "file");
-      if (Status st = ValidateDataset(*spec, ex->dataset_root); !st.ok())
-        return SendErrorAndClose(res, 422, st.message(), "file");
+                                 ForClients(ex.status().message()), "file");
+      if (Status st = ValidateDataset(*spec, ex->dataset_root); !st.ok()) {
+        JobRecord unpacked;  // the reader's paths, relative to the archive's dataset folder
+        unpacked.dataset = ex->dataset_root, unpacked.uploaded = true;
+        return SendErrorAndClose(res, 422, ForClients(st.message(), &unpacked), "file");
+      }
       // Move into place; the dataset path keeps the archive's top folder, if any.
       const std::string rel = fs::relative(ex->dataset_root, staging.dir + "/dataset", ec).string();
       const std::string final_dir = DatasetsDir() + "/" + id;
@@ -223,7 +243,7 @@ void Server::Impl::RegisterJobRoutes() {
         return SendErrorAndClose(res, 415,
                                  "POST /api/v1/jobs takes multipart/form-data (an archive in field "
                                  "'file') or application/json ({\"dataset\": ...}), got '" +
-                                     type + "'");
+                                     Printable(type) + "'");
       std::string body;
       bool too_big = false;
       const bool ok = reader([&](const char* data, size_t n) {
@@ -256,7 +276,7 @@ void Server::Impl::RegisterJobRoutes() {
                                  "dataset");
       job.dataset = canonical;
     }
-    job.spec_json = spec->ToJson().dump();
+    job.spec_json = JsonText(spec->ToJson());
     if (Status st = store->Insert(&job); !st.ok()) {
       if (job.uploaded) {
         std::error_code ec;
@@ -290,39 +310,79 @@ void Server::Impl::RegisterJobRoutes() {
         return SendError(res, 400, "query 'limit' must be in [1, 1000]", "limit");
       limit = int(l);
     }
+    // Final states the database has not taken yet count as what they are.
+    std::vector<JobRecord> list = store->List(state, limit);
+    std::vector<std::string> pending_ids;
+    {
+      std::lock_guard<std::mutex> lock(pending_mutex);
+      for (const auto& [id, f] : pending)
+        if (!state || f.state == *state) pending_ids.push_back(id);
+    }
+    for (auto& j : list) ApplyPending(&j);
+    std::erase_if(list, [&](const JobRecord& j) { return state && j.state != *state; });
+    for (const auto& id : pending_ids)
+      if (std::none_of(list.begin(), list.end(), [&](const JobRecord& j) { return j.id == id; }))
+        if (auto j = GetJob(id); j && (!state || j->state == *state)) list.push_back(*j);
+    std::sort(list.begin(), list.end(),
+              [](const JobRecord& a, const JobRecord& b) { return a.seq > b.seq; });
+    if (int(list.size()) > limit) list.resize(size_t(limit));
     json jobs = json::array();
-    for (const auto& j : store->List(state, limit)) jobs.push_back(JobJson(j));
+    for (const auto& j : list) jobs.push_back(JobJson(j));
     SendJson(res, 200, {{"jobs", jobs}});
   });
 
   http.Get(R"(/api/v1/jobs/([^/]+))", [this](const httplib::Request& req, httplib::Response& res) {
-    const auto j = store->Get(req.matches[1]);
+    const auto j = GetJob(req.matches[1]);
     if (!j) return SendError(res, 404, "no job '" + std::string(req.matches[1]) + "'");
     SendJson(res, 200, JobJson(*j));
   });
 
-  http.Delete(R"(/api/v1/jobs/([^/]+))",
-              [this](const httplib::Request& req, httplib::Response& res) {
-                const std::string id = req.matches[1];
-                auto j = store->Get(id);
-                if (!j) return SendError(res, 404, "no job '" + id + "'");
-                if (!IsFinished(j->state)) {
-                  store->RequestCancel(id, NowSeconds());
-                  {
-                    std::lock_guard<std::mutex> lock(mutex);
-                    if (auto it = live.find(id); it != live.end()) it->second->cancel = true;
-                  }
-                  LogEvent("info", "job_cancel", {{"id", id}, {"was", JobStateName(j->state)}});
-                  j = store->Get(id);
-                  if (!j) return SendError(res, 404, "no job '" + id + "'");  // deleted meanwhile
-                  return SendJson(res, j->state == JobState::kCancelled ? 200 : 202, JobJson(*j));
-                }
-                // Only a finished job is deleted, and once: a concurrent DELETE gets 404.
-                if (!store->DeleteFinished(id)) return SendError(res, 404, "no job '" + id + "'");
-                RemoveJobFiles(*j);
-                LogEvent("info", "job_deleted", {{"id", id}});
-                res.status = 204;
-              });
+  http.Delete(R"(/api/v1/jobs/([^/]+))", [this](const httplib::Request& req,
+                                                httplib::Response& res) {
+    const std::string id = req.matches[1];
+    auto j = GetJob(id);
+    if (!j) return SendError(res, 404, "no job '" + id + "'");
+    const auto unsaved = [&](const Status& st) {
+      return SendError(res, 507,
+                       "job '" + id + "' is " + JobStateName(j->state) +
+                           ", but the job database cannot record the change (" +
+                           ForClients(st.message()) +
+                           "); free space in the server's data folder and retry");
+    };
+    if (!IsFinished(j->state)) {
+      Status write_error;
+      const bool asked = store->RequestCancel(id, NowSeconds(), &write_error);
+      bool running_here = false;
+      {
+        std::lock_guard<std::mutex> lock(mutex);
+        if (auto it = live.find(id); it != live.end())
+          it->second->cancel = true, running_here = true;
+      }
+      LogEvent("info", "job_cancel", {{"id", id}, {"was", JobStateName(j->state)}});
+      // A worker running it sees the flag; otherwise the database must have it.
+      if (!running_here && !write_error.ok()) return unsaved(write_error);
+      j = GetJob(id);
+      if (!j) return SendError(res, 404, "no job '" + id + "'");  // deleted meanwhile
+      if (j->state == JobState::kCancelled) return SendJson(res, 200, JobJson(*j));
+      // 202 only when someone will act on the cancel: a worker running the job
+      // here, or the flag stored for the worker that claimed it.
+      if (!IsFinished(j->state) && (running_here || asked)) return SendJson(res, 202, JobJson(*j));
+      if (!IsFinished(j->state))
+        return SendError(
+            res, 409,
+            "job '" + id + "' is " + JobStateName(j->state) + " and could not be cancelled; retry");
+      // It finished meanwhile: delete it as below.
+    }
+    // A final state only in memory must reach the database before the row goes.
+    if (Status st = RetryPending(false, id); !st.ok()) return unsaved(st);
+    // Only a finished job is deleted, and once: a concurrent DELETE gets 404.
+    Status write_error;
+    if (!store->DeleteFinished(id, &write_error))
+      return write_error.ok() ? SendError(res, 404, "no job '" + id + "'") : unsaved(write_error);
+    RemoveJobFiles(*j);
+    LogEvent("info", "job_deleted", {{"id", id}});
+    res.status = 204;
+  });
 }
 
 }  // namespace matfit::server

@@ -46,7 +46,7 @@ bool ParseNumber(const std::string& s, double* v) {
 void Server::Impl::RegisterPackRoutes() {
   // The job must exist and have succeeded; otherwise an error response is sent.
   auto pack_of = [this](const std::string& id, httplib::Response& res) -> std::optional<JobRecord> {
-    auto j = store->Get(id);
+    auto j = GetJob(id);
     if (!j) {
       SendError(res, 404, "no job '" + id + "'");
       return std::nullopt;
@@ -72,8 +72,9 @@ void Server::Impl::RegisterPackRoutes() {
              if (!fs::exists(zip, ec)) {  // built once, atomically, then served from the cache
                AtomicFile tmp(zip);
                if (Status st = ZipFolder(PackDir(j->id), tmp.temp_path()); !st.ok())
-                 return SendError(res, 500, st.message());
-               if (Status st = tmp.Commit(); !st.ok()) return SendError(res, 500, st.message());
+                 return SendError(res, 500, ForClients(st.message()));
+               if (Status st = tmp.Commit(); !st.ok())
+                 return SendError(res, 500, ForClients(st.message()));
              }
              res.set_header("Content-Disposition", "attachment; filename=\"" + j->id + ".zip\"");
              SendFile(res, zip, "application/zip");
@@ -134,7 +135,7 @@ void Server::Impl::RegisterPackRoutes() {
     if (!hit) {
       fs::create_directories(PreviewDir(j->id), ec);
       if (Status st = previews->RenderToFile(pack, o, file); !st.ok())
-        return SendError(res, 500, "preview failed: " + st.message());
+        return SendError(res, 500, "preview failed: " + ForClients(st.message()));
     }
     res.set_header("X-Matfit-Cache", hit ? "hit" : "miss");
     res.set_header("Cache-Control", "max-age=86400");
@@ -156,7 +157,7 @@ void Server::Impl::RegisterPackRoutes() {
                                     (is_leaf(*j) && rel == "material.json"
                                          ? " (a leaf job has one pack per leaf: see leaves.json)"
                                          : ""));
-             SendFile(res, path, ContentTypeFor(path));
+             SendFile(res, path, PackFileType(rel));
            });
 
   // The viewer: a redirect to the embedded page with the pack (or every leaf pack) as its
@@ -186,7 +187,7 @@ void Server::Impl::RegisterPackRoutes() {
              const std::string name = req.matches[1];
              const auto body = WebAsset(name);
              if (body.empty()) return SendError(res, 404, "no viewer file '" + name + "'");
-             res.set_content(std::string(body), ContentTypeFor(name).c_str());
+             res.set_content(std::string(body), ViewerFileType(name).c_str());
            });
 }
 

@@ -6,8 +6,10 @@
 #include <unistd.h>
 
 #include <algorithm>
+#include <cerrno>
 #include <chrono>
 #include <cmath>
+#include <cstring>
 #include <filesystem>
 #include <random>
 #include <set>
@@ -40,6 +42,27 @@ bool IsTemporary(const std::string& name) {
 
 double NowSeconds() {
   return std::chrono::duration<double>(std::chrono::system_clock::now().time_since_epoch()).count();
+}
+
+std::string Server::Impl::SourceLabel(const JobRecord& j) const {
+  if (!j.uploaded) return j.dataset;  // a folder the client named itself
+  std::error_code ec;
+  const std::string rel = fs::relative(j.dataset, DatasetsDir() + "/" + j.id, ec).generic_string();
+  return "upload " + j.id + (ec || rel.empty() || rel == "." ? "" : "/" + rel);
+}
+
+std::string Server::Impl::ForClients(std::string message, const JobRecord* job) const {
+  auto replace_all = [&](const std::string& from, const std::string& to) {
+    for (size_t at = 0; (at = message.find(from, at)) != std::string::npos; at += to.size())
+      message.replace(at, from.size(), to);
+  };
+  if (job && job->uploaded) {
+    replace_all(job->dataset + "/", "");
+    replace_all(job->dataset, "the dataset folder");
+  }
+  replace_all(data + "/", "");
+  replace_all(data, "the data folder");
+  return message;
 }
 
 bool ServerOptions::Check(std::string* why) const {
@@ -151,6 +174,7 @@ void Server::Impl::RegisterRoutes() {
   // Authorisation before routing (and before an upload body is read).
   http.set_pre_routing_handler([this](const httplib::Request& req, httplib::Response& res) {
     t_request_start = std::chrono::steady_clock::now();
+    if (RejectMalformedTarget(req, res)) return httplib::Server::HandlerResponse::Handled;
     if (tokens.empty()) return httplib::Server::HandlerResponse::Unhandled;
     const std::string& p = req.path;
     const bool open = p == "/healthz" || p == "/metrics" || p == "/api/v1/healthz" ||
@@ -212,6 +236,7 @@ void Server::Impl::RegisterRoutes() {
   // whichever connection it asks on. Their latency is the time to the first response byte; the
   // log line, written after the response, has the whole time.
   http.set_post_routing_handler([this](const httplib::Request& req, httplib::Response& res) {
+    AddSecurityHeaders(res);
     const double s =
         std::chrono::duration<double>(std::chrono::steady_clock::now() - t_request_start).count();
     metrics.ObserveRequest(RouteOf(req.path), req.method, res.status, s);
@@ -228,7 +253,7 @@ void Server::Impl::RegisterRoutes() {
   });
 
   auto health = [this](const httplib::Request&, httplib::Response& res) {
-    const auto counts = store->CountByState();
+    const auto counts = CountByState();
     SendJson(res, 200,
              {{"status", draining ? "draining" : "ok"},
               {"version", kMatfitVersion},
@@ -241,7 +266,7 @@ void Server::Impl::RegisterRoutes() {
   http.Get("/api/v1/healthz", health);
   auto metrics_page = [this](const httplib::Request&, httplib::Response& res) {
     std::map<std::string, int64_t> jobs;
-    for (const auto& [s, n] : store->CountByState()) jobs[JobStateName(s)] = n;
+    for (const auto& [s, n] : CountByState()) jobs[JobStateName(s)] = n;
     int busy;
     {
       std::lock_guard<std::mutex> lock(mutex);
@@ -319,6 +344,10 @@ void Server::Shutdown() {
   m.wake.notify_all();
   for (auto& w : m.workers) w.join();
   m.workers.clear();
+  // A last try for final states the database has not taken (left "running", a job would be
+  // re-queued at the next start).
+  if (Status st = m.RetryPending(true); !st.ok())
+    LogEvent("error", "job_state_unsaved", {{"error", st.message()}});
   {
     std::lock_guard<std::mutex> lock(m.shutdown_mutex);
     m.shutdown_done = true;
@@ -327,8 +356,80 @@ void Server::Shutdown() {
   LogEvent("info", "stopped", json::object());
 }
 
+void Server::Impl::RecordFinal(const std::string& id, PendingFinal f) {
+  Status st;
+  for (const int ms : {0, 50, 200, 800}) {  // a busy or briefly failing database
+    std::this_thread::sleep_for(std::chrono::milliseconds(ms));
+    st = store->Finish(id, f.state, f.error, f.summary_json, f.finished, f.run_seconds);
+    if (st.ok()) return;
+  }
+  // The database cannot take it (disk full, I/O error): keep it, show it, write it later.
+  LogEvent("error", "job_state_unsaved",
+           {{"id", id}, {"state", JobStateName(f.state)}, {"error", st.message()}});
+  f.tries = 4, f.next_try = NowSeconds() + f.delay;
+  std::lock_guard<std::mutex> lock(pending_mutex);
+  pending[id] = std::move(f);
+}
+
+Status Server::Impl::RetryPending(bool force, const std::string& only) {
+  std::vector<std::pair<std::string, PendingFinal>> due;
+  {
+    std::lock_guard<std::mutex> lock(pending_mutex);
+    const double now = NowSeconds();
+    for (const auto& [id, f] : pending)
+      if (only.empty() ? force || now >= f.next_try : id == only) due.emplace_back(id, f);
+  }
+  Status result;
+  for (const auto& [id, f] : due) {
+    const Status st =
+        store->Finish(id, f.state, f.error, f.summary_json, f.finished, f.run_seconds);
+    std::lock_guard<std::mutex> lock(pending_mutex);
+    const auto it = pending.find(id);
+    if (it == pending.end()) continue;  // written meanwhile by another thread
+    if (st.ok()) {
+      LogEvent("info", "job_state_saved",
+               {{"id", id}, {"state", JobStateName(f.state)}, {"tries", it->second.tries + 1}});
+      pending.erase(it);
+    } else {
+      PendingFinal& p = it->second;
+      ++p.tries;
+      p.delay = std::min(p.delay * 2, 5.0);  // back off, but land soon after space is freed
+      p.next_try = NowSeconds() + p.delay;
+      result = st;
+    }
+  }
+  return result;
+}
+
+bool Server::Impl::ApplyPending(JobRecord* j) {
+  std::lock_guard<std::mutex> lock(pending_mutex);
+  const auto it = pending.find(j->id);
+  if (it == pending.end()) return false;
+  const PendingFinal& f = it->second;
+  j->state = f.state, j->error = f.error, j->finished = f.finished;
+  j->run_seconds = f.run_seconds;
+  j->summary_json = f.summary_json.empty() ? "{}" : f.summary_json;
+  if (f.state == JobState::kSucceeded) j->progress = 1;
+  return true;
+}
+
+std::map<JobState, int64_t> Server::Impl::CountByState() {
+  auto counts = store->CountByState();
+  std::lock_guard<std::mutex> lock(pending_mutex);
+  for (const auto& [id, f] : pending)  // their rows still say "running"
+    if (counts[JobState::kRunning] > 0) --counts[JobState::kRunning], ++counts[f.state];
+  return counts;
+}
+
+std::optional<JobRecord> Server::Impl::GetJob(const std::string& id) {
+  auto j = store->Get(id);
+  if (j) ApplyPending(&*j);
+  return j;
+}
+
 void Server::Impl::WorkerLoop() {
   while (!draining) {
+    (void)RetryPending(false);  // final states the database could not take yet
     auto job = store->ClaimNext(NowSeconds());
     if (!job) {
       std::unique_lock<std::mutex> lock(mutex);
@@ -361,8 +462,9 @@ void Server::Impl::RunOne(const JobRecord& job) {
     }
     if (now - last_persist > std::chrono::seconds(1)) {  // persisted about once a second
       last_persist = now;
-      (void)store->UpdateProgress(job.id, f, stage);
+      (void)store->UpdateProgress(job.id, f, stage);  // best effort: the final state is not
       if (auto r = store->Get(job.id); r && r->cancel_requested) lj->cancel = true;
+      (void)RetryPending(false);  // other jobs' final states, while this one runs
     }
     return !lj->cancel.load();
   };
@@ -371,7 +473,7 @@ void Server::Impl::RunOne(const JobRecord& job) {
     if (job.cancel_requested) lj->cancel = true;
     try {  // a job must never take the server down (or, re-queued, take it down again)
       r = lj->cancel ? StatusOr<std::string>(Status(StatusCode::kCancelled, "cancelled"))
-                     : RunJob(*spec, job.dataset, PackDir(job.id), progress);
+                     : RunJob(*spec, job.dataset, PackDir(job.id), progress, SourceLabel(job));
     } catch (const std::exception& e) {
       r = Status(StatusCode::kInternal, std::string("internal error: ") + e.what());
     }
@@ -379,21 +481,27 @@ void Server::Impl::RunOne(const JobRecord& job) {
   const double seconds =
       std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   std::string final_state;
-  if (r.ok()) {
-    final_state = "succeeded";
-    (void)store->Finish(job.id, JobState::kSucceeded, "", *r, NowSeconds(), seconds);
-  } else if (r.status().code() == StatusCode::kCancelled && hard_stop) {
+  if (r.status().code() == StatusCode::kCancelled && hard_stop) {
     final_state = "requeued";
-    (void)store->Requeue(job.id);
-  } else if (r.status().code() == StatusCode::kCancelled) {
-    final_state = "cancelled";
-    (void)store->Finish(job.id, JobState::kCancelled, "cancelled while running", "", NowSeconds(),
-                        seconds);
+    // A failed write leaves the row "running": the next start-up re-queues it the same way.
+    if (Status st = store->Requeue(job.id); !st.ok())
+      LogEvent("error", "job_state_unsaved", {{"id", job.id}, {"error", st.message()}});
   } else {
-    final_state = "failed";
-    (void)store->Finish(job.id, JobState::kFailed, r.status().message(), "", NowSeconds(), seconds);
+    PendingFinal f;
+    f.finished = NowSeconds(), f.run_seconds = seconds;
+    if (r.ok()) {
+      f.state = JobState::kSucceeded, f.summary_json = *r;
+    } else if (r.status().code() == StatusCode::kCancelled) {
+      f.state = JobState::kCancelled, f.error = "cancelled while running";
+    } else {
+      f.state = JobState::kFailed, f.error = ForClients(r.status().message(), &job);
+      if (f.error.find(std::strerror(ENOSPC)) != std::string::npos)
+        f.error = "the server's disk is full (ENOSPC); free space and submit again: " + f.error;
+    }
+    final_state = JobStateName(f.state);
+    RecordFinal(job.id, std::move(f));
+    metrics.ObserveJob(final_state, seconds);
   }
-  if (final_state != "requeued") metrics.ObserveJob(final_state, seconds);
   LogEvent(final_state == "failed" ? "warn" : "info", "job_finished",
            {{"id", job.id},
             {"state", final_state},

@@ -33,6 +33,16 @@ struct LiveJob {
   std::string stage;
 };
 
+// A job's final state that the database has not taken yet (disk full, I/O error). GET and
+// DELETE show it; it is written again, with backoff, until it lands.
+struct PendingFinal {
+  JobState state = JobState::kFailed;
+  std::string error, summary_json;
+  double finished = 0, run_seconds = 0;
+  int tries = 0;
+  double delay = 0.5, next_try = 0;  // seconds; Unix time of the next write
+};
+
 struct Server::Impl {
   ServerOptions options;
   std::string data;  // absolute data folder
@@ -51,6 +61,8 @@ struct Server::Impl {
   std::condition_variable wake, idle;
   std::map<std::string, std::shared_ptr<LiveJob>> live;
   std::atomic<bool> draining{false}, hard_stop{false}, stopped{false};
+  std::mutex pending_mutex;  // guards pending
+  std::map<std::string, PendingFinal> pending;
   std::mutex shutdown_mutex;
   std::condition_variable shutdown_cv;
   bool shutdown_done = false;
@@ -67,7 +79,24 @@ struct Server::Impl {
   void RegisterPackRoutes();
   void WorkerLoop();
   void RunOne(const JobRecord& job);
+  // The one way a job's final state is recorded: written at once (retrying briefly); when the
+  // database cannot take it, kept in `pending` and written again by RetryPending.
+  void RecordFinal(const std::string& id, PendingFinal final_state);
+  // Writes the pending final states that are due (all of them with force); returns the status
+  // of writing `only` when given (only that one is tried then).
+  Status RetryPending(bool force, const std::string& only = "");
+  // A job as the store has it, with its pending final state applied; nullopt when unknown.
+  std::optional<JobRecord> GetJob(const std::string& id);
+  // Applies a pending final state to a record read from the store; true when there was one.
+  bool ApplyPending(JobRecord* j);
+  std::map<JobState, int64_t> CountByState();  // the store's counts, pending states applied
   nlohmann::json JobJson(const JobRecord& j);
+  // What a pack names as its input: "upload ID/NAME" for uploads (NAME: the archive's top
+  // folder, if any), the folder the client named otherwise.
+  std::string SourceLabel(const JobRecord& j) const;
+  // `message` for a client: the server's own folders removed (paths in an uploaded dataset
+  // become relative to it, other paths relative to the data folder). The log keeps the original.
+  std::string ForClients(std::string message, const JobRecord* job = nullptr) const;
   void RemoveJobFiles(const JobRecord& j);
 };
 
@@ -81,9 +110,19 @@ void SendJson(httplib::Response& res, int status, const nlohmann::json& body);
 // which makes the library drop the keep-alive connection.
 void SendErrorAndClose(httplib::Response& res, int status, const std::string& message,
                        const std::string& field = "");
+// Refuses (400, closing the connection) a request whose path has a control byte (a NUL would
+// cut the file name short: `material.json%00.html`) or is not UTF-8, or whose query parameter
+// names or values are not UTF-8 text (they end up in JSON). True when it did.
+bool RejectMalformedTarget(const httplib::Request& req, httplib::Response& res);
+// X-Content-Type-Options: nosniff on every response, and a Content-Security-Policy that allows
+// nothing (no scripts, sandboxed) on every response that is not the viewer's HTML page.
+void AddSecurityHeaders(httplib::Response& res);
 // Streams a file (never loaded whole into memory); 404 JSON when it is missing.
 void SendFile(httplib::Response& res, const std::string& path, const std::string& content_type);
-std::string ContentTypeFor(const std::string& path);
+// Content types by route, never from a client's path: a file of a pack (only the kinds a pack
+// holds; anything else is application/octet-stream, never HTML) and an embedded viewer file.
+std::string PackFileType(const std::string& name);
+std::string ViewerFileType(const std::string& name);
 // Route label for metrics: the pattern, not the raw path ("/api/v1/jobs/{id}").
 std::string RouteOf(const std::string& path);
 
