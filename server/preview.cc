@@ -52,9 +52,9 @@ void PreviewRenderer::Loop() {
   }
 }
 
-Status PreviewRenderer::RenderToFile(const std::string& pack_dir, const render::RenderOptions& o,
-                                     const std::string& png_path) {
-  std::promise<Status> done;
+StatusOr<std::string> PreviewRenderer::Render(const std::string& pack_dir,
+                                              const render::RenderOptions& o) {
+  std::promise<StatusOr<std::string>> done;
   auto result = done.get_future();
   {
     std::lock_guard<std::mutex> lock(mutex_);
@@ -65,8 +65,8 @@ Status PreviewRenderer::RenderToFile(const std::string& pack_dir, const render::
       if (!img.ok()) return done.set_value(img.status());
       ImageWriteOptions wo;
       wo.format = PixelFormat::kUint8;
-      wo.transfer = TransferFunction::kLinear;         // display output is already sRGB-encoded
-      done.set_value(WriteImage(png_path, *img, wo));  // atomic (temporary name, then rename)
+      wo.transfer = TransferFunction::kLinear;  // display output is already sRGB-encoded
+      done.set_value(EncodeImage(*img, "png", wo));
     });
   }
   cv_.notify_one();

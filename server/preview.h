@@ -1,6 +1,6 @@
 // Server-side previews: one render thread owns the EGL renderer (a GL context belongs to one
-// thread), falling back to the CPU reference renderer when EGL is unavailable. Renders are
-// cached as PNG files keyed by their parameters.
+// thread), falling back to the CPU reference renderer when EGL is unavailable. Renders come
+// back as PNG bytes; the server caches them (server/preview_cache.h).
 #pragma once
 
 #include <condition_variable>
@@ -28,9 +28,8 @@ class PreviewRenderer {
   PreviewRenderer(const PreviewRenderer&) = delete;
   PreviewRenderer& operator=(const PreviewRenderer&) = delete;
 
-  // Renders pack `pack_dir` into the PNG file `png_path` (atomically); blocks until done.
-  Status RenderToFile(const std::string& pack_dir, const render::RenderOptions& o,
-                      const std::string& png_path);
+  // Pack `pack_dir` rendered with `o`, as a PNG file's bytes; blocks until done.
+  StatusOr<std::string> Render(const std::string& pack_dir, const render::RenderOptions& o);
   std::string Description();  // which backend renders
 
  private:

@@ -145,6 +145,7 @@ StatusOr<std::unique_ptr<Server>> Server::Create(const ServerOptions& options) {
             {"jobs", ids.size()},
             {"auth", impl->tokens.empty() ? "off" : "bearer"}});
   impl->previews = std::make_unique<PreviewRenderer>(options.render_backend);
+  impl->preview_cache = std::make_unique<PreviewCache>(impl->data + "/cache/previews");
   impl->RegisterRoutes();
   return std::unique_ptr<Server>(new Server(std::move(impl)));
 }

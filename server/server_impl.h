@@ -18,6 +18,7 @@
 #include "server/job_store.h"
 #include "server/metrics.h"
 #include "server/preview.h"
+#include "server/preview_cache.h"
 #include "server/server.h"
 
 namespace matfit::server {
@@ -49,6 +50,7 @@ struct Server::Impl {
   std::unique_ptr<JobStore> store;
   Metrics metrics;
   std::unique_ptr<PreviewRenderer> previews;
+  std::unique_ptr<PreviewCache> preview_cache;
   httplib::Server http;
   std::thread http_thread;
   std::vector<std::thread> workers;

@@ -366,5 +366,69 @@ TEST_F(FullDiskTest, AFinalStateTheDatabaseCannotTakeIsKeptAndShown) {
   EXPECT_EQ(after["attempts"], 1);
 }
 
+// ---- 5. A preview that cannot be cached ------------------------------------------------------
+
+TEST_F(FullDiskTest, APreviewOnAFullDiskIsAnErrorAndNeverCached) {
+  Mount("24m");
+  if (disk_.empty()) return;
+  Start();
+  const std::string id = FinishedJob();
+  ASSERT_FALSE(id.empty());
+  const std::string q = "/api/v1/packs/" + id + "/preview.png?theta=33&size=128";
+  Fill();
+  for (int attempt = 0; attempt < 2; ++attempt) {  // the second is not served from a cache
+    auto r = client_->Get(q.c_str());
+    ASSERT_TRUE(r);
+    EXPECT_EQ(r->status, 507) << r->body.size() << " bytes";
+    EXPECT_EQ(r->get_header_value("Cache-Control"), "no-store");
+    EXPECT_NE(r->body.find("No space left on device"), std::string::npos) << r->body;
+    EXPECT_TRUE(IsUtf8Json(r->body));
+  }
+  Free();
+  auto ok = client_->Get(q.c_str());
+  ASSERT_TRUE(ok);
+  ASSERT_EQ(ok->status, 200);
+  EXPECT_EQ(ok->get_header_value("X-Matfit-Cache"), "miss");
+  const fs::path png = tmp_ / "p.png";
+  std::ofstream(png, std::ios::binary) << ok->body;
+  auto img = ReadImage(png.string());
+  ASSERT_TRUE(img.ok()) << img.status().message();
+  EXPECT_EQ(img->width(), 128);
+  // After a restart the cached copy is the good one.
+  server_.reset();
+  Start();
+  auto again = client_->Get(q.c_str());
+  ASSERT_TRUE(again);
+  EXPECT_EQ(again->status, 200);
+  EXPECT_EQ(again->get_header_value("X-Matfit-Cache"), "hit");
+  EXPECT_TRUE(again->body == ok->body);
+}
+
+TEST_F(HardeningTest, AnEmptyOrTruncatedCacheFileIsNeverServed) {
+  Start();
+  const std::string id = FinishedJob();
+  ASSERT_FALSE(id.empty());
+  const std::string q = "/api/v1/packs/" + id + "/preview.png?theta=21&size=96";
+  auto first = client_->Get(q.c_str());
+  ASSERT_TRUE(first);
+  ASSERT_EQ(first->status, 200);
+  const fs::path dir = fs::path(opts_.data_dir) / "cache" / "previews" / id;
+  std::vector<fs::path> files;
+  for (const auto& e : fs::directory_iterator(dir))
+    if (e.path().extension() == ".png") files.push_back(e.path());
+  ASSERT_EQ(files.size(), 1u);
+  const std::string good = Slurp(files[0]);
+  ASSERT_TRUE(good == first->body);
+  // Empty, then cut short: each is rendered again, never served.
+  for (const size_t keep : {size_t(0), good.size() / 2, good.size() - 1}) {
+    std::ofstream(files[0], std::ios::binary | std::ios::trunc) << good.substr(0, keep);
+    auto r = client_->Get(q.c_str());
+    ASSERT_TRUE(r);
+    EXPECT_EQ(r->status, 200);
+    EXPECT_EQ(r->get_header_value("X-Matfit-Cache"), "miss") << "kept " << keep;
+    EXPECT_TRUE(r->body == good) << "kept " << keep << ": served " << r->body.size() << " bytes";
+  }
+}
+
 }  // namespace
 }  // namespace matfit::server::testing_fixture

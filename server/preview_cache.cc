@@ -1,0 +1,97 @@
+#include "server/preview_cache.h"
+
+#include <fcntl.h>
+#include <unistd.h>
+
+#include <atomic>
+#include <cerrno>
+#include <cstring>
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+
+namespace matfit::server {
+namespace {
+
+namespace fs = std::filesystem;
+
+bool IsTemporaryName(const std::string& name) {
+  return !name.empty() && name[0] == '.' && name.find(".tmp-") != std::string::npos;
+}
+
+// Writes `bytes` to `path` and makes them durable; errno of the failed call, or 0.
+int WriteDurably(const std::string& path, const std::string& bytes) {
+  const int fd = ::open(path.c_str(), O_WRONLY | O_CREAT | O_EXCL | O_CLOEXEC, 0644);
+  if (fd < 0) return errno;
+  for (size_t at = 0; at < bytes.size();) {
+    const ssize_t n = ::write(fd, bytes.data() + at, bytes.size() - at);
+    if (n < 0 && errno == EINTR) continue;
+    if (n <= 0) {
+      const int err = n < 0 ? errno : EIO;
+      ::close(fd);
+      return err;
+    }
+    at += size_t(n);
+  }
+  if (::fsync(fd) != 0) {
+    const int err = errno;
+    ::close(fd);
+    return err;
+  }
+  return ::close(fd) != 0 ? errno : 0;
+}
+
+}  // namespace
+
+bool IsWholePng(const std::string& b) {
+  static const std::string kSignature = "\x89PNG\r\n\x1a\n";
+  static const std::string kEnd("\0\0\0\0IEND\xae\x42\x60\x82", 12);
+  return b.size() >= kSignature.size() + kEnd.size() && b.compare(0, 8, kSignature) == 0 &&
+         b.compare(b.size() - kEnd.size(), kEnd.size(), kEnd) == 0;
+}
+
+PreviewCache::PreviewCache(std::string root) : root_(std::move(root)) {
+  std::error_code ec;
+  for (auto it = fs::recursive_directory_iterator(root_, ec);
+       !ec && it != fs::recursive_directory_iterator(); it.increment(ec))
+    if (it->is_regular_file(ec) && IsTemporaryName(it->path().filename().string()))
+      fs::remove(it->path(), ec);
+}
+
+std::optional<std::string> PreviewCache::Lookup(const std::string& id, const std::string& key) {
+  const std::string path = root_ + "/" + id + "/" + key;
+  std::ifstream in(path, std::ios::binary);
+  if (!in) return std::nullopt;
+  std::stringstream s;
+  s << in.rdbuf();
+  std::string bytes = s.str();
+  if (!IsWholePng(bytes)) {  // a write cut short (or emptied): never served, rendered again
+    std::error_code ec;
+    fs::remove(path, ec);
+    return std::nullopt;
+  }
+  return bytes;
+}
+
+Status PreviewCache::Store(const std::string& id, const std::string& key, const std::string& png,
+                           int* err) {
+  static std::atomic<int> counter{0};
+  const std::string dir = root_ + "/" + id, path = dir + "/" + key;
+  const std::string temp =
+      dir + "/." + key + ".tmp-" + std::to_string(::getpid()) + "-" + std::to_string(counter++);
+  auto fail = [&](int e, const std::string& what) {
+    std::error_code ec;
+    fs::remove(temp, ec);
+    if (err) *err = e;
+    return IoError("caching the preview failed: " + what + ": " + std::strerror(e));
+  };
+  std::error_code ec;
+  fs::create_directories(dir, ec);
+  if (ec) return fail(ec.value(), "cannot create its folder");
+  if (const int e = WriteDurably(temp, png); e != 0) return fail(e, "writing it");
+  if (::rename(temp.c_str(), path.c_str()) != 0) return fail(errno, "renaming it into place");
+  if (err) *err = 0;
+  return Status::Ok();
+}
+
+}  // namespace matfit::server
