@@ -135,6 +135,10 @@ void Server::Impl::RegisterPackRoutes() {
     const bool hit = png.has_value();
     if (!hit) {
       auto rendered = previews->Render(pack, o);
+      if (!rendered.ok() && rendered.status().code() == StatusCode::kUnavailable) {
+        res.set_header("Retry-After", "1");
+        return SendError(res, 503, rendered.status().message());
+      }
       if (!rendered.ok())
         return SendError(res, 500, "preview failed: " + ForClients(rendered.status().message()));
       // Served only once it is cached: a preview that cannot be stored is an error, never an

@@ -26,6 +26,10 @@ struct ServerOptions {
   int request_timeout_s = 60;  // socket read/write inactivity
   double drain_seconds = 10;   // on shutdown: wait this long for running jobs, then re-queue
   std::string render_backend = "auto";  // previews: auto, egl, cpu
+  // Previews: the cache's total size (least recently used files go first), and how many
+  // renders may wait in each lane (small ≤ 256², large) before more get 503.
+  int64_t preview_cache_bytes = int64_t(256) << 20;
+  int preview_queue = 8;
   int http_threads =
       32;              // one per open connection (cpp-httplib keeps a thread per keep-alive client)
   bool quiet = false;  // no request log lines (errors are still logged)
