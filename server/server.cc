@@ -445,7 +445,7 @@ void Server::Impl::RunOne(const JobRecord& job) {
     }
     if (now - last_persist > std::chrono::seconds(1)) {  // persisted about once a second
       last_persist = now;
-      (void)store->UpdateProgress(job.id, f, stage);  // best effort: the final state is not
+      (void)store->UpdateProgress(job.id, f, stage);  // best effort; the final state must land
       if (auto r = store->Get(job.id); r && r->cancel_requested) lj->cancel = true;
       (void)RetryPending(false);  // other jobs' final states, while this one runs
     }
