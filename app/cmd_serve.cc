@@ -17,13 +17,14 @@ namespace {
 
 struct ServeArgs {
   server::ServerOptions o;
-  int64_t max_upload_mib = 4096, max_unpacked_mib = 8192;
+  int64_t max_upload_mib = 4096, max_unpacked_mib = 8192, preview_cache_mib = 256;
   int threads = 0;
 };
 
 int RunServe(ServeArgs& a) {
   a.o.max_upload_bytes = a.max_upload_mib << 20;
   a.o.archive.max_unpacked_bytes = a.max_unpacked_mib << 20;
+  a.o.preview_cache_bytes = a.preview_cache_mib << 20;
   SetNumThreads(a.threads);
   // Block the shutdown signals in every thread; one thread waits for them.
   sigset_t set;
@@ -116,6 +117,12 @@ void RegisterServe(CLI::App& app, int* exit_code) {
                   "on SIGTERM: how long running jobs may finish before they are re-queued")
       ->capture_default_str();
   sub->add_option("--render-backend", o.render_backend, "previews: auto, egl or cpu")
+      ->capture_default_str();
+  sub->add_option("--preview-cache-mib", args->preview_cache_mib,
+                  "preview cache size in MiB; least recently used previews go first (0: none)")
+      ->capture_default_str();
+  sub->add_option("--preview-queue", o.preview_queue,
+                  "previews that may wait per render lane (<= 256² and larger); more get 503")
       ->capture_default_str();
   sub->add_flag("--quiet", o.quiet, "no request log lines");
   sub->callback([args, exit_code] { *exit_code = RunServe(*args); });

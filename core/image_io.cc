@@ -211,12 +211,13 @@ Status ReadImageSize(const std::string& path, int* width, int* height, int* chan
   return Status::Ok();
 }
 
-Status WriteImage(const std::string& path, const Image& image, const ImageWriteOptions& options) {
-  if (image.empty()) return InvalidArgument("refusing to write empty image '" + path + "'");
-  auto out = OIIO::ImageOutput::create(path);
-  if (!out)
-    return InvalidArgument("cannot write '" + path + "': no image format for this extension (" +
-                           OIIO::geterror() + ")");
+namespace {
+
+// Encodes `image` into `out` (a file named `file_name`, or through `proxy` when given):
+// quantised as `options` say; false with out's error when the encoder fails.
+bool EncodeInto(OIIO::ImageOutput* out, const std::string& file_name,
+                OIIO::Filesystem::IOProxy* proxy, const Image& image,
+                const ImageWriteOptions& options) {
   OIIO::TypeDesc type = OIIO::TypeDesc::UINT16;
   switch (options.format) {
     case PixelFormat::kUint8: type = OIIO::TypeDesc::UINT8; break;
@@ -268,6 +269,20 @@ Status WriteImage(const std::string& path, const Image& image, const ImageWriteO
     pixels = f32.data();
     buffer_type = OIIO::TypeDesc::FLOAT;
   }
+  if (proxy) out->set_ioproxy(proxy);
+  if (!out->open(file_name, spec)) return false;
+  const bool written = out->write_image(buffer_type, pixels);
+  return out->close() && written;
+}
+
+}  // namespace
+
+Status WriteImage(const std::string& path, const Image& image, const ImageWriteOptions& options) {
+  if (image.empty()) return InvalidArgument("refusing to write empty image '" + path + "'");
+  auto out = OIIO::ImageOutput::create(path);
+  if (!out)
+    return InvalidArgument("cannot write '" + path + "': no image format for this extension (" +
+                           OIIO::geterror() + ")");
   AtomicFile file(path);
   // Writers that take an I/O proxy write through one that sees every failed write (errno).
   std::unique_ptr<FILE, int (*)(FILE*)> f(nullptr, std::fclose);
@@ -276,25 +291,33 @@ Status WriteImage(const std::string& path, const Image& image, const ImageWriteO
     f.reset(std::fopen(file.temp_path().c_str(), "wb"));
     if (!f) return IoError("cannot create '" + file.temp_path() + "': " + std::strerror(errno));
     proxy = std::make_unique<CheckedFileOutput>(f.get());
-    out->set_ioproxy(proxy.get());
   }
   const auto write_failed = [&](int err) {
     return IoError("writing '" + path + "' failed: " + std::strerror(err));
   };
-  if (!out->open(file.temp_path(), spec)) {
-    if (proxy && proxy->error() != 0) return write_failed(proxy->error());
-    return IoError("cannot create '" + file.temp_path() + "': " + out->geterror());
-  }
-  const bool written = out->write_image(buffer_type, pixels);
-  const bool closed = out->close();
+  const bool ok = EncodeInto(out.get(), file.temp_path(), proxy.get(), image, options);
   if (proxy && proxy->error() != 0) return write_failed(proxy->error());
-  if (!written || !closed) return IoError("writing '" + path + "' failed: " + out->geterror());
+  if (!ok) return IoError("writing '" + path + "' failed: " + out->geterror());
   if (f) {  // buffered bytes: a full disk shows here
     errno = 0;
     if (std::fflush(f.get()) != 0) return write_failed(errno != 0 ? errno : EIO);
     if (std::fclose(f.release()) != 0) return write_failed(errno != 0 ? errno : EIO);
   }
   return file.Commit();
+}
+
+StatusOr<std::string> EncodeImage(const Image& image, const std::string& format,
+                                  const ImageWriteOptions& options) {
+  if (image.empty()) return InvalidArgument("refusing to encode an empty image");
+  const std::string name = "image." + format;
+  auto out = OIIO::ImageOutput::create(name);
+  if (!out || !out->supports("ioproxy"))
+    return InvalidArgument("cannot encode '" + format + "' images in memory");
+  std::vector<unsigned char> bytes;
+  OIIO::Filesystem::IOVecOutput vec(bytes);
+  if (!EncodeInto(out.get(), name, &vec, image, options))
+    return IoError("encoding a " + format + " image failed: " + out->geterror());
+  return std::string(bytes.begin(), bytes.end());
 }
 
 }  // namespace matfit

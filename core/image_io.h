@@ -74,4 +74,8 @@ struct ImageWriteOptions {
 // extension. Atomic: the data goes to a temporary file in the same folder, renamed on success.
 Status WriteImage(const std::string& path, const Image& image, const ImageWriteOptions& options);
 
+// `image` encoded as a file of `format` ("png", "exr", ...) in memory, quantised like WriteImage.
+StatusOr<std::string> EncodeImage(const Image& image, const std::string& format,
+                                  const ImageWriteOptions& options);
+
 }  // namespace matfit

@@ -67,6 +67,10 @@ bool RejectMalformedTarget(const httplib::Request& req, httplib::Response& res) 
 
 void AddSecurityHeaders(httplib::Response& res) {
   res.set_header("X-Content-Type-Options", "nosniff");
+  if (res.status >= 400) {  // an error is never cached (e.g. a preview on a full disk)
+    res.headers.erase("Cache-Control");
+    res.set_header("Cache-Control", "no-store");
+  }
   if (res.get_header_value("Content-Type").rfind("text/html", 0) != 0)
     res.set_header("Content-Security-Policy",
                    "default-src 'none'; frame-ancestors 'none'; sandbox");

@@ -1,6 +1,11 @@
 #include "server/preview.h"
 
+#include <condition_variable>
+#include <deque>
+#include <functional>
 #include <future>
+#include <mutex>
+#include <thread>
 
 #include "core/image_io.h"
 #include "core/pack/pack_reader.h"
@@ -9,73 +14,105 @@
 
 namespace matfit::server {
 
-PreviewRenderer::PreviewRenderer(std::string backend)
-    : backend_(std::move(backend)), thread_([this] { Loop(); }) {}
-
-PreviewRenderer::~PreviewRenderer() {
-  {
-    std::lock_guard<std::mutex> lock(mutex_);
-    stop_ = true;
+// One render thread and its queue. Each task gets the lane's EGL renderer (nullptr: use the
+// CPU one), created lazily on the lane's thread, which keeps its context current.
+struct PreviewRenderer::Lane {
+  explicit Lane(std::string lane_name, std::string backend_name)
+      : name(std::move(lane_name)), backend(std::move(backend_name)), thread([this] { Loop(); }) {}
+  ~Lane() {
+    {
+      std::lock_guard<std::mutex> lock(mutex);
+      stop = true;
+    }
+    cv.notify_all();
+    thread.join();
   }
-  cv_.notify_all();
-  thread_.join();
-}
+  void Loop();
 
-void PreviewRenderer::Loop() {
+  const std::string name, backend;
+  std::mutex mutex;
+  std::condition_variable cv;
+  std::deque<std::function<void(render::EglRenderer*)>> tasks;
+  int waiting = 0;  // tasks not yet started
+  bool stop = false;
+  std::string description;
+  std::thread thread;  // last: it starts running Loop
+};
+
+void PreviewRenderer::Lane::Loop() {
   std::unique_ptr<render::EglRenderer> egl;
   bool tried = false;
   for (;;) {
     std::function<void(render::EglRenderer*)> task;
     {
-      std::unique_lock<std::mutex> lock(mutex_);
-      cv_.wait(lock, [&] { return stop_ || !tasks_.empty(); });
-      if (stop_ && tasks_.empty()) return;
-      task = std::move(tasks_.front());
-      tasks_.pop_front();
+      std::unique_lock<std::mutex> lock(mutex);
+      cv.wait(lock, [&] { return stop || !tasks.empty(); });
+      if (stop && tasks.empty()) return;
+      task = std::move(tasks.front());
+      tasks.pop_front();
+      --waiting;
     }
-    if (!tried) {  // created lazily on this thread, which keeps its context current
+    if (!tried) {
       tried = true;
-      std::string description = "the CPU reference renderer";
-      if (backend_ != "cpu") {
+      std::string d = "the CPU reference renderer";
+      if (backend != "cpu") {
+        static std::mutex create_mutex;  // one EGL initialisation at a time
+        std::lock_guard<std::mutex> lock(create_mutex);
         auto r = render::EglRenderer::Create();
         if (r.ok()) {
           egl = std::move(*r);
-          description = egl->Description();
+          d = egl->Description();
         } else {
-          description += " (" + r.status().message() + ")";
+          d += " (" + r.status().message() + ")";
         }
       }
-      std::lock_guard<std::mutex> lock(mutex_);
-      description_ = description;
+      std::lock_guard<std::mutex> lock(mutex);
+      description = d;
     }
     task(egl.get());
   }
 }
 
-Status PreviewRenderer::RenderToFile(const std::string& pack_dir, const render::RenderOptions& o,
-                                     const std::string& png_path) {
-  std::promise<Status> done;
+PreviewRenderer::PreviewRenderer(const PreviewOptions& options)
+    : options_(options),
+      small_(std::make_unique<Lane>("small", options.backend)),
+      large_(std::make_unique<Lane>("large", options.backend)) {}
+
+PreviewRenderer::~PreviewRenderer() = default;
+
+StatusOr<std::string> PreviewRenderer::Render(const std::string& pack_dir,
+                                              const render::RenderOptions& o) {
+  Lane& lane = int64_t(o.size) * o.size <= options_.small_max_pixels ? *small_ : *large_;
+  std::promise<StatusOr<std::string>> done;
   auto result = done.get_future();
   {
-    std::lock_guard<std::mutex> lock(mutex_);
-    tasks_.push_back([&](render::EglRenderer* egl) {
+    std::lock_guard<std::mutex> lock(lane.mutex);
+    if (lane.waiting >= options_.max_queued)
+      return Status(StatusCode::kUnavailable,
+                    "the server is busy: " + std::to_string(lane.waiting) + " " + lane.name +
+                        " previews are waiting to render; retry shortly");
+    ++lane.waiting;
+    lane.tasks.push_back([&](render::EglRenderer* egl) {
       auto pack = ReadPack(pack_dir);
       if (!pack.ok()) return done.set_value(pack.status());
       auto img = egl ? egl->Render(pack->maps, o) : render::RenderCpu(pack->maps, o);
       if (!img.ok()) return done.set_value(img.status());
       ImageWriteOptions wo;
       wo.format = PixelFormat::kUint8;
-      wo.transfer = TransferFunction::kLinear;         // display output is already sRGB-encoded
-      done.set_value(WriteImage(png_path, *img, wo));  // atomic (temporary name, then rename)
+      wo.transfer = TransferFunction::kLinear;  // display output is already sRGB-encoded
+      done.set_value(EncodeImage(*img, "png", wo));
     });
   }
-  cv_.notify_one();
+  lane.cv.notify_one();
   return result.get();
 }
 
 std::string PreviewRenderer::Description() {
-  std::lock_guard<std::mutex> lock(mutex_);
-  return description_.empty() ? "not started" : description_;
+  for (Lane* lane : {small_.get(), large_.get()}) {
+    std::lock_guard<std::mutex> lock(lane->mutex);
+    if (!lane->description.empty()) return lane->description;
+  }
+  return "not started";
 }
 
 }  // namespace matfit::server

@@ -1,48 +1,41 @@
-// Server-side previews: one render thread owns the EGL renderer (a GL context belongs to one
-// thread), falling back to the CPU reference renderer when EGL is unavailable. Renders are
-// cached as PNG files keyed by their parameters.
+// Server-side previews. Renders run on two lanes, each a thread that owns its own EGL renderer
+// (a GL context belongs to one thread), falling back to the CPU reference renderer when EGL is
+// unavailable: small previews (the viewer's and the default 256²) never wait behind large ones.
+// Each lane queues a bounded number of renders. Renders come back as PNG bytes; the server
+// caches them (server/preview_cache.h).
 #pragma once
 
-#include <condition_variable>
-#include <deque>
-#include <functional>
+#include <cstdint>
 #include <memory>
-#include <mutex>
 #include <string>
-#include <thread>
 
 #include "core/status.h"
 #include "render/render_options.h"
 
-namespace matfit::render {
-class EglRenderer;
-}
-
 namespace matfit::server {
+
+struct PreviewOptions {
+  std::string backend = "auto";          // "auto" (EGL, else CPU), "egl" or "cpu"
+  int64_t small_max_pixels = 256 * 256;  // renders up to this many pixels take the small lane
+  int max_queued = 8;                    // per lane: renders waiting beyond this are refused
+};
 
 class PreviewRenderer {
  public:
-  // backend: "auto" (EGL, else CPU), "egl" or "cpu".
-  explicit PreviewRenderer(std::string backend = "auto");
+  explicit PreviewRenderer(const PreviewOptions& options = {});
   ~PreviewRenderer();
   PreviewRenderer(const PreviewRenderer&) = delete;
   PreviewRenderer& operator=(const PreviewRenderer&) = delete;
 
-  // Renders pack `pack_dir` into the PNG file `png_path` (atomically); blocks until done.
-  Status RenderToFile(const std::string& pack_dir, const render::RenderOptions& o,
-                      const std::string& png_path);
+  // Pack `pack_dir` rendered with `o`, as a PNG file's bytes; blocks until done. kUnavailable
+  // when the lane already has max_queued renders waiting.
+  StatusOr<std::string> Render(const std::string& pack_dir, const render::RenderOptions& o);
   std::string Description();  // which backend renders
 
  private:
-  void Loop();
-  std::string backend_;
-  std::mutex mutex_;
-  std::condition_variable cv_;
-  // Each task gets the EGL renderer (nullptr: use the CPU one).
-  std::deque<std::function<void(render::EglRenderer*)>> tasks_;
-  bool stop_ = false;
-  std::string description_;
-  std::thread thread_;
+  struct Lane;
+  PreviewOptions options_;
+  std::unique_ptr<Lane> small_, large_;
 };
 
 }  // namespace matfit::server

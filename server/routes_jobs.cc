@@ -115,6 +115,7 @@ void Server::Impl::RemoveJobFiles(const JobRecord& j) {
   fs::remove_all(PackDir(j.id), ec);
   fs::remove(ZipPath(j.id), ec);
   fs::remove_all(PreviewDir(j.id), ec);
+  preview_cache->ForgetJob(j.id);
 }
 
 void Server::Impl::RegisterJobRoutes() {

@@ -1,5 +1,6 @@
 // GET /api/v1/packs/{id}[/…]: packs by the id of the job that made them (zip, files, report,
 // cached previews) and the WebGL2 viewer.
+#include <cerrno>
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
@@ -8,6 +9,7 @@
 #include "core/pack/pack.h"
 #include "core/path_util.h"
 #include "render/render_options.h"
+#include "server/log.h"
 #include "server/server_impl.h"
 #include "server/web_assets.h"
 
@@ -129,17 +131,31 @@ void Server::Impl::RegisterPackRoutes() {
         (leaf.empty() ? "" : leaf + "-") + render::SceneName(o.scene) + "-t" + Num(o.theta_deg) +
         "-p" + Num(o.phi_deg) + "-ct" + Num(o.camera_theta_deg) + "-cp" + Num(o.camera_phi_deg) +
         "-a" + Num(o.ambient) + "-e" + Num(o.exposure) + "-s" + std::to_string(o.size) + ".png";
-    const std::string file = PreviewDir(j->id) + "/" + key;
-    std::error_code ec;
-    const bool hit = fs::exists(file, ec);
+    std::optional<std::string> png = preview_cache->Lookup(j->id, key);
+    const bool hit = png.has_value();
     if (!hit) {
-      fs::create_directories(PreviewDir(j->id), ec);
-      if (Status st = previews->RenderToFile(pack, o, file); !st.ok())
-        return SendError(res, 500, "preview failed: " + ForClients(st.message()));
+      auto rendered = previews->Render(pack, o);
+      if (!rendered.ok() && rendered.status().code() == StatusCode::kUnavailable) {
+        res.set_header("Retry-After", "1");
+        return SendError(res, 503, rendered.status().message());
+      }
+      if (!rendered.ok())
+        return SendError(res, 500, "preview failed: " + ForClients(rendered.status().message()));
+      // Served only once it is cached: a preview that cannot be stored is an error, never an
+      // empty or partial file (nor one cached for a day by the client).
+      int err = 0;
+      if (Status st = preview_cache->Store(j->id, key, *rendered, &err); !st.ok()) {
+        LogEvent("error", "preview_cache", {{"id", j->id}, {"error", st.message()}});
+        return SendError(res, err == ENOSPC ? 507 : 500,
+                         st.message() + (err == ENOSPC ? "; the server's disk is full (free space "
+                                                         "in its data folder and retry)"
+                                                       : ""));
+      }
+      png = std::move(*rendered);
     }
     res.set_header("X-Matfit-Cache", hit ? "hit" : "miss");
     res.set_header("Cache-Control", "max-age=86400");
-    SendFile(res, file, "image/png");
+    res.set_content(std::move(*png), "image/png");
   });
 
   http.Get(R"(/api/v1/packs/([^/]+)/(.+))",

@@ -91,6 +91,10 @@ bool ServerOptions::Check(std::string* why) const {
   if (drain_seconds < 0) return *why = "--drain-seconds must be ≥ 0", false;
   if (render_backend != "auto" && render_backend != "egl" && render_backend != "cpu")
     return *why = "render backend must be auto, egl or cpu", false;
+  if (preview_cache_bytes < 0)
+    return *why = "--preview-cache-mib must be ≥ 0 (0: previews are rendered every time)", false;
+  if (preview_queue < 1 || preview_queue > 1000)
+    return *why = "--preview-queue must be in [1, 1000]", false;
   if (token_file.empty() && !IsLoopback(bind))
     return *why =
                "--bind " + bind + " is not loopback: give --token-file so that writes need a token",
@@ -160,7 +164,11 @@ StatusOr<std::unique_ptr<Server>> Server::Create(const ServerOptions& options) {
             {"swept", swept},
             {"jobs", ids.size()},
             {"auth", impl->tokens.empty() ? "off" : "bearer"}});
-  impl->previews = std::make_unique<PreviewRenderer>(options.render_backend);
+  PreviewOptions po;
+  po.backend = options.render_backend, po.max_queued = options.preview_queue;
+  impl->previews = std::make_unique<PreviewRenderer>(po);
+  impl->preview_cache =
+      std::make_unique<PreviewCache>(impl->data + "/cache/previews", options.preview_cache_bytes);
   impl->RegisterRoutes();
   return std::unique_ptr<Server>(new Server(std::move(impl)));
 }
@@ -462,7 +470,7 @@ void Server::Impl::RunOne(const JobRecord& job) {
     }
     if (now - last_persist > std::chrono::seconds(1)) {  // persisted about once a second
       last_persist = now;
-      (void)store->UpdateProgress(job.id, f, stage);  // best effort: the final state is not
+      (void)store->UpdateProgress(job.id, f, stage);  // best effort; the final state must land
       if (auto r = store->Get(job.id); r && r->cancel_requested) lj->cancel = true;
       (void)RetryPending(false);  // other jobs' final states, while this one runs
     }

@@ -25,6 +25,10 @@ struct ServerOptions {
   ArchiveLimits archive;
   double drain_seconds = 10;  // on shutdown: wait this long for running jobs, then re-queue
   std::string render_backend = "auto";  // previews: auto, egl, cpu
+  // Previews: the cache's total size (least recently used files go first), and how many
+  // renders may wait in each lane (small ≤ 256², large) before more get 503.
+  int64_t preview_cache_bytes = int64_t(256) << 20;
+  int preview_queue = 8;
   bool quiet = false;                   // no request log lines (errors are still logged)
 
   // Connections (server/http_gate.h). Open connections wait for their request head in one

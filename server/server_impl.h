@@ -19,6 +19,7 @@
 #include "server/job_store.h"
 #include "server/metrics.h"
 #include "server/preview.h"
+#include "server/preview_cache.h"
 #include "server/server.h"
 
 namespace matfit::server {
@@ -50,6 +51,7 @@ struct Server::Impl {
   std::unique_ptr<JobStore> store;
   Metrics metrics;
   std::unique_ptr<PreviewRenderer> previews;
+  std::unique_ptr<PreviewCache> preview_cache;
   GatedHttpServer http;  // httplib parses and routes; server/http_gate.h holds connections
   std::thread http_thread;
   std::vector<std::thread> workers;
