@@ -18,12 +18,14 @@ namespace {
 struct ServeArgs {
   server::ServerOptions o;
   int64_t max_upload_mib = 4096, max_unpacked_mib = 8192;
+  int64_t max_stack_msamples = 2000;  // million samples
   int threads = 0;
 };
 
 int RunServe(ServeArgs& a) {
   a.o.max_upload_bytes = a.max_upload_mib << 20;
   a.o.archive.max_unpacked_bytes = a.max_unpacked_mib << 20;
+  a.o.max_stack_samples = a.max_stack_msamples * 1'000'000;
   SetNumThreads(a.threads);
   // Block the shutdown signals in every thread; one thread waits for them.
   sigset_t set;
@@ -81,6 +83,10 @@ void RegisterServe(CLI::App& app, int* exit_code) {
   sub->add_option("--max-unpack-ratio", o.archive.max_unpack_ratio,
                   "an archive unpacks to at most this many times its size (at least 64 MiB; "
                   "0 = only --max-unpacked-mib)")
+      ->capture_default_str();
+  sub->add_option("--max-stack-msamples", args->max_stack_msamples,
+                  "largest dataset in million samples (images × width × height × channels), "
+                  "judged from the image headers at submission (422)")
       ->capture_default_str();
   sub->add_option("--request-timeout", o.request_timeout_s, "socket inactivity timeout, s")
       ->capture_default_str();

@@ -207,7 +207,7 @@ void Server::Impl::RegisterJobRoutes() {
                                  : problem == ArchiveProblem::kNone    ? 500
                                                                        : 400,
                                  ex.status().message(), "file");
-      if (Status st = ValidateDataset(*spec, ex->dataset_root); !st.ok())
+      if (Status st = ValidateDataset(*spec, ex->dataset_root, options.max_stack_samples); !st.ok())
         return SendErrorAndClose(res, 422, st.message(), "file");
       // Move into place; the dataset path keeps the archive's top folder, if any.
       const std::string rel = fs::relative(ex->dataset_root, staging.dir + "/dataset", ec).string();
@@ -251,9 +251,10 @@ void Server::Impl::RegisterJobRoutes() {
         return SendErrorAndClose(
             res, 403, "dataset '" + dataset + "' is not inside an allowed root (--allow-root)",
             "dataset");
-      if (Status st = ValidateDataset(*spec, canonical); !st.ok())
-        return SendErrorAndClose(res, st.code() == StatusCode::kNotFound ? 404 : 422, st.message(),
-                                 "dataset");
+      // 404 for a folder that is not there; a folder whose contents fail the check is 422.
+      const bool exists = fs::is_directory(canonical, ec);
+      if (Status st = ValidateDataset(*spec, canonical, options.max_stack_samples); !st.ok())
+        return SendErrorAndClose(res, exists ? 422 : 404, st.message(), "dataset");
       job.dataset = canonical;
     }
     job.spec_json = spec->ToJson().dump();

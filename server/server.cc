@@ -50,6 +50,8 @@ bool ServerOptions::Check(std::string* why) const {
   if (max_upload_bytes < 1024) return *why = "--max-upload must be at least 1 KiB", false;
   if (request_timeout_s < 1) return *why = "--request-timeout must be ≥ 1 s", false;
   if (drain_seconds < 0) return *why = "--drain-seconds must be ≥ 0", false;
+  if (max_stack_samples < 1)
+    return *why = "--max-stack-msamples must be ≥ 1 (million samples)", false;
   if (render_backend != "auto" && render_backend != "egl" && render_backend != "cpu")
     return *why = "render backend must be auto, egl or cpu", false;
   if (token_file.empty() && !IsLoopback(bind))
@@ -345,8 +347,9 @@ void Server::Impl::RunOne(const JobRecord& job) {
   if (auto spec = JobSpecFromJson(job.spec_json); spec.ok()) {
     if (job.cancel_requested) lj->cancel = true;
     try {  // a job must never take the server down (or, re-queued, take it down again)
-      r = lj->cancel ? StatusOr<std::string>(Status(StatusCode::kCancelled, "cancelled"))
-                     : RunJob(*spec, job.dataset, PackDir(job.id), progress);
+      r = lj->cancel
+              ? StatusOr<std::string>(Status(StatusCode::kCancelled, "cancelled"))
+              : RunJob(*spec, job.dataset, PackDir(job.id), progress, options.max_stack_samples);
     } catch (const std::exception& e) {
       r = Status(StatusCode::kInternal, std::string("internal error: ") + e.what());
     }

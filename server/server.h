@@ -23,6 +23,10 @@ struct ServerOptions {
   std::vector<std::string> allow_roots;         // folders whose datasets may be named by path
   int64_t max_upload_bytes = int64_t(4) << 30;  // request body limit, 4 GiB
   ArchiveLimits archive;
+  // Decompression bombs: a dataset's images × width × height × channels, from the image headers
+  // at submission (422) and again when the job reads them. 2×10⁹ samples: 2 GB as 8-bit codes,
+  // 8 GB as float.
+  int64_t max_stack_samples = 2'000'000'000;
   int request_timeout_s = 60;  // socket read/write inactivity
   double drain_seconds = 10;   // on shutdown: wait this long for running jobs, then re-queue
   std::string render_backend = "auto";  // previews: auto, egl, cpu
