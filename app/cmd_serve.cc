@@ -18,6 +18,7 @@ namespace {
 struct ServeArgs {
   server::ServerOptions o;
   int64_t max_upload_mib = 4096, max_unpacked_mib = 8192, preview_cache_mib = 256;
+  int64_t max_stack_msamples = 2000;  // million samples
   int threads = 0;
 };
 
@@ -25,6 +26,7 @@ int RunServe(ServeArgs& a) {
   a.o.max_upload_bytes = a.max_upload_mib << 20;
   a.o.archive.max_unpacked_bytes = a.max_unpacked_mib << 20;
   a.o.preview_cache_bytes = a.preview_cache_mib << 20;
+  a.o.max_stack_samples = a.max_stack_msamples * 1'000'000;
   SetNumThreads(a.threads);
   // Block the shutdown signals in every thread; one thread waits for them.
   sigset_t set;
@@ -82,6 +84,10 @@ void RegisterServe(CLI::App& app, int* exit_code) {
   sub->add_option("--max-unpack-ratio", o.archive.max_unpack_ratio,
                   "an archive unpacks to at most this many times its size (at least 64 MiB; "
                   "0 = only --max-unpacked-mib)")
+      ->capture_default_str();
+  sub->add_option("--max-stack-msamples", args->max_stack_msamples,
+                  "largest dataset in million samples (images × width × height × channels), "
+                  "judged from the image headers at submission (422)")
       ->capture_default_str();
   sub->add_option("--request-timeout", o.request_timeout_s,
                   "longest silence within a request body or a response, s")

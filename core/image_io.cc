@@ -9,7 +9,9 @@
 #include <cstdio>
 #include <cstring>
 #include <filesystem>
+#include <fstream>
 #include <memory>
+#include <new>
 #include <vector>
 
 #include "core/atomic_file.h"
@@ -115,26 +117,96 @@ void ExpandCodes(const std::vector<T>& codes, const std::vector<float>& lut, Ima
 
 }  // namespace
 
-StatusOr<NativeImage> ReadImageNative(const std::string& path, const ImageReadOptions& options,
-                                      ImageFileInfo* info) {
+namespace {
+
+uint32_t Be32(const unsigned char* b) {
+  return uint32_t(b[0]) << 24 | uint32_t(b[1]) << 16 | uint32_t(b[2]) << 8 | uint32_t(b[3]);
+}
+
+// A PNG's pixel data is deflated, and deflate compresses at most 1032:1 (a 258-byte match in two
+// bits). A header that declares more raw bytes than 1032 × the file's size describes data the
+// file cannot hold: it is truncated, or its header lies (a decompression bomb's cheap form).
+// Refused before anything is allocated. Other formats are left to their decoders.
+Status CheckPngDeclaredSize(const std::string& real, const std::string& shown) {
+  unsigned char h[29];
+  std::ifstream f(real, std::ios::binary);
+  if (!f.read(reinterpret_cast<char*>(h), sizeof h)) return Status::Ok();
+  if (std::memcmp(h, "\x89PNG\r\n\x1a\n", 8) != 0 || std::memcmp(h + 12, "IHDR", 4) != 0)
+    return Status::Ok();
+  const uint32_t w = Be32(h + 16), rows = Be32(h + 20);
+  const int depth = h[24], type = h[25];
+  const int spp = type == 0 ? 1 : type == 2 ? 3 : type == 3 ? 1 : type == 4 ? 2 : type == 6 ? 4 : 0;
+  if (spp == 0 || depth == 0) return Status::Ok();  // the decoder explains a bad header
+  // Each row: a filter byte and its packed samples (interlaced images need more, never less).
+  const double raw = double(rows) * (1.0 + std::ceil(double(w) * spp * depth / 8.0));
   std::error_code ec;
-  // The dataset sandbox: open the resolved file, and only when it lies inside confine_to.
+  const auto size = fs::file_size(real, ec);
+  if (ec || raw <= 1032.0 * double(size)) return Status::Ok();
+  return DataError("image '" + shown + "' declares " + std::to_string(w) + "x" +
+                   std::to_string(rows) + " pixels (" + std::to_string(spp) + " sample(s) of " +
+                   std::to_string(depth) + " bit(s)), " + std::to_string(int64_t(raw / (1 << 20))) +
+                   " MiB of pixel data, but the file " + "has only " + std::to_string(size) +
+                   " bytes, too few even at PNG's best compression (1032:1): the file is "
+                   "truncated or its header is wrong");
+}
+
+// Opens `path` through the dataset sandbox and checks what its header declares before anything
+// is allocated: a layout matfit reads, at most 2^30 samples, and (PNG) a file long enough for
+// the pixel data it claims.
+Status OpenChecked(const std::string& path, const ImageReadOptions& options,
+                   std::unique_ptr<OIIO::ImageInput>* in, OIIO::ImageSpec* spec) {
+  std::error_code ec;
+  const std::string shown = DatasetRelative(path, options.confine_to);
   auto real = ResolveInDataset(path, options.confine_to);
   if (!real.ok()) return Status(real.status().code(), "image " + real.status().message());
-  if (!fs::is_regular_file(*real, ec))
-    return NotFound("image file '" + DatasetRelative(path, options.confine_to) +
-                    "' does not exist");
-  auto in = OIIO::ImageInput::open(*real);
-  if (!in) return DataError("cannot open image '" + path + "': " + LastOiioError(nullptr));
-  const OIIO::ImageSpec spec = in->spec();
-  if (spec.width <= 0 || spec.height <= 0 || spec.nchannels <= 0 || spec.depth > 1)
-    return DataError("image '" + path + "' has an unsupported size or layout");
+  if (!fs::is_regular_file(*real, ec)) return NotFound("image file '" + shown + "' does not exist");
+  MATFIT_RETURN_IF_ERROR(CheckPngDeclaredSize(*real, shown));
+  *in = OIIO::ImageInput::open(*real);
+  if (!*in) return DataError("cannot open image '" + shown + "': " + LastOiioError(nullptr));
+  *spec = (*in)->spec();
+  if (spec->width <= 0 || spec->height <= 0 || spec->nchannels <= 0 || spec->depth > 1)
+    return DataError("image '" + shown + "' has an unsupported size or layout");
   // Refuse absurd headers before allocating (a corrupt or hostile file must not exhaust memory).
   constexpr int64_t kMaxSamples = int64_t(1) << 30;  // 4 GiB of float32
-  if (int64_t(spec.width) * spec.height * std::max(1, spec.nchannels) > kMaxSamples)
-    return DataError("image '" + path + "' claims " + std::to_string(spec.width) + "x" +
-                     std::to_string(spec.height) + "x" + std::to_string(spec.nchannels) +
+  if (int64_t(spec->width) * spec->height * std::max(1, spec->nchannels) > kMaxSamples)
+    return DataError("image '" + shown + "' claims " + std::to_string(spec->width) + "x" +
+                     std::to_string(spec->height) + "x" + std::to_string(spec->nchannels) +
                      " samples, more than matfit reads at once (2^30); crop or tile it");
+  return Status::Ok();
+}
+
+// The message for an allocation that failed while decoding `shown`.
+Status OutOfMemory(const std::string& shown, int w, int h, int channels, int bytes_per_sample) {
+  const double mib = double(w) * h * channels * bytes_per_sample / double(1 << 20);
+  return DataError("image '" + shown + "' declares " + std::to_string(w) + "x" + std::to_string(h) +
+                   " pixels with " + std::to_string(channels) + " channel(s) (" +
+                   std::to_string(int64_t(mib)) +
+                   " MiB to decode) and the memory for it could not be allocated; crop or "
+                   "downscale the image, or use a machine with more memory");
+}
+
+}  // namespace
+
+StatusOr<ImageHeader> ReadImageHeader(const std::string& path, const ImageReadOptions& options) {
+  std::unique_ptr<OIIO::ImageInput> in;
+  OIIO::ImageSpec spec;
+  MATFIT_RETURN_IF_ERROR(OpenChecked(path, options, &in, &spec));
+  ImageHeader h;
+  h.width = spec.width, h.height = spec.height, h.file_channels = spec.nchannels;
+  h.channels = options.all_channels ? spec.nchannels : (spec.nchannels >= 3 ? 3 : 1);
+  const auto base = spec.format.basetype;
+  h.type = base == OIIO::TypeDesc::UINT8 || base == OIIO::TypeDesc::INT8     ? SampleType::kUint8
+           : base == OIIO::TypeDesc::UINT16 || base == OIIO::TypeDesc::INT16 ? SampleType::kUint16
+                                                                             : SampleType::kFloat32;
+  return h;
+}
+
+StatusOr<NativeImage> ReadImageNative(const std::string& path, const ImageReadOptions& options,
+                                      ImageFileInfo* info) {
+  std::unique_ptr<OIIO::ImageInput> in;
+  OIIO::ImageSpec spec;
+  MATFIT_RETURN_IF_ERROR(OpenChecked(path, options, &in, &spec));
+  const std::string shown = DatasetRelative(path, options.confine_to);
   const int file_ch = spec.nchannels;
   // grey(+alpha) → 1, RGB(A) → 3; data maps keep everything.
   const int keep_ch = options.all_channels ? file_ch : (file_ch >= 3 ? 3 : 1);
@@ -149,35 +221,42 @@ StatusOr<NativeImage> ReadImageNative(const std::string& path, const ImageReadOp
   const int64_t n = int64_t(spec.width) * spec.height;
   const auto base = spec.format.basetype;
   bool ok = false;
-  if (base == OIIO::TypeDesc::UINT8 || base == OIIO::TypeDesc::INT8) {
-    fi.pixel_format = "uint8";
-    img.type = SampleType::kUint8;
-    std::vector<uint8_t> raw(size_t(n) * file_ch);
-    ok = in->read_image(0, 0, 0, file_ch, OIIO::TypeDesc::UINT8, raw.data());
-    if (ok) img.u8 = Deinterleave(raw, n, file_ch, keep_ch, &fi.saturated_pixels);
-  } else if (base == OIIO::TypeDesc::UINT16 || base == OIIO::TypeDesc::INT16) {
-    fi.pixel_format = "uint16";
-    img.type = SampleType::kUint16;
-    std::vector<uint16_t> raw(size_t(n) * file_ch);
-    ok = in->read_image(0, 0, 0, file_ch, OIIO::TypeDesc::UINT16, raw.data());
-    if (ok) img.u16 = Deinterleave(raw, n, file_ch, keep_ch, &fi.saturated_pixels);
-  } else {
-    fi.pixel_format = base == OIIO::TypeDesc::HALF ? "half" : "float";
-    img.type = SampleType::kFloat32;
-    img.floats = Image(spec.width, spec.height, keep_ch);
-    std::vector<float> raw(size_t(n) * file_ch);
-    ok = in->read_image(0, 0, 0, file_ch, OIIO::TypeDesc::FLOAT, raw.data());
-    if (ok) {
-      for (int64_t p = 0; p < n; ++p)
-        for (int c = 0; c < keep_ch; ++c) {
-          const float v = raw[p * file_ch + c];
-          fi.nonfinite_samples += !std::isfinite(v);
-          img.floats.Plane(c)[p] = std::isfinite(v) ? DecodeToLinear(v, fi.encoding) : v;
-        }
+  int bytes_per_sample = 4;
+  try {  // a header within the caps can still ask for more memory than there is
+    if (base == OIIO::TypeDesc::UINT8 || base == OIIO::TypeDesc::INT8) {
+      fi.pixel_format = "uint8";
+      img.type = SampleType::kUint8;
+      bytes_per_sample = 1;
+      std::vector<uint8_t> raw(size_t(n) * file_ch);
+      ok = in->read_image(0, 0, 0, file_ch, OIIO::TypeDesc::UINT8, raw.data());
+      if (ok) img.u8 = Deinterleave(raw, n, file_ch, keep_ch, &fi.saturated_pixels);
+    } else if (base == OIIO::TypeDesc::UINT16 || base == OIIO::TypeDesc::INT16) {
+      fi.pixel_format = "uint16";
+      img.type = SampleType::kUint16;
+      bytes_per_sample = 2;
+      std::vector<uint16_t> raw(size_t(n) * file_ch);
+      ok = in->read_image(0, 0, 0, file_ch, OIIO::TypeDesc::UINT16, raw.data());
+      if (ok) img.u16 = Deinterleave(raw, n, file_ch, keep_ch, &fi.saturated_pixels);
+    } else {
+      fi.pixel_format = base == OIIO::TypeDesc::HALF ? "half" : "float";
+      img.type = SampleType::kFloat32;
+      img.floats = Image(spec.width, spec.height, keep_ch);
+      std::vector<float> raw(size_t(n) * file_ch);
+      ok = in->read_image(0, 0, 0, file_ch, OIIO::TypeDesc::FLOAT, raw.data());
+      if (ok) {
+        for (int64_t p = 0; p < n; ++p)
+          for (int c = 0; c < keep_ch; ++c) {
+            const float v = raw[p * file_ch + c];
+            fi.nonfinite_samples += !std::isfinite(v);
+            img.floats.Plane(c)[p] = std::isfinite(v) ? DecodeToLinear(v, fi.encoding) : v;
+          }
+      }
     }
+  } catch (const std::bad_alloc&) {
+    return OutOfMemory(shown, spec.width, spec.height, file_ch, bytes_per_sample);
   }
   if (!ok || in->has_error()) {
-    return DataError("cannot decode image '" + path +
+    return DataError("cannot decode image '" + shown +
                      "' (truncated or corrupt file?): " + LastOiioError(in.get()));
   }
   in->close();
@@ -191,23 +270,25 @@ StatusOr<Image> ReadImage(const std::string& path, const ImageReadOptions& optio
   auto native = ReadImageNative(path, options, &fi);
   if (!native.ok()) return native.status();
   if (native->type == SampleType::kFloat32) return std::move(native->floats);
-  Image img(native->width, native->height, native->channels);
-  if (native->type == SampleType::kUint8)
-    ExpandCodes(native->u8, LinearDecodeTable(fi.encoding, 8), &img);
-  else
-    ExpandCodes(native->u16, LinearDecodeTable(fi.encoding, 16), &img);
-  return img;
+  try {
+    Image img(native->width, native->height, native->channels);
+    if (native->type == SampleType::kUint8)
+      ExpandCodes(native->u8, LinearDecodeTable(fi.encoding, 8), &img);
+    else
+      ExpandCodes(native->u16, LinearDecodeTable(fi.encoding, 16), &img);
+    return img;
+  } catch (const std::bad_alloc&) {
+    return OutOfMemory(DatasetRelative(path, options.confine_to), native->width, native->height,
+                       native->channels, 4);
+  }
 }
 
 Status ReadImageSize(const std::string& path, int* width, int* height, int* channels) {
-  std::error_code ec;
-  if (!fs::is_regular_file(path, ec)) return NotFound("image file '" + path + "' does not exist");
-  auto in = OIIO::ImageInput::open(path);
-  if (!in) return DataError("cannot open image '" + path + "': " + LastOiioError(nullptr));
-  const auto& spec = in->spec();
-  *width = spec.width;
-  *height = spec.height;
-  *channels = spec.nchannels >= 3 ? 3 : 1;
+  auto h = ReadImageHeader(path);
+  if (!h.ok()) return h.status();
+  *width = h->width;
+  *height = h->height;
+  *channels = h->channels;
   return Status::Ok();
 }
 

@@ -58,6 +58,22 @@ struct NativeImage {
 StatusOr<NativeImage> ReadImageNative(const std::string& path, const ImageReadOptions& options = {},
                                       ImageFileInfo* info = nullptr);
 
+// What an image's header declares, read without decoding a pixel.
+struct ImageHeader {
+  int width = 0, height = 0;
+  int channels = 0;       // as ReadImage keeps them (1 or 3; all with all_channels)
+  int file_channels = 0;  // in the file
+  SampleType type = SampleType::kFloat32;  // as ReadImageNative would hold the samples
+};
+
+// Reads only the header, with ReadImageNative's checks: options.confine_to, a size and layout
+// matfit reads, at most 2^30 samples, and for PNG a file long enough for the pixel data its
+// header declares (a lying header is refused with the file and the declared size). Errors from
+// reading name the file (relative to confine_to when set); an allocation that fails while
+// decoding is an error naming the file and its declared size, never std::bad_alloc.
+StatusOr<ImageHeader> ReadImageHeader(const std::string& path,
+                                      const ImageReadOptions& options = {});
+
 // Reads only the header: size and channel count as ReadImage would return them.
 Status ReadImageSize(const std::string& path, int* width, int* height, int* channels);
 

@@ -25,6 +25,9 @@ bool LeafJobOptions::Check(std::string* why) const {
   };
   if (input.empty()) return fail("the leaf-scan folder is empty");
   if (out.empty()) return fail("--out DIR is required");
+  if (max_stack_samples < 0)
+    return fail("the scan's sample limit must be ≥ 0 (0 = none), got " +
+                std::to_string(max_stack_samples));
   auto num = [](double v) { return std::to_string(v); };
   if (mm_per_pixel != 0 && !(mm_per_pixel >= 1e-3 && mm_per_pixel <= 100))
     return fail("--mm-per-pixel must be in [0.001, 100], got " + num(mm_per_pixel));
@@ -129,7 +132,11 @@ StatusOr<LeafJobResult> RunLeafJob(const LeafJobOptions& o, const LeafProgress& 
     return InvalidArgument("output '" + o.out +
                            "' already exists; choose another --out or pass --force");
   if (!step("read", 0, 1)) return Status(StatusCode::kCancelled, "cancelled");
-  auto scan = ReadLeafScan(o.input, o.manifest, o.confine);
+  LeafScanReadOptions ro;
+  ro.manifest = o.manifest;
+  ro.confine = o.confine;
+  ro.max_samples = o.max_stack_samples;
+  auto scan = ReadLeafScan(o.input, ro);
   if (!scan.ok()) return scan.status();
   if (o.max_thickness_mm > 0) scan->max_thickness_mm = o.max_thickness_mm;
   if (!step("sheet", 0, 1)) return Status(StatusCode::kCancelled, "cancelled");

@@ -3,6 +3,7 @@
 // written atomically as one output folder. The CLI and the server share it.
 #pragma once
 
+#include <cstdint>
 #include <functional>
 #include <string>
 #include <vector>
@@ -27,6 +28,7 @@ struct LeafJobOptions {
   double default_mm_per_pixel = 0.5;  // used, with a warning, when no scale is known
   int only_leaf = 0;                  // process just this leaf id (0 = every leaf)
   bool confine = false;               // every file the scan names must lie inside `input`
+  int64_t max_stack_samples = 0;      // images × w × h × channels of the scan; 0 = no limit
   // Preview renders of a leaf pack lit from the front / from behind (render/); empty = none.
   std::function<StatusOr<Image>(const MaterialMaps&, bool from_behind)> preview;
   // What leaves.json and the packs name as the input (empty: `input`). The server passes a

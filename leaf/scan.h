@@ -2,6 +2,7 @@
 // one pixel grid. Described by a small JSON manifest (docs/formats.md, "Leaf scans").
 #pragma once
 
+#include <cstdint>
 #include <string>
 #include <vector>
 
@@ -33,9 +34,21 @@ struct LeafScan {
   int height() const { return back.empty() ? 0 : back[0].height(); }
 };
 
-// Reads a leaf-scan folder. `manifest` empty: DIR/leaf.json when present, else detection
+struct LeafScanReadOptions {
+  std::string manifest;  // empty: DIR/leaf.json when present, else detection
+  bool confine = false;  // refuse any file that resolves outside the scan folder (the server)
+  // Images × width × height × channels over every image of the scan, from the headers before a
+  // pixel is decoded (a decompression bomb is refused, not allocated); 0 = no limit.
+  int64_t max_samples = 0;
+  // Check only (the server's submission check): files, manifest and headers; no pixel decoded,
+  // the scan returned holds no images.
+  bool headers_only = false;
+};
+
+// Reads a leaf-scan folder. No manifest: DIR/leaf.json when present, else detection
 // (one `.lp` file = top-lit images; `*_BL.*` / `*back*` images = back-lit; `*_FL.*` /
 // `*front*` = a single front-lit photo). Errors name the file or manifest field at fault.
+StatusOr<LeafScan> ReadLeafScan(const std::string& dir, const LeafScanReadOptions& options);
 // confine: refuse any file that resolves outside `dir` (the server).
 StatusOr<LeafScan> ReadLeafScan(const std::string& dir, const std::string& manifest = "",
                                 bool confine = false);

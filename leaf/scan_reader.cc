@@ -81,9 +81,16 @@ Status ReadOne(const std::string& path, ColorSpaceChoice cs, const std::string& 
 
 }  // namespace
 
-StatusOr<LeafScan> ReadLeafScan(const std::string& dir, const std::string& manifest_arg,
-                                bool confine) {
-  const std::string confine_to = confine ? dir : std::string();
+StatusOr<LeafScan> ReadLeafScan(const std::string& dir, const std::string& manifest, bool confine) {
+  LeafScanReadOptions o;
+  o.manifest = manifest;
+  o.confine = confine;
+  return ReadLeafScan(dir, o);
+}
+
+StatusOr<LeafScan> ReadLeafScan(const std::string& dir, const LeafScanReadOptions& options) {
+  const std::string& manifest_arg = options.manifest;
+  const std::string confine_to = options.confine ? dir : std::string();
   std::error_code ec;
   if (!fs::is_directory(dir, ec))
     return NotFound("leaf scan folder '" + dir + "' does not exist or is not a folder");
@@ -181,6 +188,44 @@ StatusOr<LeafScan> ReadLeafScan(const std::string& dir, const std::string& manif
                      "or *front*.png); add one, or name it in the manifest");
 
   auto in_dir = [&](const std::string& f) { return (fs::path(dir) / f).string(); };
+  // Headers first: every file confined and the whole scan within the sample budget before a
+  // pixel is decoded.
+  {
+    int64_t samples = 0, images = 0;
+    if (!top.empty()) {
+      ReadOptions ro;
+      ro.layout = Layout::kLp;
+      ro.confine_to = confine_to;
+      ro.headers_only = true;
+      auto st = ReadLp(in_dir(top), ro);
+      if (!st.ok()) return st.status();
+      images += int64_t(st->lights().size());
+      samples += int64_t(st->lights().size()) * st->width() * st->height() * st->channels();
+    }
+    std::vector<std::string> singles = back;
+    if (top.empty()) singles.push_back(front);
+    for (const char* field : {"upper_albedo", "lower_albedo", "upper_normal", "lower_normal",
+                              "upper_displacement", "lower_displacement"}) {
+      std::string f;
+      MATFIT_RETURN_IF_ERROR(get_string(field, &f));
+      if (!f.empty()) singles.push_back(f);
+    }
+    ImageReadOptions io;
+    io.confine_to = confine_to;
+    for (const auto& f : singles) {
+      auto hd = ReadImageHeader(in_dir(f), io);
+      if (!hd.ok()) return hd.status();
+      ++images;
+      samples += int64_t(hd->width) * hd->height * hd->channels;
+    }
+    if (options.max_samples > 0 && samples > options.max_samples)
+      return DataError("the leaf scan's " + std::to_string(images) + " images hold " +
+                       std::to_string(samples) +
+                       " samples (images × width × height × channels), more than the limit of " +
+                       std::to_string(options.max_samples) +
+                       "; crop or downscale the scan, or send fewer images");
+    if (options.headers_only) return scan;
+  }
   if (!top.empty()) {
     ReadOptions ro;
     ro.layout = Layout::kLp;

@@ -110,8 +110,8 @@ StatusOr<ArchiveResult> ExtractArchive(const std::string& archive_path, const st
   ArchiveResult result;
   auto no_space = [&](const std::string& name) {
     return fail(ArchiveProblem::kNoSpace,
-                "the server ran out of disk space while unpacking the archive (at entry '" + Printable(name) +
-                    "', " + Size(result.bytes) +
+                "the server ran out of disk space while unpacking the archive (at entry '" +
+                    Printable(name) + "', " + Size(result.bytes) +
                     " unpacked); nothing was kept. Retry later, or ask the operator to free "
                     "space");
   };
@@ -168,7 +168,8 @@ StatusOr<ArchiveResult> ExtractArchive(const std::string& archive_path, const st
                   "archive entry '" + Printable(name) + "' is neither a file nor a folder");
     if (parts.empty()) {
       if (type == AE_IFDIR) continue;  // `./`: the extraction folder itself
-      return fail(ArchiveProblem::kUnsafeEntry, "archive entry '" + Printable(name) + "' names no file");
+      return fail(ArchiveProblem::kUnsafeEntry,
+                  "archive entry '" + Printable(name) + "' names no file");
     }
     if (IsMacMetadata(parts)) continue;
     // Folders cost the disk far more than their bytes (an inode each): count them, the parents
@@ -226,8 +227,8 @@ StatusOr<ArchiveResult> ExtractArchive(const std::string& archive_path, const st
           const int err = w < 0 ? errno : ENOSPC;  // a write of 0 bytes: the disk is full
           ::close(fd);
           if (IsNoSpace(err)) return no_space(name);
-          return fail(ArchiveProblem::kNone,
-                      "writing archive entry '" + Printable(name) + "' failed: " + std::strerror(err));
+          return fail(ArchiveProblem::kNone, "writing archive entry '" + Printable(name) +
+                                                 "' failed: " + std::strerror(err));
         }
         off += w;
       }

@@ -1,12 +1,15 @@
 #include "server/job_runner.h"
 
+#include <cstdio>
 #include <filesystem>
 #include <map>
 #include <nlohmann/json.hpp>
+#include <optional>
 
 #include "core/dataset/dataset.h"
 #include "fit/fit_job.h"
 #include "leaf/leaf_job.h"
+#include "leaf/scan.h"
 #include "render/cpu_renderer.h"
 #include "server/text.h"
 
@@ -55,27 +58,43 @@ bool HasFileMatching(const std::string& dir, const std::vector<std::string>& nee
   return false;
 }
 
+std::optional<ViewAngles> ViewOf(const JobSpec& spec) {
+  if (spec.view.empty()) return std::nullopt;
+  ViewAngles v;
+  std::sscanf(spec.view.c_str(), "%lf,%lf", &v.theta_deg, &v.phi_deg);
+  return v;
+}
+
 }  // namespace
 
-Status ValidateDataset(const JobSpec& spec, const std::string& dir) {
+Status ValidateDataset(const JobSpec& spec, const std::string& dir, int64_t max_stack_samples) {
   std::error_code ec;
   if (!fs::is_directory(dir, ec)) return NotFound("dataset folder '" + dir + "' does not exist");
   if (spec.mode == "leaf") {
-    if (fs::exists(fs::path(dir) / "leaf.json", ec) || HasFileMatching(dir, {"_BL.", "back"}))
-      return Status::Ok();
-    return DataError(
-        "the upload is not a leaf scan: it has no leaf.json and no back-lit images (*_BL.png or "
-        "*back*.png)");
+    if (!fs::exists(fs::path(dir) / "leaf.json", ec) && !HasFileMatching(dir, {"_BL.", "back"}))
+      return DataError(
+          "the upload is not a leaf scan: it has no leaf.json and no back-lit images (*_BL.png "
+          "or *back*.png)");
+    leaf::LeafScanReadOptions o;
+    o.confine = true;
+    o.max_samples = max_stack_samples;
+    o.headers_only = true;
+    auto scan = leaf::ReadLeafScan(dir, o);
+    return scan.ok() ? Status::Ok() : scan.status();
   }
-  std::string reason;
-  auto layout = DetectLayout(dir, &reason);
-  if (!layout.ok()) return layout.status();
-  return Status::Ok();
+  // The job's own read, files and headers only: what would fail the job fails the submission.
+  ReadOptions ro;
+  ro.confine_to = dir;
+  ro.view = ViewOf(spec);
+  ro.max_stack_samples = max_stack_samples;
+  ro.headers_only = true;
+  auto stack = ReadDataset(dir, ro);
+  return stack.ok() ? Status::Ok() : stack.status();
 }
 
 StatusOr<std::string> RunJob(const JobSpec& spec, const std::string& dataset,
                              const std::string& out_dir, const JobProgress& progress,
-                             const std::string& source_label) {
+                             const std::string& source_label, int64_t max_stack_samples) {
   const bool leaf = spec.mode == "leaf", select = spec.model == "auto";
   auto stage = [&](const std::string& s, int64_t d, int64_t t) {
     return Forward(progress, leaf, select, s, d, t);
@@ -87,6 +106,7 @@ StatusOr<std::string> RunJob(const JobSpec& spec, const std::string& dataset,
     o.out = out_dir;
     o.overwrite = true;
     o.confine = true;
+    o.max_stack_samples = max_stack_samples;
     o.preview = [](const MaterialMaps& m, bool behind) {  // as `matfit leaf` does
       return render::RenderLeafPreview(m, behind, 256);
     };
@@ -117,11 +137,8 @@ StatusOr<std::string> RunJob(const JobSpec& spec, const std::string& dataset,
   o.out = out_dir;
   o.overwrite = true;
   o.read.confine_to = dataset;
-  if (!spec.view.empty()) {
-    ViewAngles v;
-    std::sscanf(spec.view.c_str(), "%lf,%lf", &v.theta_deg, &v.phi_deg);
-    o.read.view = v;
-  }
+  o.read.max_stack_samples = max_stack_samples;
+  o.read.view = ViewOf(spec);
   auto r = fit::RunFitJob(o, stage);
   if (!r.ok()) return r.status();
   json s = {{"mode", "fit"},

@@ -225,7 +225,8 @@ void Server::Impl::RegisterJobRoutes() {
                                  : problem == ArchiveProblem::kNone    ? 500
                                                                        : 400,
                                  ForClients(ex.status().message()), "file");
-      if (Status st = ValidateDataset(*spec, ex->dataset_root); !st.ok()) {
+      if (Status st = ValidateDataset(*spec, ex->dataset_root, options.max_stack_samples);
+          !st.ok()) {
         JobRecord unpacked;  // the reader's paths, relative to the archive's dataset folder
         unpacked.dataset = ex->dataset_root, unpacked.uploaded = true;
         return SendErrorAndClose(res, 422, ForClients(st.message(), &unpacked), "file");
@@ -272,9 +273,10 @@ void Server::Impl::RegisterJobRoutes() {
         return SendErrorAndClose(
             res, 403, "dataset '" + dataset + "' is not inside an allowed root (--allow-root)",
             "dataset");
-      if (Status st = ValidateDataset(*spec, canonical); !st.ok())
-        return SendErrorAndClose(res, st.code() == StatusCode::kNotFound ? 404 : 422, st.message(),
-                                 "dataset");
+      // 404 for a folder that is not there; a folder whose contents fail the check is 422.
+      const bool exists = fs::is_directory(canonical, ec);
+      if (Status st = ValidateDataset(*spec, canonical, options.max_stack_samples); !st.ok())
+        return SendErrorAndClose(res, exists ? 422 : 404, st.message(), "dataset");
       job.dataset = canonical;
     }
     job.spec_json = JsonText(spec->ToJson());

@@ -89,6 +89,8 @@ bool ServerOptions::Check(std::string* why) const {
     return *why = "--transfer-grace must be in [0.1, 3600] s", false;
   if (!(min_transfer_rate >= 1)) return *why = "--min-transfer-rate must be ≥ 1 byte/s", false;
   if (drain_seconds < 0) return *why = "--drain-seconds must be ≥ 0", false;
+  if (max_stack_samples < 1)
+    return *why = "--max-stack-msamples must be ≥ 1 (million samples)", false;
   if (render_backend != "auto" && render_backend != "egl" && render_backend != "cpu")
     return *why = "render backend must be auto, egl or cpu", false;
   if (preview_cache_bytes < 0)
@@ -481,7 +483,8 @@ void Server::Impl::RunOne(const JobRecord& job) {
     if (job.cancel_requested) lj->cancel = true;
     try {  // a job must never take the server down (or, re-queued, take it down again)
       r = lj->cancel ? StatusOr<std::string>(Status(StatusCode::kCancelled, "cancelled"))
-                     : RunJob(*spec, job.dataset, PackDir(job.id), progress, SourceLabel(job));
+                     : RunJob(*spec, job.dataset, PackDir(job.id), progress, SourceLabel(job),
+                              options.max_stack_samples);
     } catch (const std::exception& e) {
       r = Status(StatusCode::kInternal, std::string("internal error: ") + e.what());
     }

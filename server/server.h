@@ -23,13 +23,17 @@ struct ServerOptions {
   std::vector<std::string> allow_roots;         // folders whose datasets may be named by path
   int64_t max_upload_bytes = int64_t(4) << 30;  // request body limit, 4 GiB
   ArchiveLimits archive;
+  // Decompression bombs: a dataset's images × width × height × channels, from the image headers
+  // at submission (422) and again when the job reads them. 2×10⁹ samples: 2 GB as 8-bit codes,
+  // 8 GB as float.
+  int64_t max_stack_samples = 2'000'000'000;
   double drain_seconds = 10;  // on shutdown: wait this long for running jobs, then re-queue
   std::string render_backend = "auto";  // previews: auto, egl, cpu
   // Previews: the cache's total size (least recently used files go first), and how many
   // renders may wait in each lane (small ≤ 256², large) before more get 503.
   int64_t preview_cache_bytes = int64_t(256) << 20;
   int preview_queue = 8;
-  bool quiet = false;                   // no request log lines (errors are still logged)
+  bool quiet = false;  // no request log lines (errors are still logged)
 
   // Connections (server/http_gate.h). Open connections wait for their request head in one
   // event loop, not in a thread; only complete heads reach the request workers.

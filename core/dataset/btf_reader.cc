@@ -112,7 +112,7 @@ StatusOr<LightStack> ReadBtfFolder(const std::string& dir, Layout layout, const 
   ImageReadOptions io;
   io.color_space = o.color_space;
   io.confine_to = o.confine_to;
-  auto stack = LoadStack(files, std::move(lights), io, o.progress);
+  auto stack = LoadStack(files, std::move(lights), io, o);
   if (!stack.ok()) return stack.status();
   const BtfName& v = entries.front().angles;
   stack->view_theta_deg = v.theta_v;

@@ -55,6 +55,11 @@ bool ParseLayout(const std::string& name, Layout* out) {
 }
 
 bool ReadOptions::Check(std::string* why) const {
+  if (max_stack_samples < 0) {
+    *why =
+        "the stack sample limit must be ≥ 0 (0 = none), got " + std::to_string(max_stack_samples);
+    return false;
+  }
   if (view && !(view->theta_deg >= 0 && view->theta_deg < 90)) {
     *why = "--view: θ must be in [0, 90) degrees, got " + std::to_string(view->theta_deg);
     return false;

@@ -3,6 +3,7 @@
 // DiLiGenT, and `lights.txt` + numbered images (the UW psm sets).
 #pragma once
 
+#include <cstdint>
 #include <optional>
 #include <string>
 #include <vector>
@@ -35,6 +36,14 @@ struct ReadOptions {
   // opened through ResolveInDataset (core/path_util.h), symlinks and `..` resolved, and refused
   // with a message naming it relative to the folder. lights.txt is not looked for above it.
   std::string confine_to;
+  // The largest stack to decode: images × width × height × channels, judged from the image
+  // headers before a pixel is decoded (a decompression bomb is refused, not allocated); 0 = no
+  // limit but the memory's. The server sets it (--max-stack-msamples).
+  int64_t max_stack_samples = 0;
+  // Check only (the server's submission check): list and confine every file, parse the light
+  // files, read the image and mask headers and apply max_stack_samples, decode no pixel. The
+  // stack returned has the size, lights and image files but no images (num_images() == 0).
+  bool headers_only = false;
 
   bool Check(std::string* why) const;
 };

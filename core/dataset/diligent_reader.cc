@@ -75,7 +75,7 @@ StatusOr<LightStack> ReadDiligent(const std::string& dir, const ReadOptions& o) 
   io.color_space = o.color_space;
   io.confine_to = o.confine_to;
   io.layout_default = ColorSpaceChoice::kLinear;  // DiLiGenT images are linear 16-bit
-  auto stack = LoadStack(files, std::move(lights), io, o.progress);
+  auto stack = LoadStack(files, std::move(lights), io, o);
   if (!stack.ok()) return stack.status();
   const fs::path mask = d / "mask.png";
   std::error_code ec;

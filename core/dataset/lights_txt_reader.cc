@@ -87,7 +87,7 @@ StatusOr<LightStack> ReadLightsTxt(const std::string& dir_in, const ReadOptions&
   ImageReadOptions io;
   io.color_space = o.color_space;
   io.confine_to = o.confine_to;
-  auto stack = LoadStack(files, std::move(lights), io, o.progress);
+  auto stack = LoadStack(files, std::move(lights), io, o);
   if (!stack.ok()) return stack.status();
   const std::string mask = FindNumbered(dir, name + ".mask");
   if (!mask.empty()) {

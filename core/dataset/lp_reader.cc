@@ -64,7 +64,7 @@ StatusOr<LightStack> ReadLp(const std::string& path, const ReadOptions& o) {
   ImageReadOptions io;
   io.color_space = o.color_space;
   io.confine_to = o.confine_to;
-  auto stack = LoadStack(files, std::move(lights), io, o.progress);
+  auto stack = LoadStack(files, std::move(lights), io, o);
   if (!stack.ok()) return stack.status();
   // Optional mask beside the light file (written by `matfit synth`; white = sample).
   const fs::path mask = base / "mask.png";

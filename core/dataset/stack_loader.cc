@@ -4,6 +4,7 @@
 #include <atomic>
 #include <filesystem>
 #include <mutex>
+#include <new>
 
 #include "core/parallel.h"
 #include "core/path_util.h"
@@ -131,16 +132,56 @@ StatusOr<LightStack> Load(const std::vector<std::string>& files, std::vector<Lig
 }  // namespace
 
 StatusOr<LightStack> LoadStack(const std::vector<std::string>& files,
-                               std::vector<LightSample> lights, const ImageReadOptions& options,
-                               const ProgressFn& progress) {
+                               std::vector<LightSample> lights, const ImageReadOptions& options_in,
+                               const ReadOptions& o) {
   MATFIT_CHECK(files.size() == lights.size());
   if (files.empty()) return DataError("the dataset lists no images");
-  bool uniform = true;
-  auto stack = Load(files, lights, options, progress, /*as_float=*/false, &uniform);
-  if (!stack.ok() || uniform) return stack;
-  // Files of mixed depth or transfer function: linear float32, as every image decodes alone.
-  *stack = LightStack();
-  return Load(files, std::move(lights), options, progress, /*as_float=*/true, &uniform);
+  ImageReadOptions options = options_in;
+  options.confine_to = o.confine_to;
+  // Headers first: a decompression bomb (tiny files declaring huge images) is refused here,
+  // before a pixel is decoded or a byte of the stack allocated.
+  auto first = ReadImageHeader(files[0], options);
+  if (!first.ok()) return first.status();
+  const int w = first->width, h = first->height, ch = first->channels;
+  const int n = int(files.size());
+  auto shown = [&](const std::string& f) { return DatasetRelative(f, o.confine_to); };
+  for (int i = 1; i < n; ++i) {
+    auto hd = ReadImageHeader(files[i], options);
+    if (!hd.ok()) return hd.status();
+    if (hd->width != w || hd->height != h || hd->channels != ch)
+      return DataError("image '" + shown(files[i]) + "' is " + std::to_string(hd->width) + "x" +
+                       std::to_string(hd->height) + " with " + std::to_string(hd->channels) +
+                       " channel(s) but '" + shown(files[0]) + "' is " + std::to_string(w) + "x" +
+                       std::to_string(h) + " with " + std::to_string(ch) +
+                       ": all images of a stack must have the same size and channels");
+  }
+  const std::string size_text = std::to_string(n) + " images of " + std::to_string(w) + "x" +
+                                std::to_string(h) + " with " + std::to_string(ch) + " channel(s)";
+  const int64_t samples = int64_t(n) * w * h * ch;
+  if (o.max_stack_samples > 0 && samples > o.max_stack_samples)
+    return DataError("the dataset's " + size_text + " hold " + std::to_string(samples) +
+                     " samples (images × width × height × channels), more than the limit of " +
+                     std::to_string(o.max_stack_samples) +
+                     "; select fewer images or one view, or crop or downscale them");
+  if (o.headers_only) {
+    LightStack stack(w, h, ch, 0);  // the size and the lights, no images
+    stack.lights() = std::move(lights);
+    stack.image_files = files;
+    return stack;
+  }
+  try {
+    bool uniform = true;
+    auto stack = Load(files, lights, options, o.progress, /*as_float=*/false, &uniform);
+    if (!stack.ok() || uniform) return stack;
+    // Files of mixed depth or transfer function: linear float32, as every image decodes alone.
+    *stack = LightStack();
+    return Load(files, std::move(lights), options, o.progress, /*as_float=*/true, &uniform);
+  } catch (const std::bad_alloc&) {
+    return DataError("the stack of " + size_text + " (" + std::to_string(samples) +
+                     " samples, from '" + shown(files[0]) +
+                     "' on) does not fit in memory: the allocation failed. Select fewer images "
+                     "or one view, crop or downscale them, or use a machine with more memory");
+  }
 }
 
 StatusOr<std::vector<uint8_t>> ReadMaskImage(const std::string& path, int width, int height,
@@ -148,6 +189,16 @@ StatusOr<std::vector<uint8_t>> ReadMaskImage(const std::string& path, int width,
   ImageReadOptions opt;
   opt.color_space = ColorSpaceChoice::kLinear;  // masks are data, not colour
   opt.confine_to = o.confine_to;
+  if (o.headers_only) {
+    auto hd = ReadImageHeader(path, opt);
+    if (!hd.ok()) return Status(hd.status().code(), "mask: " + hd.status().message());
+    if (hd->width != width || hd->height != height)
+      return DataError("mask '" + DatasetRelative(path, o.confine_to) + "' is " +
+                       std::to_string(hd->width) + "x" + std::to_string(hd->height) +
+                       " but the images are " + std::to_string(width) + "x" +
+                       std::to_string(height));
+    return std::vector<uint8_t>();
+  }
   auto img = ReadImage(path, opt);
   if (!img.ok()) return Status(img.status().code(), "mask: " + img.status().message());
   if (img->width() != width || img->height() != height)

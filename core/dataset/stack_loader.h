@@ -13,16 +13,21 @@
 
 namespace matfit {
 
-// Decodes `files` (in parallel) into a stack with `lights` (same count). All images must
-// have the same size and channel count; the first one that differs is named in the error.
-// 8/16-bit files stay at their depth (the stack's table holds the transfer function), float
-// files become float32; files of mixed depth or transfer function give a float32 stack.
+// Decodes `files` (in parallel) into a stack with `lights` (same count). Every header is read
+// first (no pixel decoded): all images must have the same size and channel count (the first one
+// that differs is named), and images × width × height × channels must stay within
+// o.max_stack_samples. With o.headers_only nothing is decoded: the stack returned has the size,
+// lights and files but no images. 8/16-bit files stay at their depth (the stack's table holds
+// the transfer function), float files become float32; files of mixed depth or transfer function
+// give a float32 stack. A stack that does not fit in memory is an error naming its size.
+// Progress goes to o.progress; files are confined to o.confine_to.
 StatusOr<LightStack> LoadStack(const std::vector<std::string>& files,
                                std::vector<LightSample> lights, const ImageReadOptions& options,
-                               const ProgressFn& progress);
+                               const ReadOptions& o);
 
 // Reads a mask image (white = sample): first channel > 0.5 after linearisation. Its size
-// must be width × height. Confined to o.confine_to like every dataset file.
+// must be width × height. Confined to o.confine_to like every dataset file; with
+// o.headers_only only its header is checked (the mask returned is empty).
 StatusOr<std::vector<uint8_t>> ReadMaskImage(const std::string& path, int width, int height,
                                              const ReadOptions& o);
 
