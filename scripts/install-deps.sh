@@ -17,6 +17,8 @@ PACKAGES=(
   libceres-dev libopencv-core-dev libopencv-imgproc-dev
   # server: HTTP, job store, upload archives (curl: the shell tests and the README session)
   libcpp-httplib-dev libsqlite3-dev libarchive-dev curl
+  # server tests: hand-made PNG headers (zlib)
+  zlib1g-dev
   # material packs: zip archives
   libzip-dev
   # render: headless EGL + GLES (Mesa llvmpipe)
