@@ -202,20 +202,41 @@ TEST_F(HardeningTest, PacksAndJobRecordsHoldNoServerPaths) {
 
 TEST_F(HardeningTest, AFailedJobsMessageNamesNoServerPath) {
   Start();
-  // An .lp naming an image that is not in the upload: the reader's message names the file.
-  const std::string zip = (tmp_ / "missing.zip").string();
+  // Two broken uploads: an .lp naming an image that is not in the upload (caught when the
+  // headers are read at submission: 422), and an image whose pixel data is cut short (its header
+  // is fine, so the job fails when it decodes). Either way the message names the file and no
+  // folder of the server.
+  const std::string missing = (tmp_ / "missing.zip").string(), cut = (tmp_ / "cut.zip").string();
   {
-    ArchiveWriter w(zip, ArchiveWriter::Format::kZip);
+    ArchiveWriter w(missing, ArchiveWriter::Format::kZip);
     w.Folder(kFixtures + "/plastic-ring12", "set", "img_003.png");
   }
-  auto r = Upload(zip, {{"model", "mean"}});
-  ASSERT_TRUE(r);
-  ASSERT_EQ(r->status, 202) << r->body;
-  const json j = WaitFor(json::parse(r->body)["id"], Finished);
-  ASSERT_EQ(j["state"], "failed");
-  const std::string error = j["error"];
-  EXPECT_NE(error.find("img_003.png"), std::string::npos) << error;
-  EXPECT_EQ(error.find(fs::canonical(opts_.data_dir).string()), std::string::npos) << error;
+  {
+    ArchiveWriter w(cut, ArchiveWriter::Format::kZip);
+    w.Folder(kFixtures + "/plastic-ring12", "set", "img_003.png");
+    const std::string png = Slurp(kFixtures + "/plastic-ring12/img_003.png");
+    w.File("set/img_003.png", png.substr(0, png.size() * 2 / 3));
+  }
+  const std::string data = fs::canonical(opts_.data_dir).string();
+  int job_failures = 0;
+  for (const std::string& zip : {missing, cut}) {
+    auto r = Upload(zip, {{"model", "mean"}});
+    ASSERT_TRUE(r);
+    std::string error;
+    if (r->status == 422) {
+      error = json::parse(r->body)["error"]["message"];
+    } else {
+      ASSERT_EQ(r->status, 202) << r->body;
+      const json j = WaitFor(json::parse(r->body)["id"], Finished);
+      ASSERT_EQ(j["state"], "failed") << zip;
+      error = j["error"];
+      ++job_failures;
+    }
+    EXPECT_NE(error.find("img_003.png"), std::string::npos) << error;
+    EXPECT_EQ(error.find(data), std::string::npos) << error;
+    EXPECT_EQ(error.find(opts_.data_dir), std::string::npos) << error;
+  }
+  EXPECT_GE(job_failures, 1) << "no failure reached a running job: the job path is untested";
 }
 
 // ---- 4. A full disk fails the job with the reason -------------------------------------------
