@@ -41,7 +41,7 @@ struct ServerOptions {
   int upload_slots = 4;              // workers for requests with a body (submissions)
   int max_connections = 1000;        // open connections in all; more are answered 503
   int max_client_connections = 32;   // open connections per client address; more get 503
-  int max_client_requests = 4;       // requests of one address served at once (per lane)
+  int max_client_requests = 8;       // requests of one address served at once (per lane)
   double header_timeout_s = 10;      // a request head must be complete this long after it began
   double keep_alive_timeout_s = 5;   // an idle keep-alive connection is closed after this
   int request_timeout_s = 60;        // longest silence within a body or a response
