@@ -12,6 +12,7 @@
 #include <fstream>
 #include <memory>
 #include <new>
+#include <type_traits>
 #include <vector>
 
 #include "core/atomic_file.h"
@@ -222,21 +223,21 @@ StatusOr<NativeImage> ReadImageNative(const std::string& path, const ImageReadOp
   const auto base = spec.format.basetype;
   bool ok = false;
   int bytes_per_sample = 4;
+  // Integer files keep their codes (native depth): read as T, split into planes.
+  auto read_codes = [&](auto* planes, OIIO::TypeDesc type, SampleType sample, const char* name) {
+    using T = typename std::decay_t<decltype(*planes)>::value_type;
+    fi.pixel_format = name;
+    img.type = sample;
+    bytes_per_sample = int(sizeof(T));
+    std::vector<T> raw(size_t(n) * file_ch);
+    ok = in->read_image(0, 0, 0, file_ch, type, raw.data());
+    if (ok) *planes = Deinterleave(raw, n, file_ch, keep_ch, &fi.saturated_pixels);
+  };
   try {  // a header within the caps can still ask for more memory than there is
     if (base == OIIO::TypeDesc::UINT8 || base == OIIO::TypeDesc::INT8) {
-      fi.pixel_format = "uint8";
-      img.type = SampleType::kUint8;
-      bytes_per_sample = 1;
-      std::vector<uint8_t> raw(size_t(n) * file_ch);
-      ok = in->read_image(0, 0, 0, file_ch, OIIO::TypeDesc::UINT8, raw.data());
-      if (ok) img.u8 = Deinterleave(raw, n, file_ch, keep_ch, &fi.saturated_pixels);
+      read_codes(&img.u8, OIIO::TypeDesc::UINT8, SampleType::kUint8, "uint8");
     } else if (base == OIIO::TypeDesc::UINT16 || base == OIIO::TypeDesc::INT16) {
-      fi.pixel_format = "uint16";
-      img.type = SampleType::kUint16;
-      bytes_per_sample = 2;
-      std::vector<uint16_t> raw(size_t(n) * file_ch);
-      ok = in->read_image(0, 0, 0, file_ch, OIIO::TypeDesc::UINT16, raw.data());
-      if (ok) img.u16 = Deinterleave(raw, n, file_ch, keep_ch, &fi.saturated_pixels);
+      read_codes(&img.u16, OIIO::TypeDesc::UINT16, SampleType::kUint16, "uint16");
     } else {
       fi.pixel_format = base == OIIO::TypeDesc::HALF ? "half" : "float";
       img.type = SampleType::kFloat32;
