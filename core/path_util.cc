@@ -16,8 +16,10 @@ std::string RealPath(const std::string& path) {
   return r ? std::string(r.get()) : std::string();
 }
 
-// `p` is `root` or below it; both are absolute and resolved.
-bool Under(const std::string& p, const std::string& root) {
+// `p` is `root` or below it, component-wise; both are absolute and resolved (a trailing '/' on
+// the root is ignored).
+bool Under(const std::string& p, std::string root) {
+  while (root.size() > 1 && root.back() == '/') root.pop_back();
   if (root == "/") return true;
   return p == root ||
          (p.size() > root.size() && p.compare(0, root.size(), root) == 0 && p[root.size()] == '/');
@@ -31,12 +33,7 @@ bool PathWithin(const std::string& path, const std::string& root) {
   if (ec) return false;
   const fs::path r = fs::weakly_canonical(fs::absolute(root, ec), ec);
   if (ec) return false;
-  auto pi = p.begin();
-  for (auto ri = r.begin(); ri != r.end(); ++ri, ++pi) {
-    if (ri->empty()) continue;  // trailing separator of the root
-    if (pi == p.end() || *pi != *ri) return false;
-  }
-  return true;
+  return Under(p.string(), r.string());
 }
 
 std::string DatasetRelative(const std::string& path, const std::string& root) {

@@ -373,7 +373,7 @@ void GatedHttpServer::Impl::LoopMain() {
         }
         Close(std::move(c), 408, "Request Timeout",
               "the request head was not complete within " + FormatSeconds(o.header_timeout_s) +
-                  " of its first byte");
+                  " of its first byte; send the request line and headers without pauses");
       }
     }
     std::lock_guard<std::mutex> lock(mutex);
@@ -432,7 +432,8 @@ void GatedHttpServer::Impl::Examine(std::unique_ptr<Conn>& c, bool hangup) {
       ++stats.head_too_large;
     }
     Close(std::move(c), 431, "Request Header Fields Too Large",
-          "the request line and headers exceed " + std::to_string(kMaxHeadBytes >> 10) + " KiB");
+          "the request line and headers exceed " + std::to_string(kMaxHeadBytes >> 10) +
+              " KiB; send a shorter URL or fewer and shorter headers");
     return;
   }
   Conn* key = c.get();
