@@ -120,7 +120,7 @@ int RunBench(BenchArgs& a) {
   if (a.bench.quick && !a.stability_size_given) a.stability.size = 20;
   std::string why;
   if (!a.bench.Check(&why) || !a.stability.Check(&why)) return Fail("bench", why.c_str());
-  AtomicDir dir(a.out);
+  AtomicDir dir(a.out, "bench");
   if (Status s = dir.Begin(a.overwrite); !s.ok()) return Fail("bench", s.message().c_str());
   std::map<std::string, std::string> files;
   std::unique_ptr<ProgressReporter> bar;
@@ -193,8 +193,8 @@ void RegisterBench(CLI::App& app, int* exit_code) {
   sub->add_flag("--no-stability", args->no_stability, "skip the stability matrix");
   sub->add_flag("--stability-only", args->stability_only, "only the stability matrix");
   sub->add_flag("--no-png", args->no_png, "SVG charts only");
-  sub->add_flag("--overwrite", args->overwrite, "replace an existing output folder");
-  sub->add_option("--threads", args->threads, "worker threads (0 = all cores)");
+  sub->add_flag("--force", args->overwrite, kForceHelp);
+  sub->add_option("--threads", args->threads, kThreadsHelp)->capture_default_str();
   sub->add_flag("--quiet", args->quiet, "no progress or tables");
   sub->callback([args, exit_code] { *exit_code = RunBench(*args); });
 }

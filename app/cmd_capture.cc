@@ -13,6 +13,7 @@
 #include "capture/session.h"
 #include "core/atomic_file.h"
 #include "core/image_io.h"
+#include "core/output_marker.h"
 #include "core/progress.h"
 
 namespace matfit::app {
@@ -33,6 +34,8 @@ int RunCapture(const CaptureArgs& a) {
   auto rig = capture::OpenLightRig(a.rig, a.rig_lights);
   if (!rig.ok()) return Fail("capture", rig.status().message().c_str());
   if (a.flat) {
+    if (Status st = CheckOutput(a.out, a.force); !st.ok())
+      return Fail("capture", st.message().c_str());
     Status st = capture::CaptureFlatField(**cam, **rig, *plan, a.out);
     if (!st.ok()) return Fail("capture", st.message().c_str());
     std::printf("flat field  %s (mean 1; name it in a plan's \"flat_field\")\n", a.out.c_str());
@@ -58,7 +61,7 @@ int RunCapture(const CaptureArgs& a) {
 struct CalibrateArgs {
   std::string dir, mask, out, format = "auto";
   double focal_px = 0, highlight_fraction = 0.1;
-  bool perspective = false, quiet = false;
+  bool perspective = false, quiet = false, force = false;
 };
 
 // Images of the folder other than the mask, ordered by the last number in the name.
@@ -98,6 +101,8 @@ std::vector<std::string> SphereImages(const std::string& dir, std::string* mask)
 int RunCalibrate(CalibrateArgs a) {
   if (!(a.highlight_fraction > 0 && a.highlight_fraction < 1))
     return Fail("calibrate-lights", "--highlight-fraction must be in (0, 1)");
+  if (Status st = CheckOutput(a.out, a.force); !st.ok())
+    return Fail("calibrate-lights", st.message().c_str());
   auto images = SphereImages(a.dir, &a.mask);
   if (images.empty()) return Fail("calibrate-lights", ("no images in '" + a.dir + "'").c_str());
   if (a.mask.empty())
@@ -141,6 +146,8 @@ int RunCalibrate(CalibrateArgs a) {
       std::printf("%-24s highlight (%.2f, %.2f), %d px → (%.4f, %.4f, %.4f)\n",
                   fs::path(f).filename().string().c_str(), l->hx, l->hy, l->pixels, d.x, d.y, d.z);
   }
+  // After the lights, where light-file readers stop: how --force knows matfit wrote the file.
+  text += std::string(kTextOutputTrailer) + " calibrate-lights\n";
   if (Status st = WriteFileAtomic(a.out, text); !st.ok())
     return Fail("calibrate-lights", st.message().c_str());
   std::printf("lights      %s (%zu directions, %s)\n", a.out.c_str(), images.size(),
@@ -163,7 +170,8 @@ void RegisterCapture(CLI::App& app, int* exit_code) {
   sub->add_option("--plan", args->plan, "capture plan (JSON, docs/capture.md)")->required();
   sub->add_option("--out", args->out, "dataset folder (or, with --flat-field, an .exr)")
       ->required();
-  sub->add_flag("--force", args->force, "start again instead of resuming");
+  sub->add_flag("--force", args->force,
+                "start again instead of resuming (replaces only a capture matfit wrote)");
   sub->add_flag("--flat-field", args->flat,
                 "capture a flat field (all LEDs on a uniform white target) into --out");
   sub->add_flag("--quiet", args->quiet, "no progress bar");
@@ -182,6 +190,7 @@ void RegisterCapture(CLI::App& app, int* exit_code) {
   c->add_option("--highlight-fraction", cal->highlight_fraction,
                 "pixels within this fraction of the peak form the highlight")
       ->capture_default_str();
+  c->add_flag("--force", cal->force, kForceHelp);
   c->add_flag("--quiet", cal->quiet, "only the summary line");
   c->callback([cal, exit_code] { *exit_code = RunCalibrate(*cal); });
 

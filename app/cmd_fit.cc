@@ -119,15 +119,18 @@ void RegisterFit(CLI::App& app, int* exit_code) {
   auto& j = args->job;
   CLI::App* sub =
       app.add_subcommand("fit", "Fit a material model to a dataset and write a material pack");
-  sub->add_option("DIR", j.input, "dataset folder (or .lp file)");
+  sub->add_option("DIR", j.input,
+                  std::string("dataset folder (or .lp file) ") + RequiredUnless("--model list"));
   sub->add_option("--model", j.model, "model of the ladder, 'auto' (selection), or 'list'")
       ->capture_default_str();
   sub->add_option("--scene", j.scene,
                   "--model auto: scene.json (footprint, lighting, budgets; docs/selection.md)");
   sub->add_option("--budget", j.budget, "--model auto: held-out RMSE budget (linear)");
-  sub->add_option("--out", j.out, "pack folder (or .zip file with --zip), written atomically");
+  sub->add_option("--out", j.out,
+                  std::string("pack folder (or .zip file with --zip), written atomically ") +
+                      RequiredUnless("--decode-only, --report-only or --model list"));
   sub->add_flag("--zip", j.zip, "write the pack as one zip file");
-  sub->add_flag("--force", j.overwrite, "replace --out if it exists");
+  sub->add_flag("--force", j.overwrite, kForceHelp);
   sub->add_option("--holdout", j.holdout, "k-fold held-out-light error (0 = off)")
       ->capture_default_str();
   sub->add_option("--view", args->view, "BTF view THETA,PHI in degrees (default: most frontal)");
@@ -135,8 +138,7 @@ void RegisterFit(CLI::App& app, int* exit_code) {
       ->capture_default_str();
   sub->add_option("--color-space", args->color_space, "auto, srgb or linear")
       ->capture_default_str();
-  sub->add_option("--threads", args->threads, "worker threads (0 = all cores)")
-      ->capture_default_str();
+  sub->add_option("--threads", args->threads, kThreadsHelp)->capture_default_str();
   sub->add_option("--tile", j.fit.tile, "work unit ≈ tile² texels")->capture_default_str();
   sub->add_flag("--flat-specular-normal", j.fit.heinrich_flat_specular_normal,
                 "heinrich: n_s = (0,0,1) in the specular term");

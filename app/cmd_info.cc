@@ -5,7 +5,9 @@
 #include "app/commands.h"
 #include "core/dataset/dataset.h"
 #include "core/dataset/info.h"
+#include "core/parallel.h"
 #include "core/progress.h"
+#include "fit/diagnostics.h"
 
 namespace matfit::app {
 namespace {
@@ -13,11 +15,13 @@ namespace {
 struct InfoArgs {
   std::string path, layout = "auto", view, color_space = "auto";
   bool json = false, quiet = false;
+  int threads = 0;
 };
 
 int RunInfo(const InfoArgs& a) {
   ReadOptions ro;
   if (int rc = ApplyReadArgs("info", a.layout, a.view, a.color_space, &ro)) return rc;
+  SetNumThreads(a.threads);
   std::string reason;
   if (ro.layout == Layout::kAuto) {
     auto detected = DetectLayout(a.path, &reason);
@@ -31,6 +35,8 @@ int RunInfo(const InfoArgs& a) {
   auto stack = ReadDataset(a.path, ro);
   if (!stack.ok()) return Fail("info", stack.status().message().c_str());
   DatasetInfo info = ComputeDatasetInfo(*stack);
+  // The γ check a fit makes (fit/diagnostics.h): info says it before anything is fitted.
+  for (auto& w : fit::DiagnoseStack(*stack).warnings) info.warnings.push_back(std::move(w));
   info.detection_reason = reason;
   const std::string text = a.json ? DatasetInfoJson(info) : FormatDatasetInfo(info);
   std::fputs(text.c_str(), stdout);
@@ -51,6 +57,7 @@ void RegisterInfo(CLI::App& app, int* exit_code) {
   sub->add_option("--color-space", args->color_space, "auto, srgb or linear")
       ->capture_default_str();
   sub->add_flag("--json", args->json, "print JSON instead of text");
+  sub->add_option("--threads", args->threads, kThreadsHelp)->capture_default_str();
   sub->add_flag("--quiet", args->quiet, "no progress output");
   sub->callback([args, exit_code] { *exit_code = RunInfo(*args); });
 }

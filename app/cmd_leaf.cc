@@ -57,6 +57,10 @@ int RunLeaf(LeafArgs& a) {
   if (!r->summary.empty())
     std::printf("hl2 error   mean %.2f %%, worst leaf %.2f %% (vs multipole at π/2, π/4, π/8)\n",
                 100 * mean / r->summary.size(), 100 * worst);
+  for (const auto& s : r->summary)  // the leaves a user should look at before using them
+    if (s.flagged_fraction > leaf::kLeafFlaggedWarnFraction)
+      std::printf("flagged     %s: %.0f %% of its texels (%lld)\n", s.name.c_str(),
+                  100 * s.flagged_fraction, (long long)s.flagged_texels);
   std::printf("time        %.2f s (sheet %.2f s, leaves %.2f s)\n", r->seconds_total,
               r->seconds_sheet, r->seconds_leaves);
   for (const auto& w : r->warnings) std::printf("warning     %s\n", w.c_str());
@@ -88,8 +92,8 @@ void RegisterLeaf(CLI::App& app, int* exit_code) {
   sub->add_option("--preview-size", args->preview_size, "preview render size in pixels")
       ->capture_default_str();
   sub->add_flag("--no-preview", args->no_preview, "skip the front/back preview renders");
-  sub->add_option("--threads", args->threads, "worker threads (0 = all)")->capture_default_str();
-  sub->add_flag("--force", j.overwrite, "replace --out if it exists");
+  sub->add_option("--threads", args->threads, kThreadsHelp)->capture_default_str();
+  sub->add_flag("--force", j.overwrite, kForceHelp);
   sub->add_flag("--quiet", args->quiet, "no progress bars");
   sub->callback([args, exit_code] { *exit_code = RunLeaf(*args); });
 }

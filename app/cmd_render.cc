@@ -6,7 +6,9 @@
 
 #include "app/commands.h"
 #include "core/image_io.h"
+#include "core/output_marker.h"
 #include "core/pack/pack_reader.h"
+#include "core/parallel.h"
 #include "render/cpu_renderer.h"
 #include "render/egl_renderer.h"
 
@@ -17,8 +19,8 @@ struct RenderArgs {
   std::string pack, out, light = "30,45", camera = "0,0", scene = "plane", backend = "auto",
                          tonemap = "clamp";
   render::RenderOptions options;
-  int sweep = 0;
-  bool quiet = false;
+  int sweep = 0, threads = 0;
+  bool quiet = false, force = false;
 };
 
 bool EndsWith(const std::string& s, const std::string& suffix) {
@@ -28,6 +30,7 @@ bool EndsWith(const std::string& s, const std::string& suffix) {
 
 int RunRender(RenderArgs a) {
   render::RenderOptions& o = a.options;
+  SetNumThreads(a.threads);
   if (!ParseViewArg(a.light.c_str(), &o.theta_deg, &o.phi_deg))
     return Fail("render", ("--light wants THETA,PHI in degrees, got '" + a.light + "'").c_str());
   if (!ParseViewArg(a.camera.c_str(), &o.camera_theta_deg, &o.camera_phi_deg))
@@ -53,6 +56,8 @@ int RunRender(RenderArgs a) {
   if (a.backend != "auto" && a.backend != "egl" && a.backend != "cpu")
     return Fail("render",
                 ("unknown --backend '" + a.backend + "'; choose auto, egl or cpu").c_str());
+  if (Status st = CheckOutput(a.out, a.force); !st.ok())
+    return Fail("render", st.message().c_str());
   if (EndsWith(a.pack, ".zip"))
     return Fail("render", "zipped packs are not read yet; unzip it and pass the folder");
   auto pack = ReadPack(a.pack);
@@ -131,6 +136,9 @@ void RegisterRender(CLI::App& app, int* exit_code) {
   sub->add_option("--exposure", args->options.exposure, "exposure multiplier (PNG)")
       ->capture_default_str();
   sub->add_option("--tonemap", args->tonemap, "clamp or reinhard (PNG)")->capture_default_str();
+  sub->add_flag("--force", args->force, kForceHelp);
+  sub->add_option("--threads", args->threads, kThreadsHelp + std::string(" (CPU backend)"))
+      ->capture_default_str();
   sub->add_flag("--quiet", args->quiet, "no summary line");
   sub->callback([args, exit_code] { *exit_code = RunRender(*args); });
 }

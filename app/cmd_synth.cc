@@ -18,7 +18,7 @@ struct SynthArgs {
   synth::SynthOptions options;
   std::string layout = "bonn", out, size = "64";
   bool bits_given = false;
-  bool force = false, list = false, leaf_scan = false, minimal = false;
+  bool force = false, list = false, leaf_scan = false, minimal = false, quiet = false;
   int threads = 0;
 };
 
@@ -45,7 +45,7 @@ int RunSynth(SynthArgs& a) {
     std::printf("light sets:\n  bonn81, ring12, ring:N[:THETA], dome:N, random:N\n");
     return 0;
   }
-  if (a.out.empty()) return Fail("synth", "--out DIR is required");
+  if (a.out.empty()) return Fail("synth", "--out DIR is required (except with --list)");
   if (!ParseSize(a.size, &a.options.size, &a.options.height))
     return Fail("synth",
                 ("--size must be N or WIDTHxHEIGHT (e.g. 512x344), got '" + a.size + "'").c_str());
@@ -66,10 +66,11 @@ int RunSynth(SynthArgs& a) {
     const auto s = leaf::MakeSyntheticScan(so);
     Status st = leaf::WriteLeafScan(s, a.out, a.force);
     if (!st.ok()) return Fail("synth", st.message().c_str());
-    std::printf(
-        "wrote %s: synthetic leaf scan %dx%d (%s + %zu back-lit images), truth in %s/truth\n",
-        a.out.c_str(), so.width, so.height, a.minimal ? "front-lit photo" : "12 ring lights",
-        s.scan.back.size(), a.out.c_str());
+    if (!a.quiet)
+      std::printf(
+          "wrote %s: synthetic leaf scan %dx%d (%s + %zu back-lit images), truth in %s/truth\n",
+          a.out.c_str(), so.width, so.height, a.minimal ? "front-lit photo" : "12 ring lights",
+          s.scan.back.size(), a.out.c_str());
     return 0;
   }
   if (!ParseLayout(a.layout, &a.options.layout) || a.options.layout == Layout::kAuto)
@@ -86,6 +87,7 @@ int RunSynth(SynthArgs& a) {
   Status st = synth::WriteSynthDataset(*result, a.options, a.out, a.force);
   if (!st.ok()) return Fail("synth", st.message().c_str());
   const double secs = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  if (a.quiet) return 0;
   std::printf(
       "wrote %s: %s under %s, %d images of %dx%d (%s layout, %d-bit %s), truth in %s/truth "
       "(%.2f s)\n",
@@ -135,10 +137,11 @@ void RegisterSynth(CLI::App& app, int* exit_code) {
   sub->add_option("--format", o.format,
                   "image files: auto (PNG for 8/16-bit, EXR for 32), png, jpg (8-bit sRGB), exr")
       ->capture_default_str();
-  sub->add_option("--out", args->out, "output folder (created atomically)");
-  sub->add_flag("--force", args->force, "replace --out if it exists");
-  sub->add_option("--threads", args->threads, "worker threads (0 = all cores)")
-      ->capture_default_str();
+  sub->add_option("--out", args->out,
+                  std::string("output folder (created atomically) ") + RequiredUnless("--list"));
+  sub->add_flag("--force", args->force, kForceHelp);
+  sub->add_option("--threads", args->threads, kThreadsHelp)->capture_default_str();
+  sub->add_flag("--quiet", args->quiet, "no progress or summary output");
   sub->add_flag("--list", args->list, "list materials and light sets");
   sub->add_flag("--leaf-scan", args->leaf_scan,
                 "write a leaf-rig scan of the synthetic leaf (for `matfit leaf`) instead");

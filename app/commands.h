@@ -21,6 +21,15 @@ void RegisterServe(CLI::App& app, int* exit_code);
 void RegisterCapture(CLI::App& app, int* exit_code);  // capture, calibrate-lights, devices
 void RegisterBench(CLI::App& app, int* exit_code);
 
+// Shared help texts: the same flag means the same thing in every subcommand.
+inline constexpr char kForceHelp[] =
+    "replace --out if matfit wrote it (anything else is refused, never deleted)";
+inline constexpr char kThreadsHelp[] = "worker threads (0 = all cores)";
+// Options required only without another one say so in --help ("REQUIRED" as CLI11 prints it).
+inline std::string RequiredUnless(const std::string& other) {
+  return "[REQUIRED unless " + other + "]";
+}
+
 // Shared helpers.
 bool ParseViewArg(const char* text, double* theta, double* phi);  // "THETA,PHI" in degrees
 int Fail(const char* command, const char* message);  // prints "matfit CMD: error: ..." → 1

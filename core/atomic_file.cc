@@ -8,6 +8,8 @@
 #include <cstring>
 #include <filesystem>
 
+#include "core/output_marker.h"
+
 namespace matfit {
 namespace {
 
@@ -60,7 +62,8 @@ Status WriteFileAtomic(const std::string& path, const std::string& contents) {
   return file.Commit();
 }
 
-AtomicDir::AtomicDir(std::string final_path) : final_(std::move(final_path)) {
+AtomicDir::AtomicDir(std::string final_path, std::string kind)
+    : final_(std::move(final_path)), kind_(std::move(kind)) {
   while (!final_.empty() && final_.size() > 1 && final_.back() == '/') final_.pop_back();
   const fs::path p(final_);
   temp_ = (p.parent_path() / ("." + p.filename().string() + UniqueSuffix())).string();
@@ -76,9 +79,7 @@ AtomicDir::~AtomicDir() {
 Status AtomicDir::Begin(bool overwrite) {
   overwrite_ = overwrite;
   std::error_code ec;
-  if (fs::exists(final_, ec) && !overwrite)
-    return InvalidArgument("output '" + final_ + "' already exists; choose another --out or " +
-                           "pass --force to replace it");
+  MATFIT_RETURN_IF_ERROR(CheckOutput(final_, overwrite));
   const fs::path parent = fs::path(temp_).parent_path();
   if (!parent.empty()) fs::create_directories(parent, ec);
   fs::create_directories(temp_, ec);
@@ -86,11 +87,19 @@ Status AtomicDir::Begin(bool overwrite) {
   return Status::Ok();
 }
 
+Status AtomicDir::WriteMarker() {
+  MATFIT_RETURN_IF_ERROR(WriteOutputMarker(temp_, kind_));
+  marked_ = true;
+  return Status::Ok();
+}
+
 Status AtomicDir::Commit() {
+  if (!marked_) MATFIT_RETURN_IF_ERROR(WriteMarker());
   std::error_code ec;
   std::string old;
-  if (fs::exists(final_, ec)) {
+  if (fs::exists(fs::symlink_status(final_, ec))) {
     if (!overwrite_) return InvalidArgument("output '" + final_ + "' appeared while writing");
+    MATFIT_RETURN_IF_ERROR(CheckReplaceable(final_));  // it may have changed since Begin
     old = final_ + UniqueSuffix() + ".old";
     fs::rename(final_, old, ec);
     if (ec) return IoError("cannot move old '" + final_ + "' aside: " + ec.message());

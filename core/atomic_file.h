@@ -27,22 +27,29 @@ class AtomicFile {
 // Writes `contents` to `path` atomically.
 Status WriteFileAtomic(const std::string& path, const std::string& contents);
 
-// A folder built under a temporary name beside `final_path`, then moved into place.
+// A folder built under a temporary name beside `final_path`, then moved into place. The
+// finished folder carries matfit's output marker (core/output_marker.h) naming `kind`
+// ("pack", "dataset", ...), so that a later --force can tell it from a user's folder.
 class AtomicDir {
  public:
-  explicit AtomicDir(std::string final_path);
+  AtomicDir(std::string final_path, std::string kind);
   ~AtomicDir();  // removes the temporary tree unless committed
   AtomicDir(const AtomicDir&) = delete;
   AtomicDir& operator=(const AtomicDir&) = delete;
 
-  // Creates the temporary folder. Fails if `final_path` exists and !overwrite.
+  // Creates the temporary folder. Fails if `final_path` exists and !overwrite, or if it
+  // exists and is not something matfit wrote (CheckReplaceable).
   Status Begin(bool overwrite);
   const std::string& temp_path() const { return temp_; }
+  // Writes the marker listing the temporary tree's files (Commit does it when not done yet;
+  // call it first when the tree is packed some other way, e.g. zipped).
+  Status WriteMarker();
   // Moves the finished tree to the final name (replacing an old one when overwrite was set).
   Status Commit();
 
  private:
-  std::string final_, temp_;
+  std::string final_, kind_, temp_;
+  bool marked_ = false;
   bool overwrite_ = false, committed_ = false;
 };
 

@@ -17,6 +17,7 @@
 
 #include "core/atomic_file.h"
 #include "core/path_util.h"
+#include "core/version.h"
 
 namespace matfit {
 namespace {
@@ -319,6 +320,8 @@ bool EncodeInto(OIIO::ImageOutput* out, const std::string& file_name,
     spec.alpha_channel = -1;
   }
   spec.attribute("oiio:ColorSpace", srgb ? "sRGB" : "Linear");
+  // --force replaces only files matfit wrote; this tag is how it knows (core/output_marker.h).
+  spec.attribute("Software", std::string("matfit ") + kMatfitVersion);
   if (!srgb) spec.attribute("oiio:Gamma", 1.0f);
   // Quantise ourselves (round to nearest) so that 8-bit sRGB codes are exact.
   const int64_t n = image.plane_size();

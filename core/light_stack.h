@@ -126,6 +126,9 @@ class LightStack {
   std::vector<std::string> encoding_reasons;
   std::vector<int64_t> saturated_pixels;   // per image, integer formats only
   std::vector<int64_t> nonfinite_samples;  // per image, float formats only
+  // What a reader noticed but did not refuse (coded, core/warnings.h): ComputeDatasetInfo
+  // reports them with its own.
+  std::vector<std::string> read_warnings;
 
   bool has_mask() const { return !mask.empty(); }
   int64_t MaskedTexels() const;  // texels inside the mask (all when no mask)

@@ -4,6 +4,7 @@
 #include <cstdio>
 #include <limits>
 
+#include "core/warnings.h"
 #include "fit/fit_common.h"
 
 namespace matfit::fit {
@@ -38,7 +39,7 @@ FitAssessment AssessFit(const LightStack& stack, const FitMethod& method, FitRes
                         "one-sided)"
                       : "fewer usable lights than the model's light parameters + 3 (add "
                         "lights or use a smaller model)");
-    r->warnings.push_back(why);
+    r->warnings.push_back(Warning(WarningCode::kUnboundedError, why));
   }
   // The fit's own "N texel(s) flagged" summary is stale now: count again.
   r->warnings.erase(std::remove_if(r->warnings.begin(), r->warnings.end(),

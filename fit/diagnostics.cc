@@ -6,6 +6,7 @@
 #include <cstdio>
 
 #include "core/parallel.h"
+#include "core/warnings.h"
 #include "fit/fit_common.h"
 
 namespace matfit::fit {
@@ -133,7 +134,7 @@ StackDiagnostics DiagnoseStack(const LightStack& s, int max_texels) {
         "(n·l)^(1/%.2f), not n·l (Lambertian residual %.2g → %.2g); re-read them as "
         "sRGB (--color-space srgb) or linearise them; every texel is marked 'suspect data'",
         best, d.residual_linear, best_r);
-    d.warnings.push_back(msg);
+    d.warnings.push_back(Warning(WarningCode::kGammaEncoded, msg));
   }
   return d;
 }

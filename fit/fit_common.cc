@@ -7,6 +7,7 @@
 
 #include "core/model/model.h"
 #include "core/parallel.h"
+#include "core/warnings.h"
 
 namespace matfit::fit {
 
@@ -152,8 +153,10 @@ void SummariseStatus(FitResult* r) {
   if (r->flagged_texels > 0) {
     auto most = std::max_element(counts.begin(), counts.end(),
                                  [](const auto& a, const auto& b) { return a.second < b.second; });
-    r->warnings.push_back(std::to_string(r->flagged_texels) + " texel(s) flagged, mostly '" +
-                          TexelStatusName(most->first) + "'; see the status map");
+    r->warnings.push_back(Warning(WarningCode::kFlaggedTexels, std::to_string(r->flagged_texels) +
+                                                                   " texel(s) flagged, mostly '" +
+                                                                   TexelStatusName(most->first) +
+                                                                   "'; see the status map"));
   }
 }
 

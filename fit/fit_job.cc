@@ -5,11 +5,14 @@
 #include <fstream>
 #include <sstream>
 #include "core/atomic_file.h"
+#include "core/dataset/info.h"
+#include "core/output_marker.h"
 #include "core/pack/pack.h"
 #include "core/pack/pack_reader.h"
 #include "core/path_util.h"
 #include "core/stack_ops.h"
 #include "core/synth/truth_io.h"
+#include "core/warnings.h"
 #include "fit/assess.h"
 #include "fit/method.h"
 #include "fit/report.h"
@@ -98,6 +101,8 @@ bool FitJobOptions::Check(std::string* why) const {
 StatusOr<FitJobResult> RunFitJob(const FitJobOptions& o, const StageProgress& progress) {
   std::string why;
   if (!o.Check(&why)) return InvalidArgument(why);
+  // Refuse an occupied --out before the long work, not after it.
+  if (!o.out.empty()) MATFIT_RETURN_IF_ERROR(CheckOutput(o.out, o.overwrite));
   Stages stages(progress);
   if (!stages.Begin("read")) return Cancelled();
   ReadOptions ro = o.read;
@@ -118,6 +123,12 @@ StatusOr<FitJobResult> RunFitJob(const FitJobOptions& o, const StageProgress& pr
     r.timings = stages.Snapshot();
     return r;
   }
+  // What is wrong with the data itself (coverage, clipping, light file, alpha) heads the fit's
+  // warnings, as `matfit info` reports it.
+  const std::vector<std::string> dataset_warnings = ComputeDatasetInfo(*stack).warnings;
+  auto with_dataset_warnings = [&](std::vector<std::string>* w) {
+    w->insert(w->begin(), dataset_warnings.begin(), dataset_warnings.end());
+  };
   if (pack) {
     if (pack->maps.width != stack->width() || pack->maps.height != stack->height())
       return InvalidArgument("pack '" + o.report_only + "' is " + std::to_string(pack->maps.width) +
@@ -127,6 +138,7 @@ StatusOr<FitJobResult> RunFitJob(const FitJobOptions& o, const StageProgress& pr
     r.fit.maps = std::move(pack->maps);
     r.fit.status = std::move(pack->status);
     r.fit.method = pack->method;
+    with_dataset_warnings(&r.fit.warnings);
     for (uint8_t st : r.fit.status) r.fit.flagged_texels += st != 0 && st != 1;
     if (!stages.Begin("reconstruction")) return Cancelled();
     r.reconstruction = Reconstruction(*stack, r.fit.maps, r.fit.status, stages.Callback());
@@ -180,11 +192,12 @@ StatusOr<FitJobResult> RunFitJob(const FitJobOptions& o, const StageProgress& pr
       *stack = std::move(*small);
     }
     if (selection->level > 0)
-      selection->warnings.push_back(
+      selection->warnings.push_back(Warning(
+          WarningCode::kPackAtMip,
           "the pack is at mip " + std::to_string(selection->level) + " (1/" +
-          std::to_string(1 << selection->level) +
-          " of the dataset's resolution): its reconstruction and held-out figures are at that "
-          "resolution; truth maps and --report-only compare at the dataset's");
+              std::to_string(1 << selection->level) +
+              " of the dataset's resolution): its reconstruction and held-out figures are at that "
+              "resolution; truth maps and --report-only compare at the dataset's"));
     stages.End();
   }
   const auto method = MakeMethod(model);
@@ -202,9 +215,10 @@ StatusOr<FitJobResult> RunFitJob(const FitJobOptions& o, const StageProgress& pr
   const std::vector<uint8_t> fitted_status = fit->status;  // metrics describe what was fitted
   if (!stages.Begin("confidence")) return Cancelled();
   r.assessment = AssessFit(*stack, *method, &*fit, {}, stages.Callback());
+  with_dataset_warnings(&fit->warnings);
   stages.End();
   if (selection) {
-    for (const auto& w : selection->warnings) fit->warnings.push_back("model selection: " + w);
+    for (const auto& w : selection->warnings) fit->warnings.push_back(w);  // coded already
     r.selection = selection;
   }
   if (o.holdout >= 2) {
@@ -224,9 +238,10 @@ StatusOr<FitJobResult> RunFitJob(const FitJobOptions& o, const StageProgress& pr
       r.truth = CompareToTruth(fit->maps, *truth, fitted_status);
     else
       fit->warnings.push_back(
-          "truth folder '" + DatasetRelative(truth_dir, o.read.confine_to) +
-          "' could not be used: " +
-          (truth.ok() ? std::string("size differs") : truth.status().message()));
+          Warning(WarningCode::kTruthUnusable,
+                  "truth folder '" + DatasetRelative(truth_dir, o.read.confine_to) +
+                      "' could not be used: " +
+                      (truth.ok() ? std::string("size differs") : truth.status().message())));
     stages.End();
   }
   r.fit = std::move(*fit);

@@ -6,6 +6,7 @@
 
 #include "core/parallel.h"
 #include "core/shading/evaluate.h"
+#include "core/warnings.h"
 #include "fit/fit_common.h"
 #include "fit/light_matrix.h"
 
@@ -59,8 +60,9 @@ void AddHeinrichSpecular(const LightStack& s, const FitOptions& o, FitResult* r)
   const int i1 = FindLightAlong(s.lights(), s.view_direction, 1.0);
   if (i1 < 0) {
     r->warnings.push_back(
-        "no image has its light along the view direction (θl = θv): the seed "
-        "specular map needs one; fitted diffuse + ambient only");
+        Warning(WarningCode::kNoViewAlignedLight,
+                "no image has its light along the view direction (θl = θv): the seed "
+                "specular map needs one; fitted diffuse + ambient only"));
     return;
   }
   const int C = s.channels(), W = s.width(), H = s.height();

@@ -5,6 +5,8 @@
 #include <map>
 #include <nlohmann/json.hpp>
 
+#include "core/version.h"
+
 namespace matfit::fit {
 namespace {
 
@@ -27,6 +29,7 @@ std::string MakeReportJson(const FitReportInputs& in) {
   json params = json::object();
   for (const auto& [k, v] : r.parameters) params[k] = v;
   json j = {
+      {"generator", std::string("matfit ") + kMatfitVersion},  // --force recognises it
       {"method", r.method},
       {"model", ShadingModelName(r.maps.model)},
       {"source", in.source},

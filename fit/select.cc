@@ -7,6 +7,7 @@
 
 #include "core/model/model.h"
 #include "core/stack_ops.h"
+#include "core/warnings.h"
 #include "fit/assess.h"
 #include "fit/diagnostics.h"
 #include "fit/fit_common.h"
@@ -238,10 +239,11 @@ StatusOr<Selection> SelectModel(const LightStack& stack, const SceneSpec& scene,
   int level = int(std::clamp(want, 0.0, 30.0));
   while (level > 0 && (std::min(stack.width(), stack.height()) >> level) < 4) --level;
   if (level < want)
-    sel.warnings.push_back("the scene's footprint asks for mip " + std::to_string(int(want)) +
-                           "; the " + std::to_string(stack.width()) + "x" +
-                           std::to_string(stack.height()) + " dataset stops at mip " +
-                           std::to_string(level));
+    sel.warnings.push_back(
+        Warning(WarningCode::kMipFootprint,
+                "the scene's footprint asks for mip " + std::to_string(int(want)) + "; the " +
+                    std::to_string(stack.width()) + "x" + std::to_string(stack.height()) +
+                    " dataset stops at mip " + std::to_string(level)));
   sel.scene_level = level;
   auto fine = DownsampleStack(stack, 1 << level);
   if (!fine.ok()) return fine.status();
@@ -341,9 +343,10 @@ StatusOr<Selection> SelectModel(const LightStack& stack, const SceneSpec& scene,
            : done == 0            ? "every candidate is over the memory budget"
                                   : "every candidate flags > 1 % of its texels or fails a fold") +
           "); see the candidates in a fit with a named model, or relax the scene");
-    sel.warnings.push_back("no candidate met the error budget " +
-                           std::to_string(scene.error_budget) + "; using the most accurate one, " +
-                           sel.candidates[pick].method);
+    sel.warnings.push_back(
+        Warning(WarningCode::kBudgetNotMet,
+                "no candidate met the error budget " + std::to_string(scene.error_budget) +
+                    "; using the most accurate one, " + sel.candidates[pick].method));
   }
   const Candidate& c = sel.candidates[pick];
   sel.method = c.method;

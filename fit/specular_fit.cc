@@ -19,6 +19,7 @@
 #include <vector>
 
 #include "core/shading/shading.h"
+#include "core/warnings.h"
 #include "fit/fit_common.h"
 #include "fit/lobe_problem.h"
 #include "fit/methods.h"
@@ -143,7 +144,8 @@ StatusOr<FitResult> FitLobe(const LightStack& s, const FitOptions& o, const std:
       for (int k = 0; k < S; ++k) r.parameters["lobe_shape_" + std::to_string(k)] = shape[k];
       ok = stage(std::true_type{}, shape);
     } else {
-      r.warnings.push_back("no texel shows a specular lobe; kept the per-texel fit");
+      r.warnings.push_back(Warning(WarningCode::kNoSpecularLobe,
+                                   "no texel shows a specular lobe; kept the per-texel fit"));
     }
   }
   // Fitting coordinates → maps.

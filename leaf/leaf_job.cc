@@ -2,14 +2,17 @@
 
 #include <algorithm>
 #include <chrono>
+#include <cmath>
 #include <cstdio>
 #include <filesystem>
 #include <nlohmann/json.hpp>
 
 #include "core/atomic_file.h"
 #include "core/image_io.h"
+#include "core/output_marker.h"
 #include "core/pack/pack.h"
 #include "core/version.h"
+#include "core/warnings.h"
 #include "fit/fit_types.h"
 #include "leaf/scan.h"
 
@@ -128,9 +131,7 @@ StatusOr<LeafJobResult> RunLeafJob(const LeafJobOptions& o, const LeafProgress& 
     return !progress || progress(stage, d, t);
   };
   std::error_code ec;
-  if (fs::exists(o.out, ec) && !o.overwrite)
-    return InvalidArgument("output '" + o.out +
-                           "' already exists; choose another --out or pass --force");
+  MATFIT_RETURN_IF_ERROR(CheckOutput(o.out, o.overwrite));
   if (!step("read", 0, 1)) return Status(StatusCode::kCancelled, "cancelled");
   LeafScanReadOptions ro;
   ro.manifest = o.manifest;
@@ -172,17 +173,19 @@ StatusOr<LeafJobResult> RunLeafJob(const LeafJobOptions& o, const LeafProgress& 
   } else {
     res.mm_per_pixel = o.default_mm_per_pixel, res.scale_source = "default";
     res.warnings.push_back(
-        std::string("no physical scale: ") +
-        (marker_mm > 0 ? "no square markers were found" : "give mm_per_pixel or marker_size_mm") +
-        "; assumed " + std::to_string(o.default_mm_per_pixel) +
-        " mm per pixel for the translucency kernel, areas in mm² are not reported");
+        Warning(WarningCode::kNoScale,
+                std::string("no physical scale: ") +
+                    (marker_mm > 0 ? "no square markers were found"
+                                   : "give mm_per_pixel or marker_size_mm") +
+                    "; assumed " + std::to_string(o.default_mm_per_pixel) +
+                    " mm per pixel for the translucency kernel, areas in mm² are not reported"));
   }
   const bool scale_known = res.scale_source != "default";
   if (o.only_leaf > res.leaves)
     return InvalidArgument("--leaf " + std::to_string(o.only_leaf) + ": the sheet has leaves 1.." +
                            std::to_string(res.leaves));
 
-  AtomicDir dir(o.out);
+  AtomicDir dir(o.out, "leaf-pack");
   MATFIT_RETURN_IF_ERROR(dir.Begin(o.overwrite));
   const fs::path root(dir.temp_path());
   const auto t_leaves = std::chrono::steady_clock::now();
@@ -206,10 +209,20 @@ StatusOr<LeafJobResult> RunLeafJob(const LeafJobOptions& o, const LeafProgress& 
                     "leaf " + std::to_string(c.id) + ": " + L.status().message());
     char name[32];
     std::snprintf(name, sizeof name, "leaf_%02d", c.id);
-    int64_t flagged = 0;
-    for (uint8_t s : L->status) flagged += s != fit::kTexelOk && s != fit::kTexelMasked;
+    int64_t flagged = 0, inside = 0;
+    for (uint8_t s : L->status)
+      flagged += s != fit::kTexelOk && s != fit::kTexelMasked, inside += s != fit::kTexelMasked;
+    const double flagged_fraction = double(flagged) / double(std::max<int64_t>(1, inside));
+    if (flagged_fraction > kLeafFlaggedWarnFraction)
+      res.warnings.push_back(Warning(
+          WarningCode::kLeafFlagged,
+          std::string(name) + " has " + std::to_string(int(std::lround(100 * flagged_fraction))) +
+              " % of its texels flagged (" + std::to_string(flagged) + " of " +
+              std::to_string(inside) +
+              "): its maps there are the best estimate, not a fit; see its status map"));
     if (c.touches_border)
-      L->warnings.push_back("the leaf touches the image border: it is probably cut off");
+      L->warnings.push_back(Warning(WarningCode::kLeafAtBorder,
+                                    "the leaf touches the image border: it is probably cut off"));
     PackInfo info;
     info.method = "leaf";
     info.source = o.source_label.empty() ? o.input : o.source_label;
@@ -234,6 +247,7 @@ StatusOr<LeafJobResult> RunLeafJob(const LeafJobOptions& o, const LeafProgress& 
     MATFIT_RETURN_IF_ERROR(WritePack(L->maps, L->status, info, {}, (root / name).string()));
     LeafSummary sm;
     sm.id = c.id, sm.name = name, sm.area_px = c.area_px, sm.flagged_texels = flagged;
+    sm.flagged_fraction = flagged_fraction;
     sm.mean_hl2_error = (L->hl2_error[0].mean + L->hl2_error[1].mean + L->hl2_error[2].mean) / 3;
     res.summary.push_back(sm);
     const double a_mm2 = c.area_px * res.mm_per_pixel * res.mm_per_pixel;
@@ -247,6 +261,7 @@ StatusOr<LeafJobResult> RunLeafJob(const LeafJobOptions& o, const LeafProgress& 
                       {"touches_border", c.touches_border},
                       {"thickness_estimated", L->thickness_estimated},
                       {"flagged_texels", flagged},
+                      {"flagged_fraction", flagged_fraction},
                       {"hl2_error_percent", 100 * sm.mean_hl2_error}});
     ++done;
   }

@@ -37,12 +37,16 @@ struct LeafJobOptions {
   bool Check(std::string* why) const;
 };
 
+// A leaf with more flagged texels than this gets a leaf-flagged warning and a summary line.
+inline constexpr double kLeafFlaggedWarnFraction = 0.2;
+
 struct LeafSummary {
   int id = 0;
   std::string name;  // "leaf_01"
   int64_t area_px = 0;
   double mean_hl2_error = 0;  // mean over the three elevations, fraction
   int64_t flagged_texels = 0;
+  double flagged_fraction = 0;  // of the leaf's texels
 };
 
 struct LeafJobResult {

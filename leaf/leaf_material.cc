@@ -8,6 +8,7 @@
 
 #include "core/model/model.h"
 #include "core/shading/shading.h"
+#include "core/warnings.h"
 #include "fit/method.h"
 #include "leaf/horizon.h"
 #include "leaf/integrate.h"
@@ -123,7 +124,8 @@ StatusOr<LeafMaterial> MakeLeafMaterial(const LeafScan& scan, const SheetAnalysi
     for (int c = 0; c < 3; ++c)
       for (int64_t i = 0; i < n; ++i)
         m.albedo.Plane(c)[i] = float(o.sheet_albedo) * f.Plane(std::min(c, f.channels() - 1))[i];
-    L.warnings.push_back("no top-lit images: the upper normal is flat (0, 0, 1)");
+    L.warnings.push_back(Warning(WarningCode::kLeafNoTopLight,
+                                 "no top-lit images: the upper normal is flat (0, 0, 1)"));
   }
   if (!scan.upper_normal.empty()) {  // a scanned normal map wins over photometric stereo
     const Image nm = CropImage(scan.upper_normal, x0, y0, w, h);
@@ -159,13 +161,16 @@ StatusOr<LeafMaterial> MakeLeafMaterial(const LeafScan& scan, const SheetAnalysi
         m.specular = ct->maps.specular, m.roughness = ct->maps.roughness;
         L.specular_fitted = true;
       } else {
-        L.warnings.push_back("Cook-Torrance fit failed (" + ct.status().message() +
-                             "): leaf default specular used");
+        L.warnings.push_back(Warning(WarningCode::kLeafSpecularFailed,
+                                     "Cook-Torrance fit failed (" + ct.status().message() +
+                                         "): leaf default specular used"));
       }
     } else {
-      L.warnings.push_back("the top-lit lights span " + std::to_string(int(tmax - tmin)) +
-                           "° of elevation: too little to fit a specular lobe; leaf default "
-                           "F0 and roughness used");
+      L.warnings.push_back(
+          Warning(WarningCode::kLeafNarrowLights,
+                  "the top-lit lights span " + std::to_string(int(tmax - tmin)) +
+                      "° of elevation: too little to fit a specular lobe; leaf default "
+                      "F0 and roughness used"));
     }
   }
 
@@ -205,10 +210,11 @@ StatusOr<LeafMaterial> MakeLeafMaterial(const LeafScan& scan, const SheetAnalysi
   } else {
     for (int64_t i = 0; i < n; ++i)
       if (mask[i]) m.thickness.Plane(0)[i] = float(std::min(1.5 * dmax, dmax * tau[i] / tau99));
-    L.warnings.push_back(
+    L.warnings.push_back(Warning(
+        WarningCode::kThicknessEstimated,
         std::string("thickness is an estimate: Beer-Lambert from the transmission, scaled to ") +
-        (scan.max_thickness_mm > 0 ? "the measured" : "the default") + " maximum " +
-        std::to_string(dmax) + " mm");
+            (scan.max_thickness_mm > 0 ? "the measured" : "the default") + " maximum " +
+            std::to_string(dmax) + " mm"));
   }
 
   // The 2005 derived maps.

@@ -12,7 +12,7 @@ namespace matfit::leaf {
 
 Status WriteLeafScan(const SyntheticScan& s, const std::string& dir, bool overwrite) {
   namespace fs = std::filesystem;
-  AtomicDir out(dir);
+  AtomicDir out(dir, "leaf-scan");
   MATFIT_RETURN_IF_ERROR(out.Begin(overwrite));
   const fs::path root(out.temp_path());
   const ImageWriteOptions png8{PixelFormat::kUint8, TransferFunction::kSrgb};

@@ -1,4 +1,5 @@
 #include "leaf/sheet.h"
+#include "core/warnings.h"
 
 #include <algorithm>
 #include <cmath>
@@ -132,8 +133,10 @@ StatusOr<SheetAnalysis> Analyze(const LeafScan& scan, LightStack top, const Shee
   }
   a.segmentation = std::move(seg);
   if (a.saturated_back_samples > 0)
-    a.warnings.push_back(std::to_string(a.saturated_back_samples) +
-                         " clipped back-lit samples were left out of the fused transmission");
+    a.warnings.push_back(
+        Warning(WarningCode::kSaturatedBacklight,
+                std::to_string(a.saturated_back_samples) +
+                    " clipped back-lit samples were left out of the fused transmission"));
   // 3. Top-lit images (or the front-lit photo) over the bare sheet's brightness.
   const auto top_bg = BareSheet(a.segmentation.labels, w, h, o.top_margin_px);
   if (top.num_images() > 0) {

@@ -8,6 +8,7 @@
 #include <optional>
 
 #include "core/parallel.h"
+#include "core/warnings.h"
 #include "leaf/hl2.h"
 #include "leaf/horizon.h"
 #include "leaf/projection_kernel.h"
@@ -203,12 +204,16 @@ void Finish(const Prepared& p, TranslucencyResult* r) {
   r->kernel_radius = p.radius;
   r->kernel_cut = p.cut;
   if (p.cut)
-    r->warnings.push_back("translucency kernel radius cut to " + std::to_string(p.radius) +
-                          " texels (raise max_kernel_radius or use a coarser texel pitch)");
+    r->warnings.push_back(
+        Warning(WarningCode::kKernelRadiusCut,
+                "translucency kernel radius cut to " + std::to_string(p.radius) +
+                    " texels (raise max_kernel_radius or use a coarser texel pitch)"));
   if (p.thin_texels > 0)
-    r->warnings.push_back(std::to_string(p.thin_texels) +
-                          " texels thinner than the multipole model's validity (1.5 l) were "
-                          "clamped to it and flagged");
+    r->warnings.push_back(
+        Warning(WarningCode::kThinTexels,
+                std::to_string(p.thin_texels) +
+                    " texels thinner than the multipole model's validity (1.5 l) were "
+                    "clamped to it and flagged"));
 }
 
 // Direct gather: out_m(x_o) = A_p Σ T(|x_o − x_i|, d(x_i)) E_m(x_i) for m < nd, plus the
@@ -496,10 +501,12 @@ StatusOr<TranslucencyResult> PrecomputeTranslucencyFast(const TransportInput& in
   const int nq = int(kb.B.size());
   r.kernel_terms = nq, r.kernel_error = kb.error;
   if (kb.error > o.kernel_tolerance)
-    r.warnings.push_back("the kernel's thickness expansion reached " + std::to_string(nq) +
-                         " terms with a relative L1 error of " + std::to_string(kb.error) +
-                         ", above the tolerance " + std::to_string(o.kernel_tolerance) +
-                         " (raise max_kernel_terms)");
+    r.warnings.push_back(Warning(WarningCode::kThicknessExpansion,
+                                 "the kernel's thickness expansion reached " + std::to_string(nq) +
+                                     " terms with a relative L1 error of " +
+                                     std::to_string(kb.error) + ", above the tolerance " +
+                                     std::to_string(o.kernel_tolerance) +
+                                     " (raise max_kernel_terms)"));
   std::vector<float> coef(size_t(nq) * p.n);
   ParallelFor(
       0, p.n,

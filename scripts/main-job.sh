@@ -91,7 +91,7 @@ kill -TERM "$serve_pid"
 wait "$serve_pid"
 echo
 echo "== matfit bench --quick: every method timed and scored, the stability matrix, charts =="
-"$matfit" bench --quick --shared-data "$root/../shared/data" --out "$out/bench" --overwrite
+"$matfit" bench --quick --shared-data "$root/../shared/data" --out "$out/bench" --force
 echo
 echo "packs written to $out/*-pack (material.json, material.gltf, maps/, report.json, preview.png)"
 echo "previews: $out/plastic-blinn-phong-sphere.png, $out/corduroy-heinrich-sweep.png"

@@ -1,4 +1,5 @@
 #include "core/dataset/info.h"
+#include "core/warnings.h"
 
 #include <Eigen/SVD>
 #include <algorithm>
@@ -25,6 +26,10 @@ std::string HumanBytes(double b) {
 }
 
 }  // namespace
+
+// Coverage thresholds of the warnings (docs/cli.md): a ring of 3 evenly spaced lights leaves
+// 120° gaps, which Lambertian photometric stereo still handles.
+constexpr double kMaxAzimuthGapDeg = 120.0, kMinElevationSpanDeg = 5.0;
 
 DatasetInfo ComputeDatasetInfo(const LightStack& s) {
   DatasetInfo info;
@@ -115,40 +120,64 @@ DatasetInfo ComputeDatasetInfo(const LightStack& s) {
 
   // Warnings.
   auto& w = info.warnings;
+  w = s.read_warnings;
   if (n < 3)
-    w.push_back("only " + std::to_string(n) +
-                " light(s): photometric stereo needs at least 3 "
-                "non-coplanar lights");
+    w.push_back(
+        Warning(WarningCode::kTooFewLights, "only " + std::to_string(n) +
+                                                " light(s): photometric stereo needs at least 3 "
+                                                "non-coplanar lights"));
   else if (info.rank < 3)
-    w.push_back("the lights are coplanar (light matrix rank " + std::to_string(info.rank) +
-                "): normals cannot be recovered; add lights out of that plane");
+    w.push_back(Warning(WarningCode::kCoplanarLights,
+                        "the lights are coplanar (light matrix rank " + std::to_string(info.rank) +
+                            "): normals cannot be recovered; add lights out of that plane"));
   else if (info.condition_number > 30)
-    w.push_back("ill-conditioned light matrix (condition number " +
-                Fmt("%.1f", info.condition_number) +
-                "): lights are nearly coplanar, fitted normals will amplify noise");
+    w.push_back(Warning(WarningCode::kIllConditionedLights,
+                        "ill-conditioned light matrix (condition number " +
+                            Fmt("%.1f", info.condition_number) +
+                            "): lights are nearly coplanar, fitted normals will amplify noise"));
   if (below > 0)
-    w.push_back(std::to_string(below) + " light(s) at or below the surface plane (θ ≥ 90°)");
+    w.push_back(
+        Warning(WarningCode::kLightsBelowHorizon,
+                std::to_string(below) + " light(s) at or below the surface plane (θ ≥ 90°)"));
   for (int i = 0; i < n; ++i)
     for (int j = i + 1; j < n; ++j)
       if (AngleBetweenDeg(s.lights()[i].direction, s.lights()[j].direction) < 0.05) {
-        w.push_back("lights " + std::to_string(i) + " and " + std::to_string(j) +
-                    " have the same direction");
+        w.push_back(Warning(WarningCode::kDuplicateLights, "lights " + std::to_string(i) + " and " +
+                                                               std::to_string(j) +
+                                                               " have the same direction"));
         i = j = n;
       }
   if (info.saturated_fraction > 0.001)
-    w.push_back(Fmt("%.2f", 100 * info.saturated_fraction) +
-                "% of pixels are clipped at the maximum code (worst: '" +
-                info.worst_saturated_file + "', " +
-                Fmt("%.2f", 100 * info.worst_saturated_fraction) +
-                "%); lower the exposure or bracket to HDR");
+    w.push_back(Warning(WarningCode::kClippedPixels,
+                        Fmt("%.2f", 100 * info.saturated_fraction) +
+                            "% of pixels are clipped at the maximum code (worst: '" +
+                            info.worst_saturated_file + "', " +
+                            Fmt("%.2f", 100 * info.worst_saturated_fraction) +
+                            "%); lower the exposure or bracket to HDR"));
   if (info.nonfinite_samples > 0)
-    w.push_back(std::to_string(info.nonfinite_samples) + " NaN/Inf samples in the images");
+    w.push_back(Warning(WarningCode::kNonfiniteSamples,
+                        std::to_string(info.nonfinite_samples) + " NaN/Inf samples in the images"));
   if (!black.empty())
-    w.push_back(std::to_string(black.size()) + " image(s) are black (max < 1e-4), first: '" +
-                (size_t(black[0]) < s.image_files.size() ? s.image_files[black[0]]
-                                                         : std::to_string(black[0])) +
-                "'");
-  if (info.has_mask && info.masked_texels == 0) w.push_back("the mask selects no texel");
+    w.push_back(Warning(WarningCode::kBlackImages,
+                        std::to_string(black.size()) +
+                            " image(s) are black (max < 1e-4), first: '" +
+                            (size_t(black[0]) < s.image_files.size() ? s.image_files[black[0]]
+                                                                     : std::to_string(black[0])) +
+                            "'"));
+  if (n >= 3 && info.max_azimuth_gap_deg > kMaxAzimuthGapDeg)
+    w.push_back(Warning(WarningCode::kAzimuthGap,
+                        "the lights leave a " + Fmt("%.0f", info.max_azimuth_gap_deg) +
+                            "° gap in azimuth (more than " + Fmt("%.0f", kMaxAzimuthGapDeg) +
+                            "°): surfaces tilted towards it are lit from one side only and "
+                            "their normals are extrapolated; add lights in that direction"));
+  if (n >= 3 && info.theta_max - info.theta_min < kMinElevationSpanDeg)
+    w.push_back(Warning(WarningCode::kElevationSpan,
+                        "every light lies at θl " + Fmt("%.1f", info.theta_min) + "°..." +
+                            Fmt("%.1f", info.theta_max) +
+                            "°: models that need several elevations (ptm, hsh, specular "
+                            "lobes) are poorly determined; add lights at other elevations"));
+  if (info.has_mask && info.masked_texels == 0)
+    w.push_back(Warning(WarningCode::kEmptyMask, "the mask selects no texel"));
   return info;
 }
 

@@ -8,6 +8,7 @@
 #include "core/dataset/stack_loader.h"
 #include "core/path_util.h"
 #include "core/text_file.h"
+#include "core/warnings.h"
 
 namespace matfit {
 namespace {
@@ -95,6 +96,18 @@ StatusOr<LightStack> ReadLightsTxt(const std::string& dir_in, const ReadOptions&
     if (!m.ok()) return m.status();
     stack->mask = std::move(*m);
   }
+  // Numbered images beyond the light count are a miscounted lights.txt, not spare files.
+  int extra = 0;
+  while (extra < 100000 && !FindNumbered(dir, name + "." + std::to_string(count + extra)).empty())
+    ++extra;
+  if (extra > 0)
+    stack->read_warnings.push_back(Warning(
+        WarningCode::kLightCountMismatch,
+        "'" + DatasetRelative(lights_path, o.confine_to) + "' lists " + std::to_string(count) +
+            " lights but the folder also has " + std::to_string(extra) +
+            " more numbered image(s) (" + name + "." + std::to_string(count) + ".*" +
+            (extra > 1 ? " to " + name + "." + std::to_string(count + extra - 1) + ".*" : "") +
+            "), which are not used; give every image its light in lights.txt"));
   stack->layout = LayoutName(Layout::kLightsTxt);
   stack->source = dir;
   stack->object_name = name;

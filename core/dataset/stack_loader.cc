@@ -8,6 +8,7 @@
 
 #include "core/parallel.h"
 #include "core/path_util.h"
+#include "core/warnings.h"
 
 namespace matfit {
 
@@ -145,9 +146,15 @@ StatusOr<LightStack> LoadStack(const std::vector<std::string>& files,
   const int w = first->width, h = first->height, ch = first->channels;
   const int n = int(files.size());
   auto shown = [&](const std::string& f) { return DatasetRelative(f, o.confine_to); };
+  // Grey+alpha or RGBA: the alpha plane is not read (it is not a mask); say so, once.
+  auto has_alpha = [&](const ImageHeader& hd) {
+    return !options.all_channels && (hd.file_channels == 2 || hd.file_channels == 4);
+  };
+  int alpha_files = has_alpha(*first) ? 1 : 0, first_alpha = alpha_files ? 0 : -1;
   for (int i = 1; i < n; ++i) {
     auto hd = ReadImageHeader(files[i], options);
     if (!hd.ok()) return hd.status();
+    if (has_alpha(*hd) && alpha_files++ == 0) first_alpha = i;
     if (hd->width != w || hd->height != h || hd->channels != ch)
       return DataError("image '" + shown(files[i]) + "' is " + std::to_string(hd->width) + "x" +
                        std::to_string(hd->height) + " with " + std::to_string(hd->channels) +
@@ -163,19 +170,31 @@ StatusOr<LightStack> LoadStack(const std::vector<std::string>& files,
                      " samples (images × width × height × channels), more than the limit of " +
                      std::to_string(o.max_stack_samples) +
                      "; select fewer images or one view, or crop or downscale them");
+  std::vector<std::string> warnings;
+  if (alpha_files > 0)
+    warnings.push_back(Warning(
+        WarningCode::kAlphaDropped,
+        std::to_string(alpha_files) + " of " + std::to_string(n) +
+            " images have an alpha channel (first: '" + shown(files[first_alpha]) +
+            "'), which is not read: matfit fits the colour channels of every pixel; to leave "
+            "pixels out, give a mask image"));
   if (o.headers_only) {
     LightStack stack(w, h, ch, 0);  // the size and the lights, no images
     stack.lights() = std::move(lights);
     stack.image_files = files;
+    stack.read_warnings = std::move(warnings);
     return stack;
   }
   try {
     bool uniform = true;
     auto stack = Load(files, lights, options, o.progress, /*as_float=*/false, &uniform);
-    if (!stack.ok() || uniform) return stack;
-    // Files of mixed depth or transfer function: linear float32, as every image decodes alone.
-    *stack = LightStack();
-    return Load(files, std::move(lights), options, o.progress, /*as_float=*/true, &uniform);
+    if (stack.ok() && !uniform) {
+      // Files of mixed depth or transfer function: linear float32, as every image decodes alone.
+      *stack = LightStack();
+      stack = Load(files, std::move(lights), options, o.progress, /*as_float=*/true, &uniform);
+    }
+    if (stack.ok()) stack->read_warnings = std::move(warnings);
+    return stack;
   } catch (const std::bad_alloc&) {
     return DataError("the stack of " + size_text + " (" + std::to_string(samples) +
                      " samples, from '" + shown(files[0]) +

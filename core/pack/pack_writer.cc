@@ -11,6 +11,7 @@
 #include "core/atomic_file.h"
 #include "core/image_io.h"
 #include "core/model/model.h"
+#include "core/output_marker.h"
 #include "core/pack/gltf.h"
 #include "core/pack/pack.h"
 #include "core/pack/shader_params.h"
@@ -31,6 +32,8 @@ std::string NowIso8601() {
 }
 
 // Relit view of the maps under one light (θ = 35°, φ = 45°: up and to the right), sRGB PNG.
+constexpr uint8_t kStatusMasked = 1;  // fit/fit_types.h kTexelMasked (core does not see fit/)
+
 Image Preview(const MaterialMaps& m, const std::vector<uint8_t>& status) {
   Image img(m.width, m.height, 3);
   const BatchEvaluator eval(m, {Vec3f(DirectionFromAnglesDeg(35, 45))}, Vec3f(0, 0, 1));
@@ -41,9 +44,22 @@ Image Preview(const MaterialMaps& m, const std::vector<uint8_t>& status) {
       const int64_t p0 = r * kEvalRun;
       const int n = int(std::min<int64_t>(kEvalRun, T - p0));
       eval.Evaluate(0, p0, n, 3, out);
-      for (int c = 0; c < 3; ++c)
-        for (int t = 0; t < n; ++t)
-          if (status[size_t(p0 + t)] == 0) img.Plane(c)[p0 + t] = out[c * n + t];
+      for (int t = 0; t < n; ++t) {
+        const int64_t p = p0 + t;
+        const uint8_t st = status[size_t(p)];
+        if (st == kStatusMasked) continue;  // outside the object: black
+        // Flagged texels show the maps' own estimate (no holes); a texel with no estimate at
+        // all (no normal, non-finite value) is marked magenta, never silently black.
+        bool estimate = true;
+        if (!m.normal.empty()) {
+          const float nx = m.normal.Plane(0)[p], ny = m.normal.Plane(1)[p],
+                      nz = m.normal.Plane(2)[p];
+          estimate = nx * nx + ny * ny + nz * nz > 0.25f;
+        }
+        for (int c = 0; c < 3; ++c) estimate = estimate && std::isfinite(out[c * n + t]);
+        for (int c = 0; c < 3; ++c)
+          img.Plane(c)[p] = estimate ? out[c * n + t] : (c == 1 ? 0.0f : 1.0f);
+      }
     }
   });
   return img;
@@ -89,12 +105,10 @@ Status WritePack(const MaterialMaps& m, const std::vector<uint8_t>& status, cons
                  const PackWriteOptions& options, const std::string& out) {
   std::string folder_out = out;
   if (options.zip) folder_out = out + ".folder";  // staging name; only the zip is kept
-  AtomicDir dir(folder_out);
+  AtomicDir dir(folder_out, "pack");
   std::error_code ec;
-  if (options.zip && fs::exists(out, ec) && !options.overwrite)
-    return InvalidArgument("output '" + out +
-                           "' already exists; choose another --out or pass --force");
-  MATFIT_RETURN_IF_ERROR(dir.Begin(true));
+  if (options.zip) MATFIT_RETURN_IF_ERROR(CheckOutput(out, options.overwrite));
+  MATFIT_RETURN_IF_ERROR(dir.Begin(options.zip || options.overwrite));
   const fs::path root(dir.temp_path());
   fs::create_directories(root / "maps", ec);
   if (ec) return IoError("cannot create '" + (root / "maps").string() + "': " + ec.message());
@@ -276,12 +290,9 @@ Status WritePack(const MaterialMaps& m, const std::vector<uint8_t>& status, cons
   if (!report.empty())
     MATFIT_RETURN_IF_ERROR(WriteFileAtomic((root / "report.json").string(), report));
 
-  if (!options.zip) {
-    if (fs::exists(out, ec) && !options.overwrite)
-      return InvalidArgument("output '" + out +
-                             "' already exists; choose another --out or pass --force");
-    return dir.Commit();
-  }
+  if (!options.zip) return dir.Commit();
+  MATFIT_RETURN_IF_ERROR(dir.WriteMarker());
+  MATFIT_RETURN_IF_ERROR(CheckOutput(out, options.overwrite));  // it may have appeared meanwhile
   AtomicFile zip_file(out);
   MATFIT_RETURN_IF_ERROR(ZipFolder(root.string(), zip_file.temp_path()));
   return zip_file.Commit();  // the staging folder is removed by ~AtomicDir

@@ -166,7 +166,7 @@ StatusOr<SynthResult> Synthesize(const SynthOptions& o) {
 
 Status WriteSynthDataset(const SynthResult& r, const SynthOptions& o, const std::string& out_dir,
                          bool overwrite) {
-  AtomicDir dir(out_dir);
+  AtomicDir dir(out_dir, "dataset");
   MATFIT_RETURN_IF_ERROR(dir.Begin(overwrite));
   DatasetWriteOptions wo;
   wo.layout = o.layout;

@@ -18,7 +18,9 @@ for layout in bonn utia lp diligent lights-txt; do
   info=$("$bin" info "$out" --quiet 2>&1) || bad "info $layout exited non-zero"
   expect_contains "info $layout" "$info" "layout       $layout"
   expect_contains "info $layout" "$info" "images       12 x 16x16"
-  expect_contains "info $layout" "$info" "warnings     none"
+  # ring12 is one elevation: exactly one warning, the elevation span (issue #21).
+  expect_contains "info $layout" "$info" "warning      elevation-span: every light lies at θl 45.0°...45.0°"
+  [ "$(grep -c '^warning' <<<"$info")" -eq 1 ] && ok || bad "info $layout: other warnings than elevation-span"
 done
 
 # Every named material renders; bonn81 reports its groups.
