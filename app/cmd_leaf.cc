@@ -1,6 +1,7 @@
 // `matfit leaf DIR --out DIR`: one translucent leaf material per leaf of a scanned sheet.
 #include <CLI/CLI.hpp>
 #include <algorithm>
+#include <cmath>
 #include <cstdio>
 #include <memory>
 #include <string>
@@ -8,6 +9,7 @@
 #include "app/commands.h"
 #include "core/parallel.h"
 #include "core/progress.h"
+#include "core/warnings.h"
 #include "leaf/leaf_job.h"
 #include "render/cpu_renderer.h"
 
@@ -57,13 +59,25 @@ int RunLeaf(LeafArgs& a) {
   if (!r->summary.empty())
     std::printf("hl2 error   mean %.2f %%, worst leaf %.2f %% (vs multipole at π/2, π/4, π/8)\n",
                 100 * mean / r->summary.size(), 100 * worst);
-  for (const auto& s : r->summary)  // the leaves a user should look at before using them
-    if (s.flagged_fraction > leaf::kLeafFlaggedWarnFraction)
-      std::printf("flagged     %s: %.0f %% of its texels (%lld)\n", s.name.c_str(),
-                  100 * s.flagged_fraction, (long long)s.flagged_texels);
   std::printf("time        %.2f s (sheet %.2f s, leaves %.2f s)\n", r->seconds_total,
               r->seconds_sheet, r->seconds_leaves);
-  for (const auto& w : r->warnings) std::printf("warning     %s\n", w.c_str());
+  // The leaves a user should look at before using them: one line (leaves.json has each one's
+  // leaf-flagged warning and flagged_fraction).
+  std::string flagged;
+  int n_flagged = 0;
+  for (const auto& s : r->summary)
+    if (s.flagged_fraction > leaf::kLeafFlaggedWarnFraction)
+      flagged += (n_flagged++ ? ", " : "") + s.name + " " +
+                 std::to_string(int(std::lround(100 * s.flagged_fraction))) + " %";
+  if (n_flagged)
+    std::printf(
+        "warning     %s: %d of %zu leaves have more than %.0f %% of their texels flagged "
+        "(their maps there are the best estimate, not a fit; see each status map): %s\n",
+        WarningName(WarningCode::kLeafFlagged), n_flagged, r->summary.size(),
+        100 * leaf::kLeafFlaggedWarnFraction, flagged.c_str());
+  const std::string prefix = std::string(WarningName(WarningCode::kLeafFlagged)) + ":";
+  for (const auto& w : r->warnings)
+    if (w.rfind(prefix, 0) != 0) std::printf("warning     %s\n", w.c_str());
   std::printf("out         %s (%zu leaf packs, leaves.json)\n", a.job.out.c_str(),
               r->summary.size());
   return 0;

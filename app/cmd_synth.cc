@@ -3,10 +3,12 @@
 #include <algorithm>
 #include <chrono>
 #include <cstdio>
+#include <memory>
 
 #include "app/commands.h"
 #include "core/dataset/dataset.h"
 #include "core/parallel.h"
+#include "core/progress.h"
 #include "core/synth/materials.h"
 #include "core/synth/synth.h"
 #include "leaf/synthetic_scan.h"
@@ -63,8 +65,12 @@ int RunSynth(SynthArgs& a) {
     so.seed = a.options.seed, so.minimal = a.minimal;
     std::string why;
     if (!so.Check(&why)) return Fail("synth", ("--leaf-scan: " + why).c_str());
-    const auto s = leaf::MakeSyntheticScan(so);
-    Status st = leaf::WriteLeafScan(s, a.out, a.force);
+    std::unique_ptr<ProgressReporter> bar;
+    if (!a.quiet) bar = std::make_unique<ProgressReporter>("render");
+    const auto s = leaf::MakeSyntheticScan(so, bar ? bar->Callback() : ProgressFn());
+    if (!a.quiet) bar = std::make_unique<ProgressReporter>("write");
+    Status st = leaf::WriteLeafScan(s, a.out, a.force, bar ? bar->Callback() : ProgressFn());
+    bar.reset();
     if (!st.ok()) return Fail("synth", st.message().c_str());
     if (!a.quiet)
       std::printf(
@@ -82,9 +88,14 @@ int RunSynth(SynthArgs& a) {
   std::string why;
   if (!a.options.Check(&why)) return Fail("synth", why.c_str());
   const auto t0 = std::chrono::steady_clock::now();
-  auto result = synth::Synthesize(a.options);
+  std::unique_ptr<ProgressReporter> bar;
+  if (!a.quiet) bar = std::make_unique<ProgressReporter>("render");
+  auto result = synth::Synthesize(a.options, bar ? bar->Callback() : ProgressFn());
   if (!result.ok()) return Fail("synth", result.status().message().c_str());
-  Status st = synth::WriteSynthDataset(*result, a.options, a.out, a.force);
+  if (!a.quiet) bar = std::make_unique<ProgressReporter>("write");
+  Status st = synth::WriteSynthDataset(*result, a.options, a.out, a.force,
+                                       bar ? bar->Callback() : ProgressFn());
+  bar.reset();
   if (!st.ok()) return Fail("synth", st.message().c_str());
   const double secs = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   if (a.quiet) return 0;

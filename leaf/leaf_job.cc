@@ -140,8 +140,10 @@ StatusOr<LeafJobResult> RunLeafJob(const LeafJobOptions& o, const LeafProgress& 
   auto scan = ReadLeafScan(o.input, ro);
   if (!scan.ok()) return scan.status();
   if (o.max_thickness_mm > 0) scan->max_thickness_mm = o.max_thickness_mm;
-  if (!step("sheet", 0, 1)) return Status(StatusCode::kCancelled, "cancelled");
-  auto sheet = AnalyzeSheet(&*scan, o.sheet);  // the top-lit stack moves, not copied
+  if (!step("read", 1, 1)) return Status(StatusCode::kCancelled, "cancelled");
+  // The top-lit stack moves into the analysis, not copied.
+  auto sheet =
+      AnalyzeSheet(&*scan, o.sheet, [&](int64_t d, int64_t t) { return step("sheet", d, t); });
   if (!sheet.ok()) return sheet.status();
   LeafJobResult res;
   res.seconds_sheet = Since(t0);
@@ -191,6 +193,9 @@ StatusOr<LeafJobResult> RunLeafJob(const LeafJobOptions& o, const LeafProgress& 
   const auto t_leaves = std::chrono::steady_clock::now();
   json leaves = json::array(), others = json::array();
   int done = 0;
+  // Per leaf: the material's steps, then its pack (maps, previews) written.
+  const int64_t per_leaf = kLeafMaterialSteps + 1,
+                leaf_steps = per_leaf * (o.only_leaf ? 1 : res.leaves);
   for (const auto& c : comps) {
     if (c.kind != ComponentKind::kLeaf) {
       if (c.kind != ComponentKind::kSpeck)
@@ -201,9 +206,9 @@ StatusOr<LeafJobResult> RunLeafJob(const LeafJobOptions& o, const LeafProgress& 
       continue;
     }
     if (o.only_leaf && c.id != o.only_leaf) continue;
-    if (!step("leaves", done, o.only_leaf ? 1 : res.leaves))
-      return Status(StatusCode::kCancelled, "cancelled");
-    auto L = MakeLeafMaterial(*scan, *sheet, c, res.mm_per_pixel, o.material);
+    auto L = MakeLeafMaterial(
+        *scan, *sheet, c, res.mm_per_pixel, o.material,
+        [&](int64_t d, int64_t) { return step("leaves", done * per_leaf + d, leaf_steps); });
     if (!L.ok())
       return Status(L.status().code(),
                     "leaf " + std::to_string(c.id) + ": " + L.status().message());
@@ -264,6 +269,8 @@ StatusOr<LeafJobResult> RunLeafJob(const LeafJobOptions& o, const LeafProgress& 
                       {"flagged_fraction", flagged_fraction},
                       {"hl2_error_percent", 100 * sm.mean_hl2_error}});
     ++done;
+    if (!step("leaves", done * per_leaf, leaf_steps))
+      return Status(StatusCode::kCancelled, "cancelled");
   }
   res.seconds_leaves = Since(t_leaves);
   if (!step("write", 0, 1)) return Status(StatusCode::kCancelled, "cancelled");
@@ -299,6 +306,7 @@ StatusOr<LeafJobResult> RunLeafJob(const LeafJobOptions& o, const LeafProgress& 
       WriteFileAtomic((root / "leaves.json").string(),
                       index.dump(2, ' ', false, nlohmann::json::error_handler_t::replace) + "\n"));
   MATFIT_RETURN_IF_ERROR(dir.Commit());
+  step("write", 1, 1);
   return res;
 }
 

@@ -61,11 +61,13 @@ double Percentile(std::vector<float> v, double q) {
 
 StatusOr<LeafMaterial> MakeLeafMaterial(const LeafScan& scan, const SheetAnalysis& sheet,
                                         const Component& leaf, double mm,
-                                        const LeafMaterialOptions& o) {
+                                        const LeafMaterialOptions& o, const ProgressFn& progress) {
   std::string why;
   if (!o.Check(&why)) return InvalidArgument("leaf material options: " + why);
   if (!(mm >= 1e-3 && mm <= 100))
     return InvalidArgument("mm_per_pixel must be in [0.001, 100], got " + std::to_string(mm));
+  const Status cancelled(StatusCode::kCancelled, "cancelled");
+  auto tick = [&](int64_t done) { return !progress || progress(done, kLeafMaterialSteps); };
   const auto t_maps = std::chrono::steady_clock::now();
   LeafMaterial L;
   L.component = leaf;
@@ -144,6 +146,7 @@ StatusOr<LeafMaterial> MakeLeafMaterial(const LeafScan& scan, const SheetAnalysi
     m.normal.Plane(0)[i] = m.normal.Plane(1)[i] = 0, m.normal.Plane(2)[i] = 1;
   }
 
+  if (!tick(1)) return cancelled;
   // Specular: a Cook–Torrance fit needs lights at several elevations (with one ring of lights
   // and an overhead camera every light has the same half-vector elevation on a flat texel, so
   // F0 and roughness cannot be told apart); otherwise the leaf default.
@@ -239,6 +242,7 @@ StatusOr<LeafMaterial> MakeLeafMaterial(const LeafScan& scan, const SheetAnalysi
     }
   }
   L.seconds_maps = Seconds(t_maps);
+  if (!tick(2)) return cancelled;
 
   // Translucency precompute for light from behind, in the lower side's frame
   // (x' = x, y' = −y, z' = −z; METHODS.md §5): n' = (−n_x, n_y, n_z), heights negated.
@@ -287,6 +291,7 @@ StatusOr<LeafMaterial> MakeLeafMaterial(const LeafScan& scan, const SheetAnalysi
     if (mask[i] && L.translucency.thin[i] && L.status[i] == 0) L.status[i] = kLeafTexelThin;
   for (const auto& wmsg : L.translucency.warnings) L.warnings.push_back(wmsg);
   L.seconds_translucency = Seconds(t_tr);
+  if (!tick(3)) return cancelled;
   if (o.report_hl2_error) {
     const auto t_e = std::chrono::steady_clock::now();
     auto e = Hl2ReconstructionErrors(
@@ -296,6 +301,7 @@ StatusOr<LeafMaterial> MakeLeafMaterial(const LeafScan& scan, const SheetAnalysi
     for (int k = 0; k < 3; ++k) L.hl2_error[k] = (*e)[k];
     L.seconds_hl2_error = Seconds(t_e);
   }
+  if (!tick(4)) return cancelled;
   return L;
 }
 

@@ -10,6 +10,7 @@
 #include <vector>
 
 #include "core/material_maps.h"
+#include "core/progress_fn.h"
 #include "core/status.h"
 #include "leaf/hl2_error.h"
 #include "leaf/scan.h"
@@ -56,9 +57,12 @@ struct LeafMaterial {
   std::vector<std::string> warnings;
 };
 
-// `mm_per_pixel` > 0 (the caller decides the scale, default included).
+// `mm_per_pixel` > 0 (the caller decides the scale, default included). `progress` (optional)
+// counts kLeafMaterialSteps: photometric stereo, the other maps, translucency, HL2 error.
+inline constexpr int kLeafMaterialSteps = 4;
 StatusOr<LeafMaterial> MakeLeafMaterial(const LeafScan& scan, const SheetAnalysis& sheet,
                                         const Component& leaf, double mm_per_pixel,
-                                        const LeafMaterialOptions& options);
+                                        const LeafMaterialOptions& options,
+                                        const ProgressFn& progress = {});
 
 }  // namespace matfit::leaf

@@ -10,7 +10,8 @@
 
 namespace matfit::leaf {
 
-Status WriteLeafScan(const SyntheticScan& s, const std::string& dir, bool overwrite) {
+Status WriteLeafScan(const SyntheticScan& s, const std::string& dir, bool overwrite,
+                     const ProgressFn& progress) {
   namespace fs = std::filesystem;
   AtomicDir out(dir, "leaf-scan");
   MATFIT_RETURN_IF_ERROR(out.Begin(overwrite));
@@ -23,6 +24,12 @@ Status WriteLeafScan(const SyntheticScan& s, const std::string& dir, bool overwr
                       {"max_thickness_mm", s.scan.max_thickness_mm},
                       {"color_space", "srgb"}};
   const LightStack& top = s.scan.top;
+  // Progress: photos (top-lit or front), back-lit images, then the 5 truth maps.
+  const int64_t files = std::max(1, top.num_images()) + int64_t(s.scan.back.size()) + 5;
+  int64_t written = 0;
+  auto wrote = [&] {
+    if (progress) progress(++written, files);
+  };
   if (top.num_images() > 0) {
     std::string lp = std::to_string(top.num_images()) + "\n";
     for (int k = 0; k < top.num_images(); ++k) {
@@ -33,6 +40,7 @@ Status WriteLeafScan(const SyntheticScan& s, const std::string& dir, bool overwr
         if (src != dst) std::copy_n(src, top.plane_size(), dst);
       }
       MATFIT_RETURN_IF_ERROR(WriteImage((root / top.image_files[k]).string(), img, png8));
+      wrote();
       const Vec3& d = top.lights()[k].direction;
       char line[160];
       std::snprintf(line, sizeof line, "%s %.6f %.6f %.6f\n", top.image_files[k].c_str(), d.x, d.y,
@@ -43,11 +51,14 @@ Status WriteLeafScan(const SyntheticScan& s, const std::string& dir, bool overwr
     m["top_lit"] = "top_lights.lp";
   } else {
     MATFIT_RETURN_IF_ERROR(WriteImage((root / "front.png").string(), s.scan.front, png8));
+    wrote();
     m["front_lit"] = "front.png";
   }
-  for (size_t k = 0; k < s.scan.back.size(); ++k)
+  for (size_t k = 0; k < s.scan.back.size(); ++k) {
     MATFIT_RETURN_IF_ERROR(
         WriteImage((root / s.scan.back_files[k]).string(), s.scan.back[k], png8));
+    wrote();
+  }
   if (!s.scan.upper_displacement.empty()) {
     MATFIT_RETURN_IF_ERROR(
         WriteImage((root / "upper_displacement.exr").string(), s.scan.upper_displacement, exr));
@@ -63,12 +74,17 @@ Status WriteLeafScan(const SyntheticScan& s, const std::string& dir, bool overwr
   if (ec) return IoError("cannot create '" + (root / "truth").string() + "': " + ec.message());
   const auto& t = s.truth;
   MATFIT_RETURN_IF_ERROR(WriteImage((root / "truth" / "albedo.exr").string(), t.albedo, exr));
+  wrote();
   MATFIT_RETURN_IF_ERROR(WriteImage((root / "truth" / "normal.exr").string(), t.normal, exr));
+  wrote();
   MATFIT_RETURN_IF_ERROR(
       WriteImage((root / "truth" / "translucency.exr").string(), t.translucency, exr));
+  wrote();
   MATFIT_RETURN_IF_ERROR(WriteImage((root / "truth" / "thickness.exr").string(), t.thickness, exr));
+  wrote();
   MATFIT_RETURN_IF_ERROR(WriteImage((root / "truth" / "mask.png").string(), t.mask,
                                     {PixelFormat::kUint8, TransferFunction::kLinear}));
+  wrote();
   return out.Commit();
 }
 

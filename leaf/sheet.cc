@@ -89,12 +89,16 @@ Status FuseBack(const LeafScan& scan, const std::vector<uint8_t>& bg, const Shee
 namespace {
 
 // `top` is the scan's top-lit stack, by value: copied or moved in by the callers below.
-StatusOr<SheetAnalysis> Analyze(const LeafScan& scan, LightStack top, const SheetOptions& o) {
+StatusOr<SheetAnalysis> Analyze(const LeafScan& scan, LightStack top, const SheetOptions& o,
+                                const ProgressFn& progress) {
   std::string why;
   if (!o.Check(&why)) return InvalidArgument("sheet options: " + why);
   if (scan.back.empty()) return DataError("the leaf scan has no back-lit images");
   SheetAnalysis a;
   a.width = scan.width(), a.height = scan.height();
+  const int64_t steps = 3 + top.num_images();
+  auto tick = [&](int64_t done) { return !progress || progress(done, steps); };
+  const Status cancelled(StatusCode::kCancelled, "cancelled");
   const int w = a.width, h = a.height;
   const int64_t n = int64_t(w) * h;
   // 1. First guess: back-lit luminance over its bright level (90th percentile ≈ bare sheet).
@@ -125,11 +129,13 @@ StatusOr<SheetAnalysis> Analyze(const LeafScan& scan, LightStack top, const Shee
   }
   const Image* colorp = color.empty() ? nullptr : &color;
   Segmentation seg = Segment(first, o.segment, colorp);
+  if (!tick(1)) return cancelled;
   // 2. Twice: background from the bare sheet → fused transmission → segmentation.
   for (int round = 0; round < 2; ++round) {
     a.background = BareSheet(seg.labels, w, h, o.back_margin_px);
     MATFIT_RETURN_IF_ERROR(FuseBack(scan, a.background, o, &a));
     seg = Segment(a.luminance, o.segment, colorp);
+    if (!tick(2 + round)) return cancelled;
   }
   a.segmentation = std::move(seg);
   if (a.saturated_back_samples > 0)
@@ -161,6 +167,7 @@ StatusOr<SheetAnalysis> Analyze(const LeafScan& scan, LightStack top, const Shee
                      ? 1.0f
                      : std::min(0.999f, float(p[i] / std::max(b[i], 1e-6f) * cos_t));
       }
+      if (!tick(4 + m)) return cancelled;
     }
   } else if (!scan.front.empty()) {
     a.front = scan.front;
@@ -179,14 +186,16 @@ StatusOr<SheetAnalysis> Analyze(const LeafScan& scan, LightStack top, const Shee
 
 }  // namespace
 
-StatusOr<SheetAnalysis> AnalyzeSheet(const LeafScan& scan, const SheetOptions& o) {
-  return Analyze(scan, scan.top, o);
+StatusOr<SheetAnalysis> AnalyzeSheet(const LeafScan& scan, const SheetOptions& o,
+                                     const ProgressFn& progress) {
+  return Analyze(scan, scan.top, o, progress);
 }
 
-StatusOr<SheetAnalysis> AnalyzeSheet(LeafScan* scan, const SheetOptions& o) {
+StatusOr<SheetAnalysis> AnalyzeSheet(LeafScan* scan, const SheetOptions& o,
+                                     const ProgressFn& progress) {
   LightStack top = std::move(scan->top);
   scan->top = LightStack();
-  return Analyze(*scan, std::move(top), o);
+  return Analyze(*scan, std::move(top), o, progress);
 }
 
 }  // namespace matfit::leaf

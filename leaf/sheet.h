@@ -9,6 +9,7 @@
 
 #include "core/image.h"
 #include "core/light_stack.h"
+#include "core/progress_fn.h"
 #include "core/status.h"
 #include "leaf/flat_field.h"
 #include "leaf/scan.h"
@@ -42,10 +43,13 @@ struct SheetAnalysis {
   std::vector<std::string> warnings;
 };
 
-StatusOr<SheetAnalysis> AnalyzeSheet(const LeafScan& scan, const SheetOptions& options);
+// `progress` (optional) counts the passes: segmentation, two fusion rounds, each top-lit image.
+StatusOr<SheetAnalysis> AnalyzeSheet(const LeafScan& scan, const SheetOptions& options,
+                                     const ProgressFn& progress = {});
 // The same, moving the scan's top-lit stack into the analysis instead of copying it (large
 // scans: the stack is the biggest buffer); scan->top is left empty.
-StatusOr<SheetAnalysis> AnalyzeSheet(LeafScan* scan, const SheetOptions& options);
+StatusOr<SheetAnalysis> AnalyzeSheet(LeafScan* scan, const SheetOptions& options,
+                                     const ProgressFn& progress = {});
 
 // Rec. 709 luminance of a 3-plane image (a 1-plane image is returned as is).
 Image Luminance(const Image& rgb);

@@ -41,7 +41,7 @@ float Quantize(float v) {
 
 }  // namespace
 
-SyntheticScan MakeSyntheticScan(const SyntheticScanOptions& o) {
+SyntheticScan MakeSyntheticScan(const SyntheticScanOptions& o, const ProgressFn& progress) {
   MATFIT_CHECK(o.Check(nullptr));
   SyntheticScan s;
   const int W = o.width, H = o.height, N = o.leaf_size;
@@ -126,6 +126,7 @@ SyntheticScan MakeSyntheticScan(const SyntheticScanOptions& o) {
       std::snprintf(name, sizeof name, "%d_TL.png", k + 1);
       s.scan.top.image_files.push_back(name);
     }
+    if (progress) progress(k + 1, nl + o.back_images);
   }
   if (!o.minimal) s.scan.top.layout = "lp";
   // Back-lit: B_k(x) T(x), the back lamp behind the sheet at varying positions and exposures.
@@ -146,6 +147,7 @@ SyntheticScan MakeSyntheticScan(const SyntheticScanOptions& o) {
     char name[32];
     std::snprintf(name, sizeof name, "%d_BL.png", k + 1);
     s.scan.back_files.push_back(name);
+    if (progress) progress(nl + k + 1, nl + o.back_images);
   }
   // Truth translucency outside the leaf is the bare sheet's 1; keep 0 there for comparisons.
   for (int c = 0; c < 3; ++c)

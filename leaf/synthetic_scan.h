@@ -8,6 +8,7 @@
 #include <cstdint>
 
 #include "core/material_maps.h"
+#include "core/progress_fn.h"
 #include "leaf/scan.h"
 
 namespace matfit::leaf {
@@ -32,10 +33,14 @@ struct SyntheticScan {
   int leaf_x0 = 0, leaf_y0 = 0;
 };
 
-SyntheticScan MakeSyntheticScan(const SyntheticScanOptions& options);
+// `progress` (optional, display only) counts rendered images (top-lit, then back-lit).
+SyntheticScan MakeSyntheticScan(const SyntheticScanOptions& options,
+                                const ProgressFn& progress = {});
 
 // Writes the scan as files: top_lights.lp + NN_TL.png (or front.png), NN_BL.png, leaf.json, and
 // truth/{albedo,normal,translucency,thickness}.exr + truth/mask.png. Atomic (temporary folder).
-Status WriteLeafScan(const SyntheticScan& s, const std::string& dir, bool overwrite);
+// `progress` (optional, display only) counts written files.
+Status WriteLeafScan(const SyntheticScan& s, const std::string& dir, bool overwrite,
+                     const ProgressFn& progress = {});
 
 }  // namespace matfit::leaf

@@ -1,6 +1,7 @@
 #include "core/dataset/writer.h"
 
 #include <algorithm>
+#include <atomic>
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
@@ -51,11 +52,15 @@ Status WriteMask(const LightStack& s, const std::string& path) {
 }
 
 // Writes every image to the path given by name(i), in parallel; first error wins.
-Status WriteImages(const LightStack& s, int bits, const std::function<std::string(int)>& name) {
+Status WriteImages(const LightStack& s, int bits, const std::function<std::string(int)>& name,
+                   const ProgressFn& progress) {
   std::vector<Status> errors(s.num_images());
+  std::atomic<int64_t> written{0};
   ParallelFor(0, s.num_images(), [&](int64_t b, int64_t e) {
-    for (int64_t i = b; i < e; ++i)
+    for (int64_t i = b; i < e; ++i) {
       errors[i] = WriteImage(name(int(i)), ImageOf(s, int(i)), ImageOptions(bits));
+      if (progress) progress(++written, s.num_images());
+    }
   });
   for (auto& st : errors) MATFIT_RETURN_IF_ERROR(st);
   return Status::Ok();
@@ -90,7 +95,8 @@ bool DatasetWriteOptions::Check(std::string* why) const {
   return true;
 }
 
-Status WriteDataset(const LightStack& s, const DatasetWriteOptions& o, const std::string& dir) {
+Status WriteDataset(const LightStack& s, const DatasetWriteOptions& o, const std::string& dir,
+                    const ProgressFn& progress) {
   std::string why;
   if (!o.Check(&why)) return InvalidArgument(why);
   const fs::path d(dir);
@@ -119,10 +125,13 @@ Status WriteDataset(const LightStack& s, const DatasetWriteOptions& o, const std
         fs::create_directories(folder, ec);
         if (ec) return IoError("cannot create '" + folder.string() + "': " + ec.message());
       }
-      return WriteImages(s, o.bits, [&](int i) {
-        return (folder / (bonn ? MakeBonnName(i, names[i], ext) : MakeUtiaName(names[i], ext)))
-            .string();
-      });
+      return WriteImages(
+          s, o.bits,
+          [&](int i) {
+            return (folder / (bonn ? MakeBonnName(i, names[i], ext) : MakeUtiaName(names[i], ext)))
+                .string();
+          },
+          progress);
     }
     case Layout::kLp: {
       std::string lp = std::to_string(n) + "\n";
@@ -132,11 +141,14 @@ Status WriteDataset(const LightStack& s, const DatasetWriteOptions& o, const std
         std::snprintf(name, sizeof name, "img_%03d%s", i, ext.c_str());
         lp += std::string(name) + " " + Num(l.x) + " " + Num(l.y) + " " + Num(l.z) + "\n";
       }
-      MATFIT_RETURN_IF_ERROR(WriteImages(s, o.bits, [&](int i) {
-        char name[32];
-        std::snprintf(name, sizeof name, "img_%03d%s", i, ext.c_str());
-        return (d / name).string();
-      }));
+      MATFIT_RETURN_IF_ERROR(WriteImages(
+          s, o.bits,
+          [&](int i) {
+            char name[32];
+            std::snprintf(name, sizeof name, "img_%03d%s", i, ext.c_str());
+            return (d / name).string();
+          },
+          progress));
       if (s.has_mask()) MATFIT_RETURN_IF_ERROR(WriteMask(s, (d / "mask.png").string()));
       return WriteFileAtomic((d / "lights.lp").string(), lp);
     }
@@ -150,11 +162,14 @@ Status WriteDataset(const LightStack& s, const DatasetWriteOptions& o, const std
         dirs += Num(l.direction.x) + " " + Num(l.direction.y) + " " + Num(l.direction.z) + "\n";
         ints += Num(l.intensity.x) + " " + Num(l.intensity.y) + " " + Num(l.intensity.z) + "\n";
       }
-      MATFIT_RETURN_IF_ERROR(WriteImages(s, o.bits, [&](int i) {
-        char name[32];
-        std::snprintf(name, sizeof name, "%03d%s", i + 1, ext.c_str());
-        return (d / name).string();
-      }));
+      MATFIT_RETURN_IF_ERROR(WriteImages(
+          s, o.bits,
+          [&](int i) {
+            char name[32];
+            std::snprintf(name, sizeof name, "%03d%s", i + 1, ext.c_str());
+            return (d / name).string();
+          },
+          progress));
       MATFIT_RETURN_IF_ERROR(WriteMask(s, (d / "mask.png").string()));
       MATFIT_RETURN_IF_ERROR(WriteFileAtomic((d / "filenames.txt").string(), names));
       MATFIT_RETURN_IF_ERROR(WriteFileAtomic((d / "light_directions.txt").string(), dirs));
@@ -166,9 +181,10 @@ Status WriteDataset(const LightStack& s, const DatasetWriteOptions& o, const std
         const Vec3& l = s.lights()[i].direction;
         txt += Num(l.x) + " " + Num(l.y) + " " + Num(l.z) + "\n";
       }
-      MATFIT_RETURN_IF_ERROR(WriteImages(s, o.bits, [&](int i) {
-        return (d / (o.object_name + "." + std::to_string(i) + ext)).string();
-      }));
+      MATFIT_RETURN_IF_ERROR(WriteImages(
+          s, o.bits,
+          [&](int i) { return (d / (o.object_name + "." + std::to_string(i) + ext)).string(); },
+          progress));
       if (s.has_mask())
         MATFIT_RETURN_IF_ERROR(WriteMask(s, (d / (o.object_name + ".mask.png")).string()));
       return WriteFileAtomic((d / "lights.txt").string(), txt);

@@ -4,6 +4,7 @@
 #include <string>
 
 #include "core/dataset/dataset.h"
+#include "core/progress_fn.h"
 
 namespace matfit {
 
@@ -23,7 +24,8 @@ struct DatasetWriteOptions {
 };
 
 // Writes into the existing folder `dir`. Bonn needs every light at integer degrees.
+// `progress` (optional, display only) counts written images.
 Status WriteDataset(const LightStack& stack, const DatasetWriteOptions& options,
-                    const std::string& dir);
+                    const std::string& dir, const ProgressFn& progress = {});
 
 }  // namespace matfit

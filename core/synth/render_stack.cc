@@ -1,5 +1,7 @@
 #include "core/synth/render_stack.h"
 
+#include <atomic>
+
 #include <algorithm>
 #include <cmath>
 
@@ -54,7 +56,7 @@ Image CastShadowVisibility(const Image& h, const Vec3& light) {
 }
 
 LightStack RenderStack(const MaterialMaps& m, const std::vector<LightSample>& lights,
-                       const RenderOptions& options) {
+                       const RenderOptions& options, const ProgressFn& progress) {
   const int n = int(lights.size());
   LightStack stack(m.width, m.height, 3, n);
   stack.lights() = lights;
@@ -65,6 +67,7 @@ LightStack RenderStack(const MaterialMaps& m, const std::vector<LightSample>& li
   std::vector<Vec3f> dirs;
   for (const LightSample& ls : lights) dirs.emplace_back(ls.direction);
   const BatchEvaluator eval(m, dirs, v);
+  std::atomic<int64_t> rendered{0};
   ParallelFor(0, n, [&](int64_t b, int64_t e) {
     std::vector<float> run(size_t(3) * kEvalRun);
     for (int64_t i = b; i < e; ++i) {
@@ -83,6 +86,7 @@ LightStack RenderStack(const MaterialMaps& m, const std::vector<LightSample>& li
           }
         }
       }
+      if (progress) progress(++rendered, n);
     }
   });
   const auto& mk = m.mask.data();

@@ -1,6 +1,8 @@
 // Renders a LightStack from material maps with the CPU shading functions (no I/O).
 #pragma once
 
+#include "core/progress_fn.h"
+
 #include <vector>
 
 #include "core/light_stack.h"
@@ -17,8 +19,9 @@ struct RenderOptions {
   Vec3 view{0, 0, 1};         // view direction (unit)
 };
 
-// p_{i,c}(x) = I_{i,c} · V_i(x) · EvaluateTexel(x, c, l_i, v). Parallel over images.
+// p_{i,c}(x) = I_{i,c} · V_i(x) · EvaluateTexel(x, c, l_i, v). Parallel over images;
+// `progress` (optional, display only) counts rendered images.
 LightStack RenderStack(const MaterialMaps& m, const std::vector<LightSample>& lights,
-                       const RenderOptions& options);
+                       const RenderOptions& options, const ProgressFn& progress = {});
 
 }  // namespace matfit::synth

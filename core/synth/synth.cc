@@ -140,7 +140,7 @@ bool SynthOptions::Check(std::string* why) const {
   return perturb.Check(why);
 }
 
-StatusOr<SynthResult> Synthesize(const SynthOptions& o) {
+StatusOr<SynthResult> Synthesize(const SynthOptions& o, const ProgressFn& progress) {
   std::string why;
   if (!o.Check(&why)) return InvalidArgument(why);
   auto lights = MakeLightSet(o.lights, o.seed);
@@ -154,7 +154,7 @@ StatusOr<SynthResult> Synthesize(const SynthOptions& o) {
   r.cast_shadows = o.shadows || FindMaterial(o.material)->self_shadowing;
   RenderOptions ro;
   ro.cast_shadows = r.cast_shadows;
-  r.stack = RenderStack(r.truth, *lights, ro);
+  r.stack = RenderStack(r.truth, *lights, ro, progress);
   PerturbOptions po = o.perturb;
   po.seed = o.seed;
   r.perturb = ApplyPerturbations(po, &r.stack);
@@ -165,7 +165,7 @@ StatusOr<SynthResult> Synthesize(const SynthOptions& o) {
 }
 
 Status WriteSynthDataset(const SynthResult& r, const SynthOptions& o, const std::string& out_dir,
-                         bool overwrite) {
+                         bool overwrite, const ProgressFn& progress) {
   AtomicDir dir(out_dir, "dataset");
   MATFIT_RETURN_IF_ERROR(dir.Begin(overwrite));
   DatasetWriteOptions wo;
@@ -174,7 +174,7 @@ Status WriteSynthDataset(const SynthResult& r, const SynthOptions& o, const std:
   wo.format = o.format;
   wo.object_name = fs::path(out_dir).filename().string();
   if (wo.object_name.empty()) wo.object_name = fs::path(out_dir).parent_path().filename().string();
-  MATFIT_RETURN_IF_ERROR(WriteDataset(r.stack, wo, dir.temp_path()));
+  MATFIT_RETURN_IF_ERROR(WriteDataset(r.stack, wo, dir.temp_path(), progress));
   const std::string truth = (fs::path(dir.temp_path()) / "truth").string();
   MATFIT_RETURN_IF_ERROR(WriteTruth(r.truth, truth));
   MATFIT_RETURN_IF_ERROR(

@@ -2,6 +2,8 @@
 // perturbations, written as a dataset plus truth/ (maps + params.json).
 #pragma once
 
+#include "core/progress_fn.h"
+
 #include <cstdint>
 #include <string>
 
@@ -37,10 +39,13 @@ struct SynthResult {
 };
 
 // Pure computation (no I/O).
-StatusOr<SynthResult> Synthesize(const SynthOptions& options);
+// `progress` (optional, display only): images rendered.
+StatusOr<SynthResult> Synthesize(const SynthOptions& options, const ProgressFn& progress = {});
 
 // Writes dataset + truth/ atomically to `out_dir` (fails if it exists unless overwrite).
 Status WriteSynthDataset(const SynthResult& result, const SynthOptions& options,
-                         const std::string& out_dir, bool overwrite);
+                         // `progress` (optional, display only): images written.
+                         const std::string& out_dir, bool overwrite,
+                         const ProgressFn& progress = {});
 
 }  // namespace matfit::synth

@@ -60,6 +60,9 @@ if [ -d "$shared/leaf-sheet" ]; then
   end=$(date +%s.%N)
   expect_contains "sheet leaves" "$out" "found       23 leaves"
   expect_contains "sheet scale" "$out" "no physical scale"
+  # The summary names the leaves with many flagged texels (issue #21), e.g. the 88 % one.
+  expect_contains "sheet flagged" "$out" "warning     leaf-flagged: 15 of 23 leaves have more than 20 %"
+  expect_contains "sheet flagged" "$out" "leaf_16 88 %"
   [ "$(ls -d "$tmp"/sheet/leaf_* | wc -l)" -eq 23 ] && ok || bad "sheet: expected 23 leaf packs"
   echo "shared sheet end to end: $(echo "$end - $start" | bc) s wall"
 else

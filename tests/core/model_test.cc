@@ -7,6 +7,7 @@
 #include <iterator>
 #include <set>
 
+#include "core/image_io.h"
 #include "core/model/model.h"
 #include "core/pack/pack.h"
 #include "core/pack/pack_reader.h"
@@ -124,6 +125,36 @@ TEST(ModelPack, RoundTripEvaluatesTheSameForEveryModel) {
                       1e-6 + 1e-6 * std::abs(want))
               << d->name();
         }
+  }
+}
+
+// preview.png has no holes (issue #21): a flagged texel shows its maps' estimate like an ok one,
+// a texel with no estimate at all (zero normal) is magenta, and only masked texels are black.
+TEST(ModelPack, PreviewDrawsFlaggedTexelsAndMarksTexelsWithoutEstimate) {
+  testing::TempDir dir;
+  MaterialMaps m = RandomModelMaps(ModelId("lambert"), 8, 8, 4);
+  for (int64_t p = 0; p < 64; ++p)  // facing up, lit at θ 35°: every unmasked texel is lit
+    m.normal.Plane(0)[p] = 0, m.normal.Plane(1)[p] = 0, m.normal.Plane(2)[p] = 1;
+  std::vector<uint8_t> status(64, 0);
+  const uint8_t kMasked = 1, kFlagged = 2;  // fit/fit_types.h texel status codes
+  status[0] = kMasked;
+  for (int p = 8; p < 24; ++p) status[size_t(p)] = kFlagged;  // two rows flagged
+  m.normal.Plane(2)[20] = 0;                                  // flagged, no normal
+  ASSERT_TRUE(WritePack(m, status, {}, {}, dir / "p").ok());
+  ImageReadOptions raw;
+  raw.color_space = ColorSpaceChoice::kLinear;  // sRGB codes / 255: 0 and 1 stay exact
+  auto img = ReadImage(dir / "p/preview.png", raw);
+  ASSERT_TRUE(img.ok()) << img.status().message();
+  for (int64_t p = 0; p < 64; ++p) {
+    const float r = img->Plane(0)[p], g = img->Plane(1)[p], b = img->Plane(2)[p];
+    if (p == 0) {
+      EXPECT_EQ(r + g + b, 0.0f) << "masked texel";
+    } else if (p == 20) {
+      EXPECT_TRUE(r == 1.0f && g == 0.0f && b == 1.0f) << "no-estimate texel not magenta";
+    } else {  // lit lambert, albedo ≥ 0.05: never black, never the magenta mark
+      EXPECT_GT(r + g + b, 0.05f) << "texel " << p << " status " << int(status[size_t(p)]);
+      EXPECT_FALSE(r == 1.0f && g == 0.0f && b == 1.0f) << "texel " << p;
+    }
   }
 }
 

@@ -490,6 +490,40 @@ TEST(LeafJob, WritesOnePackPerLeafAndAnIndexAtomically) {
   EXPECT_TRUE(nlohmann::json::parse(in2)["leaves"][0]["area_mm2"].is_null());
 }
 
+// Leaves with many flagged texels are named in the job's warnings and leaves.json (issue #21).
+// The real sheet has them (leaf_16: 670 of 763 texels flagged, the shadow-side ones); the clean
+// synthetic scan has none above the threshold.
+TEST(LeafJob, NamesLeavesWithManyFlaggedTexels) {
+  MATFIT_REQUIRE_SHARED_DATA("leaf-sheet");
+  TempDir tmp;
+  LeafJobOptions o;
+  o.input = shared_dir + "/leaf-sheet", o.out = tmp / "out";
+  auto r = RunLeafJob(o);
+  ASSERT_TRUE(r.ok()) << r.status().ToString();
+  std::ifstream in(tmp / "out/leaves.json");
+  const auto idx = nlohmann::json::parse(in);
+  int named = 0, over = 0;
+  for (size_t i = 0; i < r->summary.size(); ++i) {
+    const auto& leaf = r->summary[i];
+    EXPECT_NEAR(idx["leaves"][i]["flagged_fraction"].get<double>(), leaf.flagged_fraction, 1e-9);
+    if (leaf.flagged_fraction <= kLeafFlaggedWarnFraction) continue;
+    ++over;
+    for (const auto& w : r->warnings)
+      named += w.rfind("leaf-flagged: " + leaf.name + " has ", 0) == 0;
+  }
+  EXPECT_GE(over, 1);
+  EXPECT_EQ(named, over);
+  auto clean = RunLeafJob([&] {
+    LeafJobOptions c;
+    EXPECT_TRUE(WriteLeafScan(MakeSyntheticScan(Small()), tmp / "clean", false).ok());
+    c.input = tmp / "clean", c.out = tmp / "out-clean";
+    return c;
+  }());
+  ASSERT_TRUE(clean.ok()) << clean.status().ToString();
+  EXPECT_LT(clean->summary[0].flagged_fraction, kLeafFlaggedWarnFraction);
+  for (const auto& w : clean->warnings) EXPECT_NE(w.rfind("leaf-flagged", 0), 0u) << w;
+}
+
 TEST(LeafJob, BadInputNamesTheProblem) {
   TempDir tmp;
   const auto s = MakeSyntheticScan(Small());

@@ -1,0 +1,73 @@
+#!/usr/bin/env bash
+# Nothing silent (issue #21): each case that used to pass with "warnings none" now warns, with its
+# code, in `matfit info` (text and --json), in the fit's summary and in report.json `warnings`.
+# Cases: a lights.txt with fewer lights than images, RGBA images, gamma-encoded 16-bit TIFFs
+# without colour metadata, a 262° light-azimuth gap, lights at one elevation.
+# Usage: warnings_test.sh MATFIT_BINARY PROJECT_ROOT
+set -u
+bin=$1; src=$2
+tmp=$(mktemp -d); trap 'rm -rf "$tmp"' EXIT
+. "$src/tests/app/lib.sh"
+cd "$tmp"
+command -v oiiotool >/dev/null || { echo "oiiotool missing (openimageio-tools)"; exit 1; }
+
+# warns NAME DIR CODE: info (text and JSON) names the warning.
+warns() {
+  local info
+  info=$("$bin" info "$2" --quiet 2>&1) || bad "$1: info failed: $info"
+  expect_contains "$1 info" "$info" "warning      $3: "
+  info=$("$bin" info "$2" --quiet --json 2>&1)
+  expect_contains "$1 info --json" "$info" "\"$3: "
+}
+# fit_warns NAME DIR CODE: the fit's summary and its report.json carry the warning.
+fit_warns() {
+  local out
+  out=$("$bin" fit "$2" --model lambert --out "$tmp/pack-$1" --quiet 2>&1) || bad "$1: fit failed: $out"
+  expect_contains "$1 fit summary" "$out" "warning     $3: "
+  expect_contains "$1 report.json" "$(cat "$tmp/pack-$1/report.json")" "\"$3: "
+}
+
+# A clean set first: two dozen lights over a dome, 16-bit linear PNG.
+"$bin" synth --material plaster --lights dome:24 --layout lights-txt --size 24 --out ds --quiet ||
+  bad "synth ds"
+expect_contains "clean set" "$("$bin" info ds --quiet)" "warnings     none"
+
+# 1. lights.txt lists 23 lights beside 24 numbered images: the 24th image is not used.
+mkdir count && cp -r ds count/ds
+{ echo 23; sed -n 2,24p ds/lights.txt; } >count/ds/lights.txt
+warns count count/ds light-count-mismatch
+fit_warns count count/ds light-count-mismatch
+
+# 2. RGBA images: the alpha channel is not read.
+mkdir rgba && cp -r ds rgba/ds
+for f in rgba/ds/ds.*.png; do oiiotool "$f" --ch R,G,B,A=1.0 -o "$f"; done
+warns rgba rgba/ds alpha-dropped
+fit_warns rgba rgba/ds alpha-dropped
+
+# 3. sRGB-encoded values in 16-bit TIFFs without colour metadata (read as linear).
+"$bin" synth --material plaster --lights dome:24 --layout lights-txt --size 24 --bits 8 --out g8 \
+  --quiet || bad "synth g8"
+mkdir -p gamma/g8 && cp g8/lights.txt gamma/g8/
+for f in g8/g8.*.png; do
+  oiiotool "$f" --eraseattrib oiio:ColorSpace -d uint16 -o "gamma/g8/$(basename "$f" .png).tif"
+done
+warns gamma gamma/g8 gamma-encoded
+fit_warns gamma gamma/g8 gamma-encoded
+
+# 4. All lights within φ 0…98°: a 262° azimuth gap (θ spread over 20…66°, so no elevation warning).
+mkdir gap && cp -r ds gap/ds
+awk 'NR == 1 {print; next} {
+  i = NR - 2; t = (20 + 2 * i) * 3.14159265 / 180; p = (98 * i / 23) * 3.14159265 / 180
+  printf "%.9f %.9f %.9f\n", sin(t) * cos(p), sin(t) * sin(p), cos(t) }' ds/lights.txt >gap/ds/lights.txt
+warns gap gap/ds azimuth-gap
+expect_contains "gap figure" "$("$bin" info gap/ds --quiet)" "largest azimuth gap 262°"
+[ "$(grep -c '^warning' <<<"$("$bin" info gap/ds --quiet)")" -eq 1 ] && ok ||
+  bad "gap: other warnings than azimuth-gap"
+
+# 5. One elevation (a ring): elevation-span.
+"$bin" synth --material plaster --lights ring:16:40 --layout lights-txt --size 24 --out ring --quiet ||
+  bad "synth ring"
+warns ring ring elevation-span
+
+echo "warnings_test: $pass passed, $fail failed"
+[ "$fail" -eq 0 ]
