@@ -43,8 +43,8 @@ TEST(Warnings, DocsListEveryCode) {
     documented.insert({(*it)[1].str(), (*it)[2].str()});
   for (const auto& w : AllWarnings()) code.insert({w.name, w.source});
   for (const auto& c : code)
-    EXPECT_TRUE(documented.count(c)) << "docs/cli.md lacks warning '" << c.first << "' (" << c.second
-                                     << ")";
+    EXPECT_TRUE(documented.count(c))
+        << "docs/cli.md lacks warning '" << c.first << "' (" << c.second << ")";
   for (const auto& d : documented)
     EXPECT_TRUE(code.count(d)) << "docs/cli.md lists '" << d.first << "', which matfit never gives";
 }
