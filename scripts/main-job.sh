@@ -37,9 +37,9 @@ grep -m1 '"reason"' "$out/corduroy-auto-pack/report.json"
 echo
 echo "== matfit render: previews of the fitted packs (EGL if available, else CPU) =="
 "$matfit" render "$out/plastic-blinn-phong-pack" --light 40,30 --scene sphere --size 256 \
-  --out "$out/plastic-blinn-phong-sphere.png"
+  --out "$out/plastic-blinn-phong-sphere.png" --force
 "$matfit" render "$out/corduroy-heinrich-pack" --light 60,0 --sweep 8 --size 128 \
-  --out "$out/corduroy-heinrich-sweep.png"
+  --out "$out/corduroy-heinrich-sweep.png" --force
 echo
 echo "== matfit leaf: the bundled synthetic leaf scan → one translucent leaf material per leaf =="
 "$matfit" leaf "$root/fixtures/leaf-scan" --out "$out/leaf-scan-leaves" --force --quiet
@@ -61,7 +61,7 @@ chrome="$root/../shared/data/psm/chrome"
 if [ -d "$chrome" ]; then
   echo
   echo "== matfit calibrate-lights: the shared chrome sphere =="
-  "$matfit" calibrate-lights "$chrome" --out "$out/chrome-lights.txt" --quiet
+  "$matfit" calibrate-lights "$chrome" --out "$out/chrome-lights.txt" --force --quiet
 fi
 echo
 echo "== matfit serve: the service on loopback — upload the fixture, poll, fetch the pack =="
