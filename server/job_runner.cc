@@ -6,11 +6,14 @@
 #include <nlohmann/json.hpp>
 #include <optional>
 
+#include "core/color.h"
 #include "core/dataset/dataset.h"
+#include "core/warnings.h"
 #include "fit/fit_job.h"
 #include "leaf/leaf_job.h"
 #include "leaf/scan.h"
 #include "render/cpu_renderer.h"
+#include "server/api_wording.h"
 #include "server/text.h"
 
 namespace matfit::server {
@@ -65,9 +68,27 @@ std::optional<ViewAngles> ViewOf(const JobSpec& spec) {
   return v;
 }
 
+std::vector<std::string> ForApi(std::vector<std::string> messages) {
+  for (auto& m : messages) m = ApiWording(std::move(m));
+  return messages;
+}
+
 }  // namespace
 
-Status ValidateDataset(const JobSpec& spec, const std::string& dir, int64_t max_stack_samples) {
+ReadOptions JobReadOptions(const JobSpec& spec) {
+  ReadOptions ro;
+  ro.view = ViewOf(spec);
+  if (!ParseLayout(spec.layout, &ro.layout)) ro.layout = Layout::kAuto;  // checked at parse
+  if (!ParseColorSpaceChoice(spec.color_space, &ro.color_space))
+    ro.color_space = ColorSpaceChoice::kAuto;
+  return ro;
+}
+
+Status ValidateDataset(const JobSpec& spec, const std::string& dir, int64_t max_stack_samples,
+                       std::string* field) {
+  std::string unused;
+  if (!field) field = &unused;
+  *field = "";
   std::error_code ec;
   if (!fs::is_directory(dir, ec)) return NotFound("dataset folder '" + dir + "' does not exist");
   if (spec.mode == "leaf") {
@@ -83,13 +104,40 @@ Status ValidateDataset(const JobSpec& spec, const std::string& dir, int64_t max_
     return scan.ok() ? Status::Ok() : scan.status();
   }
   // The job's own read, files and headers only: what would fail the job fails the submission.
-  ReadOptions ro;
+  ReadOptions ro = JobReadOptions(spec);
   ro.confine_to = dir;
-  ro.view = ViewOf(spec);
   ro.max_stack_samples = max_stack_samples;
   ro.headers_only = true;
   auto stack = ReadDataset(dir, ro);
-  return stack.ok() ? Status::Ok() : stack.status();
+  if (!stack.ok()) {
+    const std::string& m = stack.status().message();
+    // The files of two layouts (DetectLayout): the layout field resolves it; a bad view names
+    // the view field; anything else is about the uploaded files.
+    *field = m.find(" layouts: ") != std::string::npos ? "layout"
+             : m.find("--view") != std::string::npos   ? "view"
+                                                       : "";
+    return stack.status();
+  }
+  // A miscounted light file would silently leave images out of the fit: refuse it here.
+  const std::string mismatch = std::string(WarningName(WarningCode::kLightCountMismatch)) + ": ";
+  for (const auto& w : stack->read_warnings)
+    if (w.rfind(mismatch, 0) == 0)
+      return DataError(w.substr(mismatch.size()) +
+                       " (or leave the extra images out of the upload)");
+  const int images = int(stack->lights().size());
+  if (spec.holdout > images)
+    return *field = "holdout",
+           InvalidArgument("field 'holdout': " + std::to_string(spec.holdout) +
+                           " folds need at least as many images, the dataset has " +
+                           std::to_string(images) + "; use a holdout of 2.." +
+                           std::to_string(images) + " or 0 (off)");
+  if (spec.model == "auto" && images < 3)
+    return *field = "model",
+           InvalidArgument(
+               "field 'model': auto scores models on held-out lights and needs at "
+               "least 3 images, the dataset has " +
+               std::to_string(images) + "; name a model (e.g. lambert)");
+  return Status::Ok();
 }
 
 StatusOr<std::string> RunJob(const JobSpec& spec, const std::string& dataset,
@@ -126,7 +174,7 @@ StatusOr<std::string> RunJob(const JobSpec& spec, const std::string& dataset,
                          {"scale_source", r->scale_source},
                          {"seconds", r->seconds_total},
                          {"packs", leaves},
-                         {"warnings", r->warnings}});
+                         {"warnings", ForApi(r->warnings)}});
   }
   fit::FitJobOptions o;
   o.input = dataset;
@@ -136,9 +184,9 @@ StatusOr<std::string> RunJob(const JobSpec& spec, const std::string& dataset,
   o.budget = spec.budget;
   o.out = out_dir;
   o.overwrite = true;
+  o.read = JobReadOptions(spec);
   o.read.confine_to = dataset;
   o.read.max_stack_samples = max_stack_samples;
-  o.read.view = ViewOf(spec);
   auto r = fit::RunFitJob(o, stage);
   if (!r.ok()) return r.status();
   json s = {{"mode", "fit"},
@@ -150,7 +198,7 @@ StatusOr<std::string> RunJob(const JobSpec& spec, const std::string& dataset,
             {"rmse", r->reconstruction.rmse},
             {"psnr_db", r->reconstruction.psnr_db},
             {"deviation_percent", r->reconstruction.deviation_percent},
-            {"warnings", r->fit.warnings}};
+            {"warnings", ForApi(r->fit.warnings)}};
   if (r->heldout) s["heldout_rmse"] = r->heldout->rmse;
   if (r->truth && r->truth->has_normal) s["normal_mae_deg"] = r->truth->normal_mae_deg;
   return JsonText(s);

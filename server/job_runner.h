@@ -6,6 +6,7 @@
 #include <functional>
 #include <string>
 
+#include "core/dataset/dataset.h"
 #include "core/status.h"
 #include "server/job_spec.h"
 
@@ -14,8 +15,14 @@ namespace matfit::server {
 // The check at submission time, without decoding a pixel: the folder holds a dataset of the
 // job's kind; every file it names lies inside it; the light files parse; the image headers agree
 // and images × width × height × channels ≤ max_stack_samples (0 = no limit). Errors carry the
-// reader's message (unknown layout, no back-lit images, a link out of the folder, ...).
-Status ValidateDataset(const JobSpec& spec, const std::string& dir, int64_t max_stack_samples = 0);
+// reader's message (unknown layout, no back-lit images, a link out of the folder, ...). Beyond
+// the reader: a light file that leaves numbered images without a light, more held-out folds
+// than images, model=auto with fewer than 3 images. *field (optional) names the job field the
+// error is about ("holdout", "model", "layout", "view") or "file"/"dataset" for the data.
+Status ValidateDataset(const JobSpec& spec, const std::string& dir, int64_t max_stack_samples = 0,
+                       std::string* field = nullptr);
+// The read options a job's fields ask for (layout, colour space, view).
+ReadOptions JobReadOptions(const JobSpec& spec);
 
 // fraction of the whole job in [0, 1], the current stage name; return false to cancel.
 using JobProgress = std::function<bool(double fraction, const std::string& stage)>;

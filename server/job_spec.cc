@@ -4,6 +4,8 @@
 #include <cstdlib>
 #include <nlohmann/json.hpp>
 
+#include "core/color.h"
+#include "core/dataset/dataset.h"
 #include "fit/method.h"
 #include "server/text.h"
 
@@ -32,8 +34,13 @@ bool ParseView(const std::string& s, double* theta, double* phi) {
 }  // namespace
 
 json JobSpec::ToJson() const {
-  return {
-      {"mode", mode}, {"model", model}, {"view", view}, {"holdout", holdout}, {"budget", budget}};
+  return {{"mode", mode},
+          {"model", model},
+          {"view", view},
+          {"holdout", holdout},
+          {"budget", budget},
+          {"layout", layout},
+          {"color_space", color_space}};
 }
 
 StatusOr<JobSpec> ParseJobSpecFields(const std::map<std::string, std::string>& fields) {
@@ -62,10 +69,23 @@ StatusOr<JobSpec> ParseJobSpecFields(const std::map<std::string, std::string>& f
       if (v.empty() || *end || !(b > 0) || !std::isfinite(b))
         return FieldError("budget", "must be a positive held-out RMSE (linear), got '" + v + "'");
       s.budget = b;
+    } else if (k == "layout") {
+      Layout l;
+      if (!ParseLayout(v, &l)) {
+        std::string list = "auto";
+        for (const auto& n : LayoutNames()) list += ", " + n;
+        return FieldError("layout", "must be one of " + list + ", got '" + v + "'");
+      }
+      s.layout = LayoutName(l);
+    } else if (k == "color_space") {
+      ColorSpaceChoice c;
+      if (!ParseColorSpaceChoice(v, &c))
+        return FieldError("color_space", "must be auto, srgb or linear, got '" + v + "'");
+      s.color_space = v == "sRGB" ? "srgb" : v;
     } else if (k != "file" && k != "dataset") {
       return FieldError(k,
-                        "is not an option; use model, view, mode, holdout, budget (and file or "
-                        "dataset)");
+                        "is not an option; use model, view, mode, holdout, budget, layout, "
+                        "color_space (and file or dataset)");
     }
   }
   if (s.mode == "fit") {
@@ -80,13 +100,9 @@ StatusOr<JobSpec> ParseJobSpecFields(const std::map<std::string, std::string>& f
     if (!known)
       return FieldError("model",
                         "'" + s.model + "' is not a model; choose one of: " + list + " or auto");
-  } else if (fields.count("model") || fields.count("view") || fields.count("holdout") ||
-             fields.count("budget")) {
-    return FieldError(fields.count("model")     ? "model"
-                      : fields.count("view")    ? "view"
-                      : fields.count("holdout") ? "holdout"
-                                                : "budget",
-                      "does not apply to mode=leaf");
+  } else {
+    for (const char* k : {"model", "view", "holdout", "budget", "layout", "color_space"})
+      if (fields.count(k)) return FieldError(k, "does not apply to mode=leaf");
   }
   return s;
 }
@@ -124,12 +140,26 @@ StatusOr<JobSpec> ParseJobSpecJson(const std::string& body, std::string* dataset
 StatusOr<JobSpec> JobSpecFromJson(const std::string& stored) {
   const json j = json::parse(stored, nullptr, false);
   if (!j.is_object()) return DataError("stored job spec is not a JSON object");
-  JobSpec s;
-  s.mode = j.value("mode", "fit");
-  s.model = j.value("model", s.model);
-  s.view = j.value("view", "");
-  s.holdout = j.value("holdout", 0);
-  s.budget = j.value("budget", 0.0);
+  // Every value is type- and range-checked: a stored row is data, not trusted code.
+  std::map<std::string, std::string> fields;
+  for (const auto& [k, v] : j.items()) {
+    if (v.is_string()) {
+      fields[k] = v.get<std::string>();
+    } else if (k == "holdout" && v.is_number_integer() && v.get<double>() >= 0 &&
+               v.get<double>() <= 1000) {
+      fields[k] = std::to_string(v.get<int64_t>());
+    } else if (k == "budget" && v.is_number()) {
+      if (v.get<double>() != 0) fields[k] = JsonText(v);  // 0: the default, not a value
+    } else if (!(k == "holdout" && v.is_number_integer() && v.get<int64_t>() == 0)) {
+      return DataError("stored job spec: field '" + k + "' has the wrong type");
+    }
+  }
+  if (fields.count("holdout") && fields["holdout"] == "0") fields.erase("holdout");
+  for (const char* k : {"view", "layout", "color_space"})  // defaults stored as "" / "auto"
+    if (fields.count(k) && (fields[k].empty() || fields[k] == "auto")) fields.erase(k);
+  if (fields.count("mode") && fields["mode"] == "leaf") fields.erase("model");
+  auto s = ParseJobSpecFields(fields);
+  if (!s.ok()) return DataError("stored job spec: " + s.status().message());
   return s;
 }
 

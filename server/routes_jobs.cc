@@ -7,6 +7,7 @@
 #include <set>
 
 #include "core/path_util.h"
+#include "server/api_wording.h"
 #include "server/archive.h"
 #include "server/job_runner.h"
 #include "server/job_spec.h"
@@ -143,8 +144,8 @@ void Server::Impl::RegisterJobRoutes() {
           [&](const httplib::MultipartFormData& part) {
             current = part.name;
             if (!IsUtf8(current)) return problem_field = current, not_utf8 = true, false;
-            static const std::set<std::string> kFields = {"file", "model",   "view",
-                                                          "mode", "holdout", "budget"};
+            static const std::set<std::string> kFields = {
+                "file", "model", "view", "mode", "holdout", "budget", "layout", "color_space"};
             if (!kFields.count(current)) return problem_field = current, unknown = true, false;
             if (current == "file") {
               if (has_file) return problem_field = "file", false;
@@ -225,11 +226,14 @@ void Server::Impl::RegisterJobRoutes() {
                                  : problem == ArchiveProblem::kNone    ? 500
                                                                        : 400,
                                  ForClients(ex.status().message()), "file");
-      if (Status st = ValidateDataset(*spec, ex->dataset_root, options.max_stack_samples);
+      std::string field;
+      if (Status st = ValidateDataset(*spec, ex->dataset_root, options.max_stack_samples, &field);
           !st.ok()) {
         JobRecord unpacked;  // the reader's paths, relative to the archive's dataset folder
         unpacked.dataset = ex->dataset_root, unpacked.uploaded = true;
-        return SendErrorAndClose(res, 422, ForClients(st.message(), &unpacked), "file");
+        LogEvent("info", "upload_refused", {{"id", id}, {"reason", st.message()}});
+        return SendErrorAndClose(res, 422, ForClients(st.message(), &unpacked),
+                                 field.empty() ? "file" : field);
       }
       // Move into place; the dataset path keeps the archive's top folder, if any.
       const std::string rel = fs::relative(ex->dataset_root, staging.dir + "/dataset", ec).string();
@@ -275,8 +279,11 @@ void Server::Impl::RegisterJobRoutes() {
             "dataset");
       // 404 for a folder that is not there; a folder whose contents fail the check is 422.
       const bool exists = fs::is_directory(canonical, ec);
-      if (Status st = ValidateDataset(*spec, canonical, options.max_stack_samples); !st.ok())
-        return SendErrorAndClose(res, exists ? 422 : 404, st.message(), "dataset");
+      std::string field;
+      if (Status st = ValidateDataset(*spec, canonical, options.max_stack_samples, &field);
+          !st.ok())
+        return SendErrorAndClose(res, exists ? 422 : 404, ApiWording(st.message()),
+                                 field.empty() ? "dataset" : field);
       job.dataset = canonical;
     }
     job.spec_json = JsonText(spec->ToJson());

@@ -16,6 +16,7 @@
 
 #include "core/parallel.h"
 #include "core/version.h"
+#include "server/api_wording.h"
 #include "server/job_runner.h"
 #include "server/job_spec.h"
 #include "server/log.h"
@@ -62,7 +63,7 @@ std::string Server::Impl::ForClients(std::string message, const JobRecord* job) 
   }
   replace_all(data + "/", "");
   replace_all(data, "the data folder");
-  return message;
+  return ApiWording(std::move(message));
 }
 
 bool ServerOptions::Check(std::string* why) const {
@@ -506,6 +507,7 @@ void Server::Impl::RunOne(const JobRecord& job) {
       f.state = JobState::kCancelled, f.error = "cancelled while running";
     } else {
       f.state = JobState::kFailed, f.error = ForClients(r.status().message(), &job);
+      LogEvent("info", "job_failed", {{"id", job.id}, {"error", r.status().message()}});
       if (f.error.find(std::strerror(ENOSPC)) != std::string::npos)
         f.error = "the server's disk is full (ENOSPC); free space and submit again: " + f.error;
     }

@@ -1,7 +1,10 @@
 // Layout names, detection and dispatch.
 #include "core/dataset/dataset.h"
 
+#include <algorithm>
 #include <filesystem>
+#include <utility>
+#include <vector>
 
 #include "core/dataset/btf_names.h"
 #include "core/dataset/stack_loader.h"
@@ -90,41 +93,51 @@ StatusOr<Layout> DetectLayout(const std::string& path, std::string* reason,
   if (fs::is_empty(p, ec))
     return DataError((confine_to.empty() ? "dataset folder '" + path + "'" : shown) +
                      " is empty: expected images and a light file");
-  if (fs::exists(p / "filenames.txt", ec) && fs::exists(p / "light_directions.txt", ec)) {
-    *reason = "filenames.txt and light_directions.txt (DiLiGenT)";
-    return Layout::kDiligent;
-  }
+  // Evidence for each layout; a folder with evidence for two is refused, never guessed.
+  std::vector<std::pair<Layout, std::string>> found;
+  if (fs::exists(p / "filenames.txt", ec) && fs::exists(p / "light_directions.txt", ec))
+    found.push_back({Layout::kDiligent, "filenames.txt and light_directions.txt (DiLiGenT)"});
   std::vector<std::string> lps;
   for (const auto& e : fs::directory_iterator(p, ec))
     if (e.is_regular_file(ec) && e.path().extension() == ".lp") lps.push_back(e.path().filename());
-  if (lps.size() == 1) {
-    *reason = "one .lp light file (" + lps[0] + ")";
-    return Layout::kLp;
-  }
   if (lps.size() > 1) {
+    std::sort(lps.begin(), lps.end());
     std::string list;
     for (const auto& s : lps) list += (list.empty() ? "" : ", ") + s;
     return InvalidArgument(shown + " holds several .lp files (" + list +
                            "); keep only the one to read, or pass it, e.g. '" +
                            DatasetRelative((p / lps[0]).string(), confine_to) + "'");
   }
+  if (lps.size() == 1) found.push_back({Layout::kLp, "one .lp light file (" + lps[0] + ")"});
   const std::string name = p.filename().string();
   const std::string lights = FindLightsTxt(path, confine_to);
   if (!lights.empty()) {
     for (const auto& e : fs::directory_iterator(p, ec))
       if (e.path().stem() == name + ".0") {
-        *reason =
-            "'" + DatasetRelative(lights, confine_to) + "' and numbered images " + name + ".N";
-        return Layout::kLightsTxt;
+        found.push_back({Layout::kLightsTxt, "'" + DatasetRelative(lights, confine_to) +
+                                                 "' and numbered images " + name + ".N"});
+        break;
       }
   }
-  if (AnyMatching(p, ParseBonnName)) {
-    *reason = "image names like 'NNNNN tlAAA plBBB tvCCC pvDDD' (Bonn UBO2003)";
-    return Layout::kBonn;
+  if (AnyMatching(p, ParseBonnName))
+    found.push_back(
+        {Layout::kBonn, "image names like 'NNNNN tlAAA plBBB tvCCC pvDDD' (Bonn UBO2003)"});
+  if (AnyMatching(p, ParseUtiaName))
+    found.push_back({Layout::kUtia, "image names like 'tl000_pl000_tv000_pv000' (UTIA)"});
+  if (found.size() == 1) {
+    *reason = found[0].second;
+    return found[0].first;
   }
-  if (AnyMatching(p, ParseUtiaName)) {
-    *reason = "image names like 'tl000_pl000_tv000_pv000' (UTIA)";
-    return Layout::kUtia;
+  if (found.size() > 1) {
+    std::string list, choices;
+    for (size_t i = 0; i < found.size(); ++i) {
+      const std::string sep = i == 0 ? "" : i + 1 == found.size() ? " and " : ", ";
+      list += sep + LayoutName(found[i].first) + " (" + found[i].second + ")";
+      choices += (i == 0 ? "" : " or ") + std::string("--layout ") + LayoutName(found[i].first);
+    }
+    return DataError(shown + " holds the files of " + std::to_string(found.size()) +
+                     " layouts: " + list + "; pass " + choices +
+                     " to say which to read, or remove the other's files");
   }
   const std::string parent_note =
       !confine_to.empty() && ParentHasLightsTxt(path)
