@@ -134,7 +134,7 @@ StatusOr<CapturePlan> ReadPlan(const std::string& path) {
   json j;
   try {
     j = json::parse(text.str());
-  } catch (const json::parse_error& e) {
+  } catch (const json::exception& e) {  // parse_error, or out_of_range (a number like 1e999)
     return DataError("capture plan '" + path + "' is not valid JSON: " + e.what());
   }
   CapturePlan p;

@@ -176,7 +176,7 @@ StatusOr<SceneSpec> ParseScene(const std::string& text, const std::string& sourc
   json j;
   try {
     j = json::parse(text);
-  } catch (const json::parse_error& e) {
+  } catch (const json::exception& e) {  // parse_error, or out_of_range (a number like 1e999)
     return InvalidArgument(source + ": not JSON (" + e.what() + ")");
   }
   if (!j.is_object()) return InvalidArgument(source + ": the scene must be a JSON object");
@@ -192,11 +192,13 @@ StatusOr<SceneSpec> ParseScene(const std::string& text, const std::string& sourc
   static const char* kKeys[] = {
       "schema",      "texel_footprint_px",  "lighting",     "light",      "sun_theta_deg",
       "sun_phi_deg", "memory_budget_bytes", "error_budget", "description"};
-  for (const auto& [k, v] : j.items())
+  for (const auto& item : j.items()) {
+    const std::string& k = item.key();  // lambdas cannot capture structured bindings (clang)
     if (std::none_of(std::begin(kKeys), std::end(kKeys), [&](const char* x) { return k == x; }))
       return InvalidArgument(source + ": unknown field '" + k +
                              "' (known: texel_footprint_px, lighting, light, sun_theta_deg, "
                              "sun_phi_deg, memory_budget_bytes, error_budget)");
+  }
   if (j.contains("schema") && j["schema"] != "matfit.scene/1")
     return InvalidArgument(source + ": field 'schema' must be \"matfit.scene/1\"");
   MATFIT_RETURN_IF_ERROR(number("texel_footprint_px", &s.texel_footprint_px));

@@ -10,6 +10,8 @@ PACKAGES=(
   # core: image I/O, JSON, CLI, logging, threading, math
   libopenimageio-dev openimageio-tools nlohmann-json3-dev libcli11-dev
   libspdlog-dev libfmt-dev libtbb-dev libeigen3-dev libglm-dev
+  # fuzzing and the sanitizer test job (build-san/): clang, libFuzzer + ASan/UBSan runtimes
+  clang libclang-rt-14-dev
   # tests and benchmarks (time: /usr/bin/time for peak RSS and python3 for the tables of
   # scripts/bench-whole-process.sh)
   libgtest-dev libgmock-dev libbenchmark-dev time python3

@@ -44,7 +44,7 @@ std::string ApiWording(std::string m) {
     for (const auto& [f, api] : kFields)
       if (name == f) field = api;
     out += field ? "job field \"" + std::string(field) + "\""
-                 : "the '" + name + "' setting (not a job field: the service uses its default)";
+                 : "the '" + name + "' setting (not a job field)";
     i = j;
   }
   return out;

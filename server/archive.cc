@@ -19,6 +19,13 @@
 namespace matfit::server {
 namespace {
 
+// libarchive's message for the last error; it may be NULL (e.g. a truncated zip), and a NULL
+// appended to a std::string crashed the server (found by fuzz/archive_fuzzer).
+std::string ArchiveError(struct archive* a) {
+  const char* m = archive_error_string(a);
+  return m && *m ? m : "libarchive gave no reason";
+}
+
 namespace fs = std::filesystem;
 
 using ArchivePtr = std::unique_ptr<struct archive, int (*)(struct archive*)>;
@@ -138,7 +145,7 @@ StatusOr<ArchiveResult> ExtractArchive(const std::string& archive_path, const st
   if (archive_read_open_filename(a.get(), archive_path.c_str(), 1 << 16) != ARCHIVE_OK)
     return fail(ArchiveProblem::kMalformed,
                 std::string("the upload is not a .zip, .tar or .tar.gz archive (") +
-                    archive_error_string(a.get()) + ")");
+                    ArchiveError(a.get()) + ")");
   result.dataset_root = dest;
   std::vector<char> buf(1 << 16);
   for (;;) {
@@ -147,7 +154,7 @@ StatusOr<ArchiveResult> ExtractArchive(const std::string& archive_path, const st
     if (r == ARCHIVE_EOF) break;
     if (r != ARCHIVE_OK && r != ARCHIVE_WARN)
       return fail(ArchiveProblem::kMalformed,
-                  std::string("the archive is corrupt: ") + archive_error_string(a.get()));
+                  std::string("the archive is corrupt: ") + ArchiveError(a.get()));
     const char* raw = archive_entry_pathname(e);
     const std::string name = raw ? raw : "";
     if (++result.entries > limits.max_entries)
@@ -212,9 +219,8 @@ StatusOr<ArchiveResult> ExtractArchive(const std::string& archive_path, const st
       if (n == 0) break;
       if (n < 0) {
         ::close(fd);
-        return fail(
-            ArchiveProblem::kMalformed,
-            "archive entry '" + Printable(name) + "' is corrupt: " + archive_error_string(a.get()));
+        return fail(ArchiveProblem::kMalformed,
+                    "archive entry '" + Printable(name) + "' is corrupt: " + ArchiveError(a.get()));
       }
       result.bytes += n;
       if (result.bytes > budget) {

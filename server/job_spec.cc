@@ -111,7 +111,7 @@ StatusOr<JobSpec> ParseJobSpecJson(const std::string& body, std::string* dataset
   json j;
   try {
     j = json::parse(body);
-  } catch (const json::parse_error& e) {  // e.what() names the byte offset and the token
+  } catch (const json::exception& e) {  // parse_error names the offset; out_of_range: 1e999
     return InvalidArgument(std::string("the body is not valid JSON: ") + e.what());
   }
   if (!j.is_object()) return InvalidArgument("the body must be a JSON object");

@@ -174,7 +174,7 @@ TEST(ApiWording, FlagsBecomeJobFieldsOrNamedSettings) {
   EXPECT_EQ(ApiWording("--holdout must be 0 (off) or ≥ 2 folds"),
             "job field \"holdout\" must be 0 (off) or ≥ 2 folds");
   EXPECT_EQ(ApiWording("give --mm-per-pixel"),
-            "give the 'mm-per-pixel' setting (not a job field: the service uses its default)");
+            "give the 'mm-per-pixel' setting (not a job field)");
   EXPECT_EQ(ApiWording("a 2--3 range and x-- y"), "a 2--3 range and x-- y");
 }
 

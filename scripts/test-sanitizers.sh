@@ -1,0 +1,51 @@
+#!/usr/bin/env bash
+# The test suite under AddressSanitizer + UBSan (build-san/, docs/sanitizers.md). By default the
+# CI selection: the readers, fits, leaf, capture and server test binaries, without the slowest
+# fit cases (listed in docs/sanitizers.md; the normal build runs them). --full: every test
+# through ctest. Any sanitizer report fails the run (reports abort the process).
+# Usage: test-sanitizers.sh [--full] [--no-build]
+set -euo pipefail
+root=$(cd "$(dirname "$0")/.." && pwd)
+build=${MATFIT_SAN_BUILD_DIR:-"$root/build-san"}
+full=0; do_build=1
+for a in "$@"; do
+  case "$a" in
+    --full) full=1 ;;
+    --no-build) do_build=0 ;;
+    *) echo "test-sanitizers: unknown argument '$a'"; exit 2 ;;
+  esac
+done
+export ASAN_OPTIONS="detect_leaks=1:abort_on_error=1:strict_string_checks=1:detect_stack_use_after_return=1"
+export LSAN_OPTIONS="suppressions=$root/tools/sanitizers/lsan.supp:print_suppressions=0"
+export UBSAN_OPTIONS="print_stacktrace=1:halt_on_error=1"
+if [ "$full" = 1 ]; then
+  [ "$do_build" = 0 ] || "$root/scripts/build-san.sh" all
+  cd "$build" && exec ctest --output-on-failure -j "$(nproc)"
+fi
+# binary → gtest filter. The fit cases left out each take minutes uninstrumented-equivalent
+# under ASan at -O1 (real-data ladders and held-out folds over whole stacks, selection sweeps).
+declare -A filter=(
+  [tests/core/core_tests]="*"
+  [tests/fit/fit_tests]="-RealLadder*:*RealLadder*:RealHeldOut.*:RealData*:Select.*:FitJob.ReportOnly*:Stability.*"
+  [tests/leaf/leaf_tests]="*"
+  [tests/capture/capture_tests]="*"
+  [tests/server/server_tests]="*"
+  [tests/server/server_hardening_input_tests]="*"
+)
+if [ "$do_build" = 1 ]; then
+  targets=(); for b in "${!filter[@]}"; do targets+=("$(basename "$b")"); done
+  "$root/scripts/build-san.sh" "${targets[@]}" matfit
+fi
+failed=0
+for b in $(printf '%s\n' "${!filter[@]}" | sort); do
+  start=$(date +%s)
+  if (cd "$build/$(dirname "$b")" && "./$(basename "$b")" --gtest_filter="${filter[$b]}" \
+        --gtest_brief=1 >"$build/$(basename "$b").san.log" 2>&1); then
+    echo "sanitizers: $(basename "$b") clean ($(( $(date +%s) - start )) s)"
+  else
+    echo "SANITIZER/TEST FAILURE in $(basename "$b") (log: $build/$(basename "$b").san.log)"
+    grep -E "ERROR: |runtime error|FAILED|SUMMARY" "$build/$(basename "$b").san.log" | head -30
+    failed=1
+  fi
+done
+exit $failed
