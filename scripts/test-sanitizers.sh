@@ -22,15 +22,18 @@ if [ "$full" = 1 ]; then
   [ "$do_build" = 0 ] || "$root/scripts/build-san.sh" all
   cd "$build" && exec ctest --output-on-failure -j "$(nproc)"
 fi
-# binary → gtest filter. The fit cases left out each take minutes uninstrumented-equivalent
-# under ASan at -O1 (real-data ladders and held-out folds over whole stacks, selection sweeps).
+# binary → gtest filter (docs/sanitizers.md says why each exclusion is made; the normal build
+# runs every one of them). Left out: real-data ladders, held-out folds and selection sweeps over
+# whole stacks (minutes each under ASan at -O1; the readers they use are fuzzed and covered by the
+# synthetic cases), the real-sheet leaf runs, tests whose deadlines assume uninstrumented speed,
+# the headless-browser test, and a test that caps the address space (ASan reserves terabytes).
 declare -A filter=(
   [tests/core/core_tests]="*"
   [tests/fit/fit_tests]="-RealLadder*:*RealLadder*:RealHeldOut.*:RealData*:Select.*:FitJob.ReportOnly*:Stability.*"
-  [tests/leaf/leaf_tests]="*"
+  [tests/leaf/leaf_tests]="-LeafScan.FindsEveryLeafOfTheSharedSheet:LeafScan.FastMatchesTheReferenceOnARealLeaf:LeafJob.NamesLeavesWithManyFlaggedTexels:Translucency.Hl2ErrorVersusDirectionCount:Translucency.Hl2ReconstructsTheMultipoleWithinThePublishedError:LeafScan.LightsAtSeveralElevationsFitTheSpecularLobe:LeafScan.DisplacementScansGiveTheThickness"
   [tests/capture/capture_tests]="*"
-  [tests/server/server_tests]="*"
-  [tests/server/server_hardening_input_tests]="*"
+  [tests/server/server_tests]="-ServerTest.QueuedJobCancelsAtOnceAndRestartDuringARunCompletesIt:ServerTest.ViewerPageRendersThePackInHeadlessChromium:ServerTest.CancelARunningFitStopsPromptlyAndLeavesNoPack"
+  [tests/server/server_hardening_input_tests]="-BombTest.CliNamesTheFileAndTheDeclaredSizeInsteadOfBadAlloc"
 )
 if [ "$do_build" = 1 ]; then
   targets=(); for b in "${!filter[@]}"; do targets+=("$(basename "$b")"); done

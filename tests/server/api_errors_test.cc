@@ -173,8 +173,7 @@ TEST(ApiWording, FlagsBecomeJobFieldsOrNamedSettings) {
             "re-read them as sRGB (job field \"color_space\": \"srgb\") or linearise them");
   EXPECT_EQ(ApiWording("--holdout must be 0 (off) or ≥ 2 folds"),
             "job field \"holdout\" must be 0 (off) or ≥ 2 folds");
-  EXPECT_EQ(ApiWording("give --mm-per-pixel"),
-            "give the 'mm-per-pixel' setting (not a job field)");
+  EXPECT_EQ(ApiWording("give --mm-per-pixel"), "give the 'mm-per-pixel' setting (not a job field)");
   EXPECT_EQ(ApiWording("a 2--3 range and x-- y"), "a 2--3 range and x-- y");
 }
 
