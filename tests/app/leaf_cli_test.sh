@@ -1,7 +1,8 @@
 #!/usr/bin/env bash
 # End-to-end `matfit leaf`: a synthetic scan → packs + leaves.json; bad arguments and input exit
 # non-zero naming the problem; the glTF validator accepts a leaf pack; the shared sheet (when
-# present) yields its 23 leaves.
+# present) yields its 23 leaves and names its leaves with many flagged texels; every stage of
+# leaf and synth shows progress.
 # Usage: leaf_cli_test.sh MATFIT_BINARY SOURCE_DIR SHARED_DATA_DIR
 set -u
 bin=$1; src=$2; shared=$3
@@ -24,6 +25,21 @@ for f in leaves.json segmentation.png transmission.exr leaf_01/material.json lea
 done
 expect_contains "leaves.json" "$(cat "$tmp/leaf/leaves.json")" '"schema": "matfit.leaves/1"'
 expect_contains "gltf extension" "$(cat "$tmp/leaf/leaf_01/material.gltf")" "KHR_materials_diffuse_transmission"
+
+# Without --quiet every stage reports progress (issue #21: `leaf` was silent for most of a run);
+# on a pipe these are plain lines, one at least per stage when it completes.
+out=$("$bin" leaf "$src/fixtures/leaf-scan" --out "$tmp/leaf-progress" 2>&1) && ok || bad "leaf progress run: $out"
+for stage in read sheet leaves write; do
+  expect_contains "leaf progress $stage" "$out" "$stage [####################] 100%"
+done
+expect_contains "leaf sheet steps" "$out" "sheet [####################] 100% 15/15"
+expect_contains "leaf per-leaf steps" "$out" "leaves [####################] 100% 5/5"
+out=$("$bin" synth --size 16 --lights ring12 --out "$tmp/synth-progress" 2>&1) && ok || bad "synth: $out"
+expect_contains "synth render progress" "$out" "render [####################] 100% 12/12"
+expect_contains "synth write progress" "$out" "write [####################] 100% 12/12"
+out=$("$bin" synth --leaf-scan --size 48 --out "$tmp/scan-progress" 2>&1) && ok || bad "synth scan: $out"
+expect_contains "synth scan render progress" "$out" "render [####################] 100% 15/15"
+expect_contains "synth scan write progress" "$out" "write [####################] 100% 20/20"
 
 # The pack renders with the leaf shader, lit from behind.
 out=$("$bin" render "$tmp/leaf/leaf_01" --light 150,45 --size 32 --backend cpu --out "$tmp/back.png" 2>&1) \
