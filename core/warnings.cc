@@ -35,6 +35,9 @@ constexpr std::array kWarnings = {
                 "extra images are not used"},
     WarningSpec{W::kAlphaDropped, "alpha-dropped", "dataset",
                 "images have an alpha channel, which is not used (not a mask)"},
+    WarningSpec{W::kEncodingAssumed, "encoding-assumed", "dataset",
+                "images carry no colour metadata: their encoding is the bit-depth convention "
+                "(8-bit sRGB, deeper linear), not known"},
     WarningSpec{W::kGammaEncoded, "gamma-encoded", "dataset",
                 "values grow like (n·l)^(1/γ): gamma-encoded images read as linear"},
     WarningSpec{W::kFlaggedTexels, "flagged-texels", "fit",

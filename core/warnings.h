@@ -24,6 +24,7 @@ enum class WarningCode {
   kLightCountMismatch,
   kAlphaDropped,
   kGammaEncoded,
+  kEncodingAssumed,
   // Fit.
   kFlaggedTexels,
   kUnboundedError,

@@ -17,16 +17,19 @@ bool FlagChar(char c) { return std::islower(static_cast<unsigned char>(c)) || c 
 }  // namespace
 
 std::string ApiWording(std::string m) {
-  // Phrases first, so that the result reads as an instruction to an API client.
-  const std::pair<const char*, const char*> phrases[] = {
-      {"pass --layout ", "set the job field \"layout\" to "},
-      {" or --layout ", " or to "},
-      {"or pass --layout", "or set the job field \"layout\""},
-      {"(--color-space srgb)", "(job field \"color_space\": \"srgb\")"},
+  // Phrases first, so that the result reads as an instruction to an API client:
+  // "pass --layout lp or --layout bonn" → "set the job field "layout" to lp or to bonn".
+  auto replace_all = [&](const std::string& from, const std::string& to) {
+    for (size_t at = 0; (at = m.find(from, at)) != std::string::npos; at += to.size())
+      m.replace(at, from.size(), to);
   };
-  for (const auto& [from, to] : phrases)
-    for (size_t at = 0; (at = m.find(from, at)) != std::string::npos; at += std::string(to).size())
-      m.replace(at, std::string(from).size(), to);
+  replace_all("(--color-space srgb)", "(job field \"color_space\": \"srgb\")");
+  for (const auto& [flag, field] : kFields) {
+    const std::string f = std::string("--") + flag, api = std::string("\"") + field + "\"";
+    replace_all("pass " + f + " ", "set the job field " + api + " to ");
+    replace_all(" or " + f + " ", " or to ");
+    replace_all("pass " + f, "set the job field " + api);
+  }
   // Then every remaining "--flag".
   std::string out;
   for (size_t i = 0; i < m.size();) {

@@ -121,6 +121,23 @@ DatasetInfo ComputeDatasetInfo(const LightStack& s) {
   // Warnings.
   auto& w = info.warnings;
   w = s.read_warnings;
+  // An encoding from the bit-depth convention is a guess: say so (the γ check of `info` and
+  // `fit` then says when the data contradict it).
+  int assumed_srgb = 0, assumed_linear = 0;
+  for (const auto& r : s.encoding_reasons)
+    assumed_srgb += r == "8-bit default (sRGB)",
+        assumed_linear += r.rfind("default for high", 0) == 0;
+  if (assumed_srgb + assumed_linear > 0)
+    w.push_back(
+        Warning(WarningCode::kEncodingAssumed,
+                std::to_string(assumed_srgb + assumed_linear) + " of " +
+                    std::to_string(s.encoding_reasons.size()) +
+                    " images carry no colour metadata and were read as " +
+                    (assumed_srgb && assumed_linear ? "sRGB (8-bit) or linear (16-bit and deeper)"
+                     : assumed_srgb                 ? "sRGB (the 8-bit convention)"
+                                    : "linear (the convention for 16-bit and deeper)") +
+                    "; if the camera wrote them otherwise, pass --color-space " +
+                    (assumed_srgb ? "linear" : "srgb")));
   if (n < 3)
     w.push_back(
         Warning(WarningCode::kTooFewLights, "only " + std::to_string(n) +

@@ -2,7 +2,8 @@
 # Nothing silent (issue #21): each case that used to pass with "warnings none" now warns, with its
 # code, in `matfit info` (text and --json), in the fit's summary and in report.json `warnings`.
 # Cases: a lights.txt with fewer lights than images, RGBA images, gamma-encoded 16-bit TIFFs
-# without colour metadata, a 262° light-azimuth gap, lights at one elevation.
+# without colour metadata (and the encoding assumed for them), a 262° light-azimuth gap, lights at
+# one elevation.
 # Usage: warnings_test.sh MATFIT_BINARY PROJECT_ROOT
 set -u
 bin=$1; src=$2
@@ -52,7 +53,9 @@ for f in g8/g8.*.png; do
   oiiotool "$f" --eraseattrib oiio:ColorSpace -d uint16 -o "gamma/g8/$(basename "$f" .png).tif"
 done
 warns gamma gamma/g8 gamma-encoded
+warns gamma gamma/g8 encoding-assumed  # no metadata: 16-bit read as linear by convention
 fit_warns gamma gamma/g8 gamma-encoded
+warns gamma gamma/g8 encoding-assumed  # no metadata: 16-bit read as linear by convention
 
 # 4. All lights within φ 0…98°: a 262° azimuth gap (θ spread over 20…66°, so no elevation warning).
 mkdir gap && cp -r ds gap/ds

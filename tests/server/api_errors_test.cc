@@ -171,6 +171,8 @@ TEST(ApiWording, FlagsBecomeJobFieldsOrNamedSettings) {
             "set the job field \"layout\" to lp or to lights-txt to say which");
   EXPECT_EQ(ApiWording("re-read them as sRGB (--color-space srgb) or linearise them"),
             "re-read them as sRGB (job field \"color_space\": \"srgb\") or linearise them");
+  EXPECT_EQ(ApiWording("if the camera wrote them otherwise, pass --color-space linear"),
+            "if the camera wrote them otherwise, set the job field \"color_space\" to linear");
   EXPECT_EQ(ApiWording("--holdout must be 0 (off) or ≥ 2 folds"),
             "job field \"holdout\" must be 0 (off) or ≥ 2 folds");
   EXPECT_EQ(ApiWording("give --mm-per-pixel"), "give the 'mm-per-pixel' setting (not a job field)");
