@@ -2,17 +2,20 @@
 # Runs the libFuzzer targets (fuzz/, docs/fuzzing.md), each for a fixed time over a scratch copy
 # of its seed corpus fuzz/corpus/NAME. Fails on the first crash, leak, sanitizer report or
 # timeout, naming the reproducer (build-san/fuzz-artifacts/). Prints executions and coverage.
-# Usage: fuzz.sh [--time SECONDS] [--no-build] [NAME...]     (default 20 s, every target)
+# Usage: fuzz.sh [--time SECONDS] [--seed N] [--no-build] [NAME...]   (default 20 s, every target)
+# The seed defaults to 1, so a short run (CI) replays the same inputs on every machine and a
+# finding is reproducible; --seed 0 lets libFuzzer pick one (the long exploratory runs).
 # Reproduce: build-san/fuzz/NAME_fuzzer ARTIFACT
 set -euo pipefail
 root=$(cd "$(dirname "$0")/.." && pwd)
 build=${MATFIT_SAN_BUILD_DIR:-"$root/build-san"}
-seconds=20; do_build=1; names=()
+seconds=20; seed=1; do_build=1; names=()
 while [ $# -gt 0 ]; do
   case "$1" in
     --time) seconds=$2; shift 2 ;;
+    --seed) seed=$2; shift 2 ;;
     --no-build) do_build=0; shift ;;
-    -h|--help) sed -n '2,7p' "$0"; exit 0 ;;
+    -h|--help) sed -n '2,9p' "$0"; exit 0 ;;
     *) names+=("$1"); shift ;;
   esac
 done
@@ -34,7 +37,7 @@ for n in "${names[@]}"; do
   [ -x "$bin" ] || { echo "fuzz: $bin not built"; failed=1; continue; }
   work=$(mktemp -d); mkdir -p "$work/corpus"
   cp -r "$root/fuzz/corpus/$n/." "$work/corpus/" 2>/dev/null || true
-  opts=(-max_total_time="$seconds" -timeout=20 -rss_limit_mb=2560 -print_final_stats=1
+  opts=(-max_total_time="$seconds" -seed="$seed" -timeout=20 -rss_limit_mb=2560 -print_final_stats=1
         -artifact_prefix="$artifacts/$n-")
   case "$n" in
     archive|upload) opts+=(-max_len=65536) ;;
