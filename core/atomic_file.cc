@@ -44,7 +44,7 @@ Status AtomicFile::Commit() {
   return Status::Ok();
 }
 
-Status WriteFileAtomic(const std::string& path, const std::string& contents) {
+Status WriteFileAtomic(const std::string& path, std::string_view contents) {
   AtomicFile file(path);
   const int fd = ::open(file.temp_path().c_str(), O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0644);
   if (fd < 0) return IoError("cannot create '" + file.temp_path() + "': " + std::strerror(errno));

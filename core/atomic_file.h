@@ -3,6 +3,7 @@
 #pragma once
 
 #include <string>
+#include <string_view>
 
 #include "core/status.h"
 
@@ -25,7 +26,7 @@ class AtomicFile {
 };
 
 // Writes `contents` to `path` atomically.
-Status WriteFileAtomic(const std::string& path, const std::string& contents);
+Status WriteFileAtomic(const std::string& path, std::string_view contents);
 
 // A folder built under a temporary name beside `final_path`, then moved into place. The
 // finished folder carries matfit's output marker (core/output_marker.h) naming `kind`

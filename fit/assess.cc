@@ -10,13 +10,14 @@
 namespace matfit::fit {
 
 FitAssessment AssessFit(const LightStack& stack, const FitMethod& method, FitResult* r,
-                        const ConfidenceOptions& options, const ProgressFn& progress) {
+                        const ConfidenceOptions& options, const ProgressFn& progress,
+                        const TexelResiduals* residuals) {
   FitAssessment a;
   a.diagnostics = DiagnoseStack(stack);
   a.confidence = ComputeConfidence(
       stack, r->maps,
       {method.parameters_per_texel(), method.parameters_per_channel(), method.light_parameters()},
-      &r->status, options, progress);
+      &r->status, options, progress, residuals);
   if (a.diagnostics.looks_gamma_encoded) {
     for (size_t p = 0; p < r->status.size(); ++p)
       if (r->status[p] == kTexelOk) {

@@ -18,7 +18,9 @@ struct FitAssessment {
 // Marks texels kTexelUnverifiable (no bound) and, when the stack looks gamma-encoded, every ok
 // texel kTexelSuspectData (bound +inf); appends the warnings; recounts flagged_texels.
 // `progress` follows the per-texel bound (the part that reads the stack).
+// `residuals`: ScoreStack's sums for this fit (fit/score.h), when a fused pass made them.
 FitAssessment AssessFit(const LightStack& stack, const FitMethod& method, FitResult* result,
-                        const ConfidenceOptions& options = {}, const ProgressFn& progress = {});
+                        const ConfidenceOptions& options = {}, const ProgressFn& progress = {},
+                        const TexelResiduals* residuals = nullptr);
 
 }  // namespace matfit::fit

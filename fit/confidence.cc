@@ -2,10 +2,8 @@
 
 #include <Eigen/Dense>
 #include <algorithm>
-#include <atomic>
 #include <cmath>
 #include <limits>
-#include <mutex>
 
 #include "core/model/model.h"
 #include "core/parallel.h"
@@ -17,6 +15,8 @@
 #endif
 #include "fit/fit_common.h"
 #include "fit/fit_types.h"
+#include "fit/residual_kernels.h"
+#include "fit/score.h"
 
 namespace matfit::fit {
 
@@ -92,10 +92,6 @@ double SupportedThetaDeg(const std::vector<LightSample>& lights, const Vec3& axi
   return std::min(75.0, t + 15.0);
 }
 
-namespace {
-
-// One light and channel of a run: q = raw / I, r = q − pred for the samples that are finite and
-// below the clip level; Σ r², Σ |q|, the sample count, and whether the light was used.
 MATFIT_CONFIDENCE_CLONES
 void ResidualSums(const float* __restrict raw, const float* __restrict pred, float inv,
                   float clip_level, int n, double* __restrict acc, double* __restrict sum,
@@ -111,16 +107,13 @@ void ResidualSums(const float* __restrict raw, const float* __restrict pred, flo
   }
 }
 
-}  // namespace
-
 Confidence ComputeConfidence(const LightStack& s, const MaterialMaps& maps, ModelSize size,
                              std::vector<uint8_t>* status, const ConfidenceOptions& o,
-                             const ProgressFn& progress) {
+                             const ProgressFn& progress, const TexelResiduals* residuals) {
   const int64_t T = s.plane_size();
   const int n = s.num_images(), C = s.channels();
   // Grey stacks fit the per-channel parameters once instead of three times.
   const double P = std::max(1, size.parameters - (3 - std::min(C, 3)) * size.per_channel);
-  const bool clip = StackMayBeClipped(s);
   const int min_lights = size.light_parameters + 3;
   const double inf = std::numeric_limits<double>::infinity();
   Confidence out;
@@ -147,55 +140,17 @@ Confidence ComputeConfidence(const LightStack& s, const MaterialMaps& maps, Mode
   }
   if (out.extrapolation > o.max_extrapolation) out.extrapolation = inf;
 
-  // Pass 1: per-texel residual sums (Σ r², n_x), usable lights m_x and mean level μ_x, batched:
-  // runs of kEvalRun texels, each light's constants once, the texel sums in SoA arrays.
-  std::vector<double> rss(size_t(T), 0.0), level(size_t(T), 0.0);
-  std::vector<int> samples(size_t(T), 0), used_lights(size_t(T), 0);
-  std::vector<Vec3f> dirs;
-  for (const auto& l : s.lights()) dirs.emplace_back(l.direction);
-  const BatchEvaluator eval(maps, dirs, Vec3f(s.view_direction));
-  const std::vector<float> inv = InverseIntensities(s);
-  const float clip_level = clip ? kClipLevel : std::numeric_limits<float>::infinity();
-  const int64_t runs = (T + kEvalRun - 1) / kEvalRun;
-  std::atomic<int64_t> done{0};
-  std::mutex progress_mutex;
-  ParallelFor(
-      0, runs,
-      [&](int64_t r0, int64_t r1) {
-        std::vector<float> pred(size_t(3) * kEvalRun), scratch(kEvalRun);
-        std::vector<double> acc(kEvalRun), sum(kEvalRun);
-        std::vector<int> k(kEvalRun), m(kEvalRun), used(kEvalRun);
-        for (int64_t r = r0; r < r1; ++r) {
-          const int64_t p0 = r * kEvalRun;
-          const int len = int(std::min<int64_t>(kEvalRun, T - p0));
-          bool any = false;
-          for (int t = 0; t < len && !any; ++t) any = ok(p0 + t);
-          if (!any) continue;
-          std::fill_n(acc.begin(), len, 0.0), std::fill_n(sum.begin(), len, 0.0);
-          std::fill_n(k.begin(), len, 0), std::fill_n(m.begin(), len, 0);
-          for (int i = 0; i < n; ++i) {
-            eval.Evaluate(i, p0, len, C, pred.data());
-            std::fill_n(used.begin(), len, 0);
-            for (int c = 0; c < C; ++c)
-              ResidualSums(s.Texels(i, c, p0, len, scratch.data()), pred.data() + size_t(c) * len,
-                           inv[size_t(i) * C + c], clip_level, len, acc.data(), sum.data(),
-                           k.data(), used.data());
-            for (int t = 0; t < len; ++t) m[size_t(t)] += used[size_t(t)];
-          }
-          for (int t = 0; t < len; ++t) {
-            const int64_t p = p0 + t;
-            if (!ok(p)) continue;
-            rss[p] = acc[t], samples[p] = k[t], used_lights[p] = m[t];
-            level[p] = k[t] ? sum[t] / k[t] : 0;
-          }
-        }
-        const int64_t d = done += r1 - r0;
-        if (progress) {
-          std::lock_guard<std::mutex> lock(progress_mutex);
-          progress(d, runs);
-        }
-      },
-      4);
+  // Pass 1 (fit/score.h): per-texel residual sums Σ r², n_x, usable lights m_x, mean level μ_x.
+  TexelResiduals own;
+  if (!residuals) {
+    own = ScoreStack(s, maps, status ? *status : std::vector<uint8_t>{}, progress,
+                     /*reconstruction=*/false)
+              .residuals;
+    residuals = &own;
+  }
+  MATFIT_CHECK(residuals->rss.size() == size_t(T), "ComputeConfidence: residuals of another stack");
+  const std::vector<double>&rss = residuals->rss, &level = residuals->level;
+  const std::vector<int>&samples = residuals->samples, &used_lights = residuals->used_lights;
   // Pooled noise over texels with residual degrees of freedom.
   double pooled_rss = 0, pooled_dof = 0;
   for (int64_t p = 0; p < T; ++p)

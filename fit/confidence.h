@@ -61,9 +61,14 @@ struct Confidence {
 
 // status: the fit's status plane (may be empty = all ok); texels found unverifiable are marked
 // kTexelUnverifiable in it. Batched over runs of texels; `progress` gets runs done / total.
+struct TexelResiduals;  // fit/score.h
+
+// `residuals`, when given, are ScoreStack's sums for this stack, maps and status (a fused pass
+// that also scored the reconstruction); otherwise the pass runs here, reporting `progress`.
 Confidence ComputeConfidence(const LightStack& stack, const MaterialMaps& maps, ModelSize size,
                              std::vector<uint8_t>* status, const ConfidenceOptions& options = {},
-                             const ProgressFn& progress = {});
+                             const ProgressFn& progress = {},
+                             const TexelResiduals* residuals = nullptr);
 
 // The lights' mean direction (upper hemisphere; +z when there is none).
 Vec3 LightAxis(const std::vector<LightSample>& lights);

@@ -113,12 +113,17 @@ StackDiagnostics DiagnoseStack(const LightStack& s, int max_texels) {
   }
   double a = std::log(best) - std::log(11.0) / 24, b = std::log(best) + std::log(11.0) / 24;
   const double phi = (std::sqrt(5.0) - 1) / 2;
+  // One new residual per step: the kept interior point is the next step's other one.
+  double x1 = b - phi * (b - a), x2 = a + phi * (b - a);
+  double r1 = LambertResidual(texels, std::exp(x1)), r2 = LambertResidual(texels, std::exp(x2));
   for (int it = 0; it < 20; ++it) {
-    const double x1 = b - phi * (b - a), x2 = a + phi * (b - a);
-    if (LambertResidual(texels, std::exp(x1)) < LambertResidual(texels, std::exp(x2)))
-      b = x2;
-    else
-      a = x1;
+    if (r1 < r2) {
+      b = x2, x2 = x1, r2 = r1;
+      x1 = b - phi * (b - a), r1 = LambertResidual(texels, std::exp(x1));
+    } else {
+      a = x1, x1 = x2, r1 = r2;
+      x2 = a + phi * (b - a), r2 = LambertResidual(texels, std::exp(x2));
+    }
   }
   const double g = std::exp((a + b) / 2), r = LambertResidual(texels, g);
   if (r < best_r) best = g, best_r = r;

@@ -16,6 +16,7 @@
 #include "fit/assess.h"
 #include "fit/method.h"
 #include "fit/report.h"
+#include "fit/score.h"
 
 namespace matfit::fit {
 namespace {
@@ -209,12 +210,14 @@ StatusOr<FitJobResult> RunFitJob(const FitJobOptions& o, const StageProgress& pr
   stages.End();
 
   r.images = stack->num_images();
+  // One pass predicts every image: the reconstruction metrics and the bound's residual sums.
   if (!stages.Begin("reconstruction")) return Cancelled();
-  r.reconstruction = Reconstruction(*stack, fit->maps, fit->status, stages.Callback());
+  StackScore score = ScoreStack(*stack, fit->maps, fit->status, stages.Callback());
+  r.reconstruction = score.reconstruction;
   stages.End();
   const std::vector<uint8_t> fitted_status = fit->status;  // metrics describe what was fitted
   if (!stages.Begin("confidence")) return Cancelled();
-  r.assessment = AssessFit(*stack, *method, &*fit, {}, stages.Callback());
+  r.assessment = AssessFit(*stack, *method, &*fit, {}, stages.Callback(), &score.residuals);
   with_dataset_warnings(&fit->warnings);
   stages.End();
   if (selection) {

@@ -9,6 +9,7 @@
 
 #include "core/model/model.h"
 #include "core/parallel.h"
+#include "fit/residual_kernels.h"
 
 #if defined(__x86_64__) && defined(__GNUC__) && !defined(__clang__) && defined(__linux__)
 #define MATFIT_METRIC_CLONES __attribute__((target_clones("arch=haswell", "default")))
@@ -43,6 +44,8 @@ __attribute__((always_inline)) inline void Accumulate8(const float* obs, const f
   *a += lo * lo, *b += hi * hi;
 }
 
+}  // namespace
+
 MATFIT_METRIC_CLONES
 double SumSquaredDiff(const float* obs, const float* pred, float intensity, const float* ok,
                       int n) {
@@ -61,7 +64,31 @@ double SumSquaredDiff(const float* obs, const float* pred, float intensity, cons
   return ((s[0] + s[2]) + (s[1] + s[3])) + tail;
 }
 
-}  // namespace
+ReconstructionMetrics ReduceReconstruction(const LightStack& s, const std::vector<int>& images,
+                                           const std::vector<double>& run_sum,
+                                           const std::vector<int64_t>& run_count, int64_t runs) {
+  const int n = int(images.size());
+  ReconstructionMetrics m;
+  std::map<int, std::pair<double, int64_t>> groups;
+  double total = 0;
+  for (int i = 0; i < n; ++i) {
+    double sum = 0;
+    int64_t count = 0;
+    for (int64_t r = 0; r < runs; ++r)
+      sum += run_sum[size_t(r * n + i)], count += run_count[size_t(r * n + i)];
+    total += sum;
+    m.samples += count;
+    auto& g = groups[int(std::lround(s.lights()[size_t(images[size_t(i)])].theta_deg / 15.0)) * 15];
+    g.first += sum, g.second += count;
+  }
+  const double mse = m.samples ? total / m.samples : 0;
+  m.deviation_percent = 100 * mse;
+  m.rmse = std::sqrt(mse);
+  m.psnr_db = mse > 0 ? 10 * std::log10(1.0 / mse) : INFINITY;
+  for (auto& [t, g] : groups)
+    m.deviation_percent_by_theta[t] = g.second ? 100 * g.first / g.second : 0;
+  return m;
+}
 
 ReconstructionMetrics Reconstruction(const LightStack& s, const MaterialMaps& maps,
                                      const std::vector<uint8_t>& status,
@@ -117,26 +144,7 @@ ReconstructionMetrics Reconstruction(const LightStack& s, const std::vector<int>
         }
       },
       4);
-  ReconstructionMetrics m;
-  std::map<int, std::pair<double, int64_t>> groups;
-  double total = 0;
-  for (int i = 0; i < n; ++i) {
-    double sum = 0;
-    int64_t count = 0;
-    for (int64_t r = 0; r < runs; ++r)
-      sum += run_sum[size_t(r * n + i)], count += run_count[size_t(r * n + i)];
-    total += sum;
-    m.samples += count;
-    auto& g = groups[int(std::lround(s.lights()[size_t(images[size_t(i)])].theta_deg / 15.0)) * 15];
-    g.first += sum, g.second += count;
-  }
-  const double mse = m.samples ? total / m.samples : 0;
-  m.deviation_percent = 100 * mse;
-  m.rmse = std::sqrt(mse);
-  m.psnr_db = mse > 0 ? 10 * std::log10(1.0 / mse) : INFINITY;
-  for (auto& [t, g] : groups)
-    m.deviation_percent_by_theta[t] = g.second ? 100 * g.first / g.second : 0;
-  return m;
+  return ReduceReconstruction(s, images, run_sum, run_count, runs);
 }
 
 std::vector<float> RelightingError(const MaterialMaps& f, const MaterialMaps& t,

@@ -8,6 +8,9 @@
 #include <limits>
 #include <map>
 #include <nlohmann/json.hpp>
+#include <span>
+
+#include "core/parallel.h"
 
 namespace matfit {
 namespace {
@@ -23,6 +26,43 @@ std::string HumanBytes(double b) {
   int u = 0;
   while (b >= 1024 && u < 4) b /= 1024, ++u;
   return Fmt(u == 0 ? "%.0f" : "%.1f", b) + " " + units[u];
+}
+
+constexpr float kBlackLevel = 1e-4f;  // linear; an image whose every sample is below is black
+
+// Largest code of a plane (the loop vectorises to byte/word max).
+template <typename T>
+T MaxCode(std::span<const T> codes) {
+  T m = 0;
+  for (T c : codes) m = std::max(m, c);
+  return m;
+}
+
+// True when no finite sample of image i reaches kBlackLevel. Integer stacks compare codes: with
+// a non-decreasing table (every transfer function matfit decodes with) the codes that decode to
+// ≥ kBlackLevel are exactly those ≥ the first such code, so the largest code decides without
+// decoding the image. Other tables and float stacks look at every decoded sample.
+bool IsBlackImage(const LightStack& s, int i) {
+  const std::vector<float>& lut = s.lut();
+  if (!s.is_float() && std::is_sorted(lut.begin(), lut.end())) {
+    const auto bright =
+        std::find_if(lut.begin(), lut.end(), [](float v) { return v >= kBlackLevel; });
+    if (bright == lut.end()) return true;
+    const size_t first_bright = size_t(bright - lut.begin());
+    for (int c = 0; c < s.channels(); ++c) {
+      const size_t top = s.sample_type() == SampleType::kUint8 ? MaxCode(s.Codes<uint8_t>(i, c))
+                                                               : MaxCode(s.Codes<uint16_t>(i, c));
+      if (top >= first_bright) return false;
+    }
+    return true;
+  }
+  std::vector<float> scratch(s.is_float() ? 0 : size_t(s.plane_size()));
+  for (int c = 0; c < s.channels(); ++c) {
+    const float* v = s.Texels(i, c, 0, int(s.plane_size()), scratch.data());
+    for (int64_t p = 0; p < s.plane_size(); ++p)
+      if (std::isfinite(v[p]) && v[p] >= kBlackLevel) return false;
+  }
+  return true;
 }
 
 }  // namespace
@@ -105,18 +145,14 @@ DatasetInfo ComputeDatasetInfo(const LightStack& s) {
   info.saturated_fraction = double(sat) / double(std::max<int64_t>(1, s.plane_size() * n));
   for (int64_t v : s.nonfinite_samples) info.nonfinite_samples += v;
 
-  // Black images.
+  // Black images: no sample reaches kBlackLevel.
+  std::vector<char> is_black(size_t(n), 0);
+  ParallelFor(0, n, [&](int64_t i0, int64_t i1) {
+    for (int64_t i = i0; i < i1; ++i) is_black[size_t(i)] = IsBlackImage(s, int(i));
+  });
   std::vector<int> black;
-  std::vector<float> scratch(s.is_float() ? 0 : size_t(s.plane_size()));
-  for (int i = 0; i < n; ++i) {
-    float mx = 0;
-    for (int c = 0; c < s.channels(); ++c) {
-      const float* v = s.Texels(i, c, 0, int(s.plane_size()), scratch.data());
-      for (int64_t p = 0; p < s.plane_size(); ++p)
-        mx = std::max(mx, std::isfinite(v[p]) ? v[p] : 0.0f);
-    }
-    if (mx < 1e-4f) black.push_back(i);
-  }
+  for (int i = 0; i < n; ++i)
+    if (is_black[size_t(i)]) black.push_back(i);
 
   // Warnings.
   auto& w = info.warnings;

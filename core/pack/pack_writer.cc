@@ -5,7 +5,9 @@
 #include <chrono>
 #include <cmath>
 #include <ctime>
+#include <deque>
 #include <filesystem>
+#include <functional>
 #include <nlohmann/json.hpp>
 
 #include "core/atomic_file.h"
@@ -113,11 +115,17 @@ Status WritePack(const MaterialMaps& m, const std::vector<uint8_t>& status, cons
   fs::create_directories(root / "maps", ec);
   if (ec) return IoError("cannot create '" + (root / "maps").string() + "': " + ec.message());
 
+  // Image files are encoded in parallel at the end (PNG and EXR compression dominate the
+  // write); material.json lists them in the order they are put here.
+  std::vector<std::function<Status()>> tasks;
+  std::deque<Image> owned;  // images made for the pack (stable addresses until written)
+  auto keep = [&](Image img) -> const Image& { return owned.emplace_back(std::move(img)); };
   json maps = json::array();
   auto put = [&](const char* name, const char* file, const Image& img, ImageWriteOptions wo,
                  const char* semantic) -> Status {
     if (img.empty()) return Status::Ok();
-    MATFIT_RETURN_IF_ERROR(WriteImage((root / "maps" / file).string(), img, wo));
+    tasks.push_back(
+        [path = (root / "maps" / file).string(), &img, wo] { return WriteImage(path, img, wo); });
     const char* enc = wo.format == PixelFormat::kUint8    ? "png8"
                       : wo.format == PixelFormat::kUint16 ? "png16"
                                                           : "exr32";
@@ -139,7 +147,7 @@ Status WritePack(const MaterialMaps& m, const std::vector<uint8_t>& status, cons
   MATFIT_RETURN_IF_ERROR(
       put("albedo_exact", "albedo.exr", m.albedo, exr, "the same, linear float"));
   if (has_normal) {
-    MATFIT_RETURN_IF_ERROR(put("normal", "normal.png", NormalColour(m.normal), lin16,
+    MATFIT_RETURN_IF_ERROR(put("normal", "normal.png", keep(NormalColour(m.normal)), lin16,
                                "tangent-space normal, OpenGL +Y, rgb = n*0.5+0.5"));
     MATFIT_RETURN_IF_ERROR(
         put("normal_exact", "normal.exr", m.normal, exr, "unit normal xyz (float)"));
@@ -149,9 +157,14 @@ Status WritePack(const MaterialMaps& m, const std::vector<uint8_t>& status, cons
                                  : pm.encoding == MapEncoding::kLinear8  ? lin8
                                  : pm.encoding == MapEncoding::kLinear16 ? lin16
                                                                          : exr;
-    return put(pm.name, pm.file, *pm.image, wo, pm.semantic);
+    // A descriptor's image need only live through this call: the maps of `m` are written from
+    // where they are, anything else (a temporary made for the pack) is copied.
+    const auto a = reinterpret_cast<uintptr_t>(pm.image), m0 = reinterpret_cast<uintptr_t>(&m);
+    const bool member = a >= m0 && a < m0 + sizeof m;
+    return put(pm.name, pm.file, member || pm.image->empty() ? *pm.image : keep(*pm.image), wo,
+               pm.semantic);
   }));
-  Image status_img(m.width, m.height, 1);
+  Image& status_img = owned.emplace_back(m.width, m.height, 1);
   for (size_t p = 0; p < status.size(); ++p) status_img.data()[p] = status[p] / 255.0f;
   MATFIT_RETURN_IF_ERROR(
       put("status", "status.png", status_img, lin8, "per-texel fit status code (0 = ok)"));
@@ -176,7 +189,8 @@ Status WritePack(const MaterialMaps& m, const std::vector<uint8_t>& status, cons
   const bool leaf = !m.translucency.empty();
   if (leaf) {
     const int64_t np = int64_t(m.width) * m.height;
-    Image base(m.width, m.height, 4), trans(m.width, m.height, 4);
+    Image& base = owned.emplace_back(m.width, m.height, 4);
+    Image& trans = owned.emplace_back(m.width, m.height, 4);
     auto lum = [](const Image& im, int64_t p) {
       return 0.2126 * im.Plane(0)[p] + 0.7152 * im.Plane(1)[p] + 0.0722 * im.Plane(2)[p];
     };
@@ -195,25 +209,27 @@ Status WritePack(const MaterialMaps& m, const std::vector<uint8_t>& status, cons
     MATFIT_RETURN_IF_ERROR(put("gltf_diffuse_transmission", "gltf_diffuse_transmission.png", trans,
                                srgb8, "glTF diffuse transmission: rgb = rho_t/t, a = t (linear)"));
   }
-  MATFIT_RETURN_IF_ERROR(WriteImage((root / "preview.png").string(), Preview(m, status), srgb8));
+  tasks.push_back(
+      [&] { return WriteImage((root / "preview.png").string(), Preview(m, status), srgb8); });
   json previews = json::array({"preview.png"});
   for (const auto& [name, img] : info.previews) {
-    MATFIT_RETURN_IF_ERROR(WriteImage((root / name).string(), img, srgb8));
+    tasks.push_back(
+        [path = (root / name).string(), &img, &srgb8] { return WriteImage(path, img, srgb8); });
     previews.push_back(name);
   }
-
-  // The shaders' parameter planes for the web viewer (core/pack/shader_params.h).
+  // The shaders' parameter planes for the web viewer (core/pack/shader_params.h), made and
+  // written beside the image files.
   json viewer;
-  {
+  fs::create_directories(root / "viewer", ec);
+  if (ec) return IoError("cannot create '" + (root / "viewer").string() + "': " + ec.message());
+  tasks.insert(tasks.begin(), [&]() -> Status {  // the largest file: first
     auto sp = PackShaderParams(m);
     if (!sp.ok()) return sp.status();
-    fs::create_directories(root / "viewer", ec);
-    if (ec) return IoError("cannot create '" + (root / "viewer").string() + "': " + ec.message());
     static_assert(std::endian::native == std::endian::little, "params.bin is little-endian");
     MATFIT_RETURN_IF_ERROR(
         WriteFileAtomic((root / "viewer" / "params.bin").string(),
-                        std::string(reinterpret_cast<const char*>(sp->texels.data()),
-                                    sp->texels.size() * sizeof(float))));
+                        std::string_view(reinterpret_cast<const char*>(sp->texels.data()),
+                                         sp->texels.size() * sizeof(float))));
     viewer = {{"params", "viewer/params.bin"},
               {"encoding", "float32le rgba layers"},
               {"width", sp->width},
@@ -226,6 +242,17 @@ Status WritePack(const MaterialMaps& m, const std::vector<uint8_t>& status, cons
               {"flat_normal", sp->flat_normal},
               {"leaf_base", sp->leaf_base},
               {"leaf_hl2", sp->leaf_hl2}};
+    return Status::Ok();
+  });
+  {
+    std::vector<Status> written(tasks.size(), Status::Ok());
+    ParallelFor(
+        0, int64_t(tasks.size()),
+        [&](int64_t t0, int64_t t1) {
+          for (int64_t t = t0; t < t1; ++t) written[size_t(t)] = tasks[size_t(t)]();
+        },
+        1);
+    for (const Status& st : written) MATFIT_RETURN_IF_ERROR(st);
   }
 
   // glTF quad.

@@ -3,7 +3,9 @@
 #include <cmath>
 #include <nlohmann/json.hpp>
 
+#include "core/color.h"
 #include "core/dataset/info.h"
+#include "core/sample_type.h"
 #include "core/synth/light_sets.h"
 
 namespace matfit {
@@ -86,6 +88,38 @@ TEST(Info, WarnsAboutClippedBlackAndNonFinite) {
   EXPECT_EQ(j["images"], 3);
   EXPECT_EQ(j["warnings"].size(), d.warnings.size());
   EXPECT_NE(FormatDatasetInfo(d).find("condition number"), std::string::npos);
+}
+
+// Native-depth stacks decide "black" from their codes (issue 16): an image is black exactly when
+// no sample decodes to ≥ 1e-4, the same answer as decoding every sample.
+TEST(Info, BlackImagesOfNativeDepthStacksMatchTheDecodedValues) {
+  for (const SampleType type : {SampleType::kUint8, SampleType::kUint16}) {
+    const int codes = SampleCodes(type);
+    std::vector<float> lut(static_cast<size_t>(codes));
+    for (int k = 0; k < codes; ++k) lut[size_t(k)] = SrgbToLinear(float(k) / float(codes - 1));
+    // The first code that decodes to ≥ 1e-4, and the one below it.
+    int bright = 0;
+    while (lut[size_t(bright)] < 1e-4f) ++bright;
+    ASSERT_GT(bright, 0);
+    LightStack s(4, 4, 3, 3, type, lut);
+    s.lights()[1].direction = Normalize(Vec3(1, 0, 1));
+    s.lights()[2].direction = Normalize(Vec3(0, 1, 1));
+    auto set = [&](int i, int c, int p, int code) {
+      if (type == SampleType::kUint8)
+        s.Codes<uint8_t>(i, c)[size_t(p)] = uint8_t(code);
+      else
+        s.Codes<uint16_t>(i, c)[size_t(p)] = uint16_t(code);
+    };
+    for (int c = 0; c < 3; ++c) set(0, c, 5, bright - 1);  // every sample below 1e-4: black
+    set(1, 2, 15, bright);                                 // one blue sample at 1e-4: not black
+    set(2, 0, 0, codes - 1);                               // white corner: not black
+    const DatasetInfo d = ComputeDatasetInfo(s);
+    EXPECT_TRUE(HasWarning(d, "1 image(s) are black")) << SampleTypeName(type);
+    EXPECT_TRUE(HasWarning(d, "first: '0'")) << SampleTypeName(type);
+    // The float copy (every sample decoded) says the same.
+    const DatasetInfo f = ComputeDatasetInfo(s.ToFloat());
+    EXPECT_TRUE(HasWarning(f, "1 image(s) are black")) << SampleTypeName(type);
+  }
 }
 
 }  // namespace

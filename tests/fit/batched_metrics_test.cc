@@ -6,10 +6,14 @@
 #include <cmath>
 #include <random>
 
+#include <algorithm>
 #include "core/parallel.h"
 #include "core/shading/evaluate.h"
+#include "core/stack_ops.h"
 #include "core/synth/light_sets.h"
+#include "fit/confidence.h"
 #include "fit/metrics.h"
+#include "fit/score.h"
 #include "tests/core/model_maps.h"
 
 namespace matfit::fit {
@@ -147,6 +151,50 @@ TEST(BatchedMetrics, ShadingCostIsAMeasurement) {
   const double ns = ShadingCostNs(m);
   EXPECT_TRUE(std::isfinite(ns));
   EXPECT_GT(ns, 0);
+}
+
+// The fused pass of `matfit fit` (issue 16) gives bit for bit the reconstruction metrics of
+// Reconstruction() and the bounds of ComputeConfidence's own pass, on native-depth and float
+// stacks, with flagged texels, for any thread count.
+TEST(BatchedMetrics, FusedScoreEqualsTheSeparatePasses) {
+  for (const char* name : {"lambert", "ptm", "blinn-phong"})
+    for (int channels : {1, 3}) {
+      const MaterialMaps m =
+          testing::RandomModelMaps(ModelId(name), 61, 37, 4, /*grey=*/channels == 1);
+      const LightStack noisy = NoisyStack(m, channels, 11);
+      std::vector<uint8_t> status(size_t(noisy.plane_size()), 0);
+      for (size_t p = 0; p < status.size(); p += 5) status[p] = 3;
+      const ModelSize size{4 * channels, 4, 3};
+      for (const LightStack& s : {noisy, QuantiseStack(noisy, 8)})
+        for (int threads : {1, 2}) {
+          SetNumThreads(threads);
+          const auto want_rec = Reconstruction(s, m, status);
+          std::vector<uint8_t> want_status = status;
+          const Confidence want = ComputeConfidence(s, m, size, &want_status);
+          const StackScore score = ScoreStack(s, m, status);
+          EXPECT_EQ(score.reconstruction.deviation_percent, want_rec.deviation_percent) << name;
+          EXPECT_EQ(score.reconstruction.samples, want_rec.samples) << name;
+          EXPECT_EQ(score.reconstruction.deviation_percent_by_theta,
+                    want_rec.deviation_percent_by_theta)
+              << name;
+          std::vector<uint8_t> got_status = status;
+          const Confidence got =
+              ComputeConfidence(s, m, size, &got_status, {}, {}, &score.residuals);
+          EXPECT_EQ(got_status, want_status) << name;
+          EXPECT_EQ(got.pooled_sigma, want.pooled_sigma) << name;
+          ASSERT_EQ(got.bound.size(), want.bound.size());
+          for (size_t p = 0; p < got.bound.size(); ++p)
+            ASSERT_TRUE(got.bound[p] == want.bound[p] ||
+                        (std::isinf(got.bound[p]) && std::isinf(want.bound[p])))
+                << name << " texel " << p;
+          // Something was bounded and something flagged: the comparison is not vacuous.
+          EXPECT_GT(std::count_if(got.bound.begin(), got.bound.end(),
+                                  [](float b) { return std::isfinite(b) && b > 0; }),
+                    int64_t(status.size() / 2))
+              << name;
+        }
+      SetNumThreads(0);
+    }
 }
 
 }  // namespace
