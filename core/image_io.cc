@@ -328,40 +328,54 @@ bool EncodeInto(OIIO::ImageOutput* out, const std::string& file_name,
   // (docs/benchmarks.md).
   if (options.format == PixelFormat::kFloat && std::strcmp(out->format_name(), "openexr") == 0)
     spec.attribute("compression", "piz");
-  // Quantise ourselves (round to nearest) so that 8-bit sRGB codes are exact.
-  const int64_t n = image.plane_size();
+  // Quantise ourselves (round to nearest) so that 8-bit sRGB codes are exact. The planes are
+  // interleaved a strip of rows at a time, so the encoder's input costs a strip, not a copy of
+  // the image.
+  const int W = image.width(), H = image.height();
+  const int strip_rows =
+      std::max(1, std::min(H, int((1 << 20) / std::max<int64_t>(1, int64_t(W) * ch))));
   std::vector<uint8_t> q8;
   std::vector<uint16_t> q16;
   std::vector<float> f32;
-  const void* pixels = nullptr;
   OIIO::TypeDesc buffer_type = type;
   auto encoded = [&](int c, int64_t p) {
     const float v = image.Plane(c)[p];
     // RGBA: the alpha plane stays linear.
     return srgb && !(ch == 4 && c == 3) ? LinearToSrgb(std::clamp(v, 0.0f, 1.0f)) : v;
   };
-  if (options.format == PixelFormat::kUint8) {
-    q8.resize(size_t(n) * ch);
-    for (int c = 0; c < ch; ++c)
-      for (int64_t p = 0; p < n; ++p)
-        q8[p * ch + c] = uint8_t(std::lround(std::clamp(encoded(c, p), 0.0f, 1.0f) * 255.0f));
-    pixels = q8.data();
-  } else if (options.format == PixelFormat::kUint16) {
-    q16.resize(size_t(n) * ch);
-    for (int c = 0; c < ch; ++c)
-      for (int64_t p = 0; p < n; ++p)
-        q16[p * ch + c] = uint16_t(std::lround(std::clamp(encoded(c, p), 0.0f, 1.0f) * 65535.0f));
-    pixels = q16.data();
-  } else {
+  // Interleaved samples of rows [y0, y1) in the buffer's type.
+  auto interleave = [&](int y0, int y1) -> const void* {
+    const int64_t p0 = int64_t(y0) * W, n = int64_t(y1 - y0) * W;
+    if (options.format == PixelFormat::kUint8) {
+      q8.resize(size_t(n) * ch);
+      for (int c = 0; c < ch; ++c)
+        for (int64_t p = 0; p < n; ++p)
+          q8[p * ch + c] =
+              uint8_t(std::lround(std::clamp(encoded(c, p0 + p), 0.0f, 1.0f) * 255.0f));
+      return q8.data();
+    }
+    if (options.format == PixelFormat::kUint16) {
+      q16.resize(size_t(n) * ch);
+      for (int c = 0; c < ch; ++c)
+        for (int64_t p = 0; p < n; ++p)
+          q16[p * ch + c] =
+              uint16_t(std::lround(std::clamp(encoded(c, p0 + p), 0.0f, 1.0f) * 65535.0f));
+      return q16.data();
+    }
     f32.resize(size_t(n) * ch);
     for (int c = 0; c < ch; ++c)
-      for (int64_t p = 0; p < n; ++p) f32[p * ch + c] = encoded(c, p);
-    pixels = f32.data();
+      for (int64_t p = 0; p < n; ++p) f32[p * ch + c] = encoded(c, p0 + p);
+    return f32.data();
+  };
+  if (options.format != PixelFormat::kUint8 && options.format != PixelFormat::kUint16)
     buffer_type = OIIO::TypeDesc::FLOAT;
-  }
   if (proxy) out->set_ioproxy(proxy);
   if (!out->open(file_name, spec)) return false;
-  const bool written = out->write_image(buffer_type, pixels);
+  bool written = true;
+  for (int y0 = 0; y0 < H && written; y0 += strip_rows) {
+    const int y1 = std::min(H, y0 + strip_rows);
+    written = out->write_scanlines(y0, y1, 0, buffer_type, interleave(y0, y1));
+  }
   return out->close() && written;
 }
 
