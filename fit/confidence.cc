@@ -8,14 +8,8 @@
 #include "core/model/model.h"
 #include "core/parallel.h"
 
-#if defined(__x86_64__) && defined(__GNUC__) && !defined(__clang__) && defined(__linux__)
-#define MATFIT_CONFIDENCE_CLONES __attribute__((target_clones("arch=haswell", "default")))
-#else
-#define MATFIT_CONFIDENCE_CLONES
-#endif
 #include "fit/fit_common.h"
 #include "fit/fit_types.h"
-#include "fit/residual_kernels.h"
 #include "fit/score.h"
 
 namespace matfit::fit {
@@ -92,21 +86,6 @@ double SupportedThetaDeg(const std::vector<LightSample>& lights, const Vec3& axi
   return std::min(75.0, t + 15.0);
 }
 
-MATFIT_CONFIDENCE_CLONES
-void ResidualSums(const float* __restrict raw, const float* __restrict pred, float inv,
-                  float clip_level, int n, double* __restrict acc, double* __restrict sum,
-                  int* __restrict k, int* __restrict used) {
-  for (int t = 0; t < n; ++t) {
-    const double q = double(raw[t]) * inv;
-    const double r = q - double(pred[t]);
-    const bool valid = std::isfinite(raw[t]) && raw[t] < clip_level && std::isfinite(r);
-    acc[t] += valid ? r * r : 0.0;
-    sum[t] += valid ? std::abs(q) : 0.0;
-    k[t] += valid;
-    used[t] |= valid;
-  }
-}
-
 Confidence ComputeConfidence(const LightStack& s, const MaterialMaps& maps, ModelSize size,
                              std::vector<uint8_t>* status, const ConfidenceOptions& o,
                              const ProgressFn& progress, const TexelResiduals* residuals) {
@@ -144,7 +123,7 @@ Confidence ComputeConfidence(const LightStack& s, const MaterialMaps& maps, Mode
   TexelResiduals own;
   if (!residuals) {
     own = ScoreStack(s, maps, status ? *status : std::vector<uint8_t>{}, progress,
-                     /*reconstruction=*/false)
+                     {.reconstruction = false, .residuals = true})
               .residuals;
     residuals = &own;
   }

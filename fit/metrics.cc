@@ -9,13 +9,7 @@
 
 #include "core/model/model.h"
 #include "core/parallel.h"
-#include "fit/residual_kernels.h"
-
-#if defined(__x86_64__) && defined(__GNUC__) && !defined(__clang__) && defined(__linux__)
-#define MATFIT_METRIC_CLONES __attribute__((target_clones("arch=haswell", "default")))
-#else
-#define MATFIT_METRIC_CLONES
-#endif
+#include "fit/score.h"
 
 namespace matfit::fit {
 
@@ -23,128 +17,20 @@ namespace {
 
 int64_t Runs(int64_t texels) { return (texels + kEvalRun - 1) / kEvalRun; }
 
-// Σ_t [ok_t] (obs_t − I · pred_t)² over a run: the difference in float (8 lanes; its rounding
-// is relative to each sample), its square summed in double in two 4-lane accumulators (the
-// compiler will not reassociate a scalar double sum), reduced in a fixed order so the result
-// does not depend on the ISA clone. `ok` holds 1.0f for texels to score, 0 elsewhere: a
-// select, so NaN outside scored texels never enters the sum.
-typedef double V4d __attribute__((vector_size(32)));
-typedef float V4f __attribute__((vector_size(16)));
-typedef float V8f __attribute__((vector_size(32)));
-
-// 8 differences squared into two double accumulators.
-__attribute__((always_inline)) inline void Accumulate8(const float* obs, const float* pred,
-                                                       float intensity, const float* ok, V4d* a,
-                                                       V4d* b) {
-  V8f o, p, w;
-  std::memcpy(&o, obs, sizeof o), std::memcpy(&p, pred, sizeof p), std::memcpy(&w, ok, sizeof w);
-  const V8f d = w != 0 ? o - intensity * p : V8f{};
-  const V4d lo = __builtin_convertvector(V4f{d[0], d[1], d[2], d[3]}, V4d);
-  const V4d hi = __builtin_convertvector(V4f{d[4], d[5], d[6], d[7]}, V4d);
-  *a += lo * lo, *b += hi * hi;
-}
-
 }  // namespace
-
-MATFIT_METRIC_CLONES
-double SumSquaredDiff(const float* obs, const float* pred, float intensity, const float* ok,
-                      int n) {
-  V4d a = {}, b = {}, c = {}, e = {};  // four chains: the adds' latency, not the loads, bound it
-  int t = 0;
-  for (; t + 16 <= n; t += 16) {
-    Accumulate8(obs + t, pred + t, intensity, ok + t, &a, &b);
-    Accumulate8(obs + t + 8, pred + t + 8, intensity, ok + t + 8, &c, &e);
-  }
-  double tail = 0;
-  for (; t < n; ++t) {
-    const double d = ok[t] != 0 ? double(obs[t] - intensity * pred[t]) : 0.0;
-    tail += d * d;
-  }
-  const V4d s = (a + c) + (b + e);
-  return ((s[0] + s[2]) + (s[1] + s[3])) + tail;
-}
-
-ReconstructionMetrics ReduceReconstruction(const LightStack& s, const std::vector<int>& images,
-                                           const std::vector<double>& run_sum,
-                                           const std::vector<int64_t>& run_count, int64_t runs) {
-  const int n = int(images.size());
-  ReconstructionMetrics m;
-  std::map<int, std::pair<double, int64_t>> groups;
-  double total = 0;
-  for (int i = 0; i < n; ++i) {
-    double sum = 0;
-    int64_t count = 0;
-    for (int64_t r = 0; r < runs; ++r)
-      sum += run_sum[size_t(r * n + i)], count += run_count[size_t(r * n + i)];
-    total += sum;
-    m.samples += count;
-    auto& g = groups[int(std::lround(s.lights()[size_t(images[size_t(i)])].theta_deg / 15.0)) * 15];
-    g.first += sum, g.second += count;
-  }
-  const double mse = m.samples ? total / m.samples : 0;
-  m.deviation_percent = 100 * mse;
-  m.rmse = std::sqrt(mse);
-  m.psnr_db = mse > 0 ? 10 * std::log10(1.0 / mse) : INFINITY;
-  for (auto& [t, g] : groups)
-    m.deviation_percent_by_theta[t] = g.second ? 100 * g.first / g.second : 0;
-  return m;
-}
 
 ReconstructionMetrics Reconstruction(const LightStack& s, const MaterialMaps& maps,
                                      const std::vector<uint8_t>& status,
                                      const ProgressFn& progress) {
-  std::vector<int> all(size_t(s.num_images()));
-  for (int i = 0; i < s.num_images(); ++i) all[size_t(i)] = i;
-  return Reconstruction(s, all, maps, status, progress);
+  return ScoreStack(s, maps, status, progress, {.reconstruction = true, .residuals = false})
+      .reconstruction;
 }
 
 ReconstructionMetrics Reconstruction(const LightStack& s, const std::vector<int>& images,
                                      const MaterialMaps& maps, const std::vector<uint8_t>& status,
                                      const ProgressFn& progress) {
-  const int n = int(images.size()), C = s.channels();
-  const int64_t T = s.plane_size(), runs = Runs(T);
-  std::vector<Vec3f> dirs;
-  for (int i : images) dirs.emplace_back(s.lights()[size_t(i)].direction);
-  const BatchEvaluator eval(maps, dirs, Vec3f(s.view_direction));
-  // Per run and light: Σ d² and the sample count, reduced below in run order.
-  std::vector<double> run_sum(size_t(runs * n), 0.0);
-  std::vector<int64_t> run_count(size_t(runs * n), 0);
-  std::atomic<int64_t> done{0};
-  std::mutex progress_mutex;
-  ParallelFor(
-      0, runs,
-      [&](int64_t r0, int64_t r1) {
-        std::vector<float> pred(size_t(3) * kEvalRun), scratch(kEvalRun);
-        float ok[kEvalRun];
-        for (int64_t r = r0; r < r1; ++r) {
-          const int64_t p0 = r * kEvalRun;
-          const int len = int(std::min<int64_t>(kEvalRun, T - p0));
-          int ok_count = 0;
-          for (int t = 0; t < len; ++t) {
-            const bool use = status.empty() || status[size_t(p0 + t)] == 0;
-            ok[t] = use ? 1.0f : 0.0f, ok_count += use;
-          }
-          if (ok_count == 0) continue;
-          for (int i = 0; i < n; ++i) {
-            eval.Evaluate(i, p0, len, C, pred.data());
-            double acc = 0;
-            for (int c = 0; c < C; ++c)
-              acc += SumSquaredDiff(
-                  s.Texels(images[size_t(i)], c, p0, len, scratch.data()),
-                  pred.data() + size_t(c) * len,
-                  float(s.lights()[size_t(images[size_t(i)])].intensity[C == 1 ? 0 : c]), ok, len);
-            run_sum[size_t(r * n + i)] = acc;
-            run_count[size_t(r * n + i)] = int64_t(ok_count) * C;
-          }
-        }
-        const int64_t d = done += r1 - r0;
-        if (progress) {
-          std::lock_guard<std::mutex> lock(progress_mutex);
-          progress(d, runs);
-        }
-      },
-      4);
-  return ReduceReconstruction(s, images, run_sum, run_count, runs);
+  return ScoreStack(s, images, maps, status, progress, {.reconstruction = true, .residuals = false})
+      .reconstruction;
 }
 
 std::vector<float> RelightingError(const MaterialMaps& f, const MaterialMaps& t,

@@ -1,7 +1,7 @@
 // One pass over the stack that predicts every image from the fitted maps and scores it twice:
 // the reconstruction metrics (fit/metrics.h) and the per-texel residual sums of the error bound
-// (fit/confidence.h). `matfit fit` runs it once instead of one pass for each; the results are
-// bit for bit those of Reconstruction() and ComputeConfidence()'s own pass.
+// (fit/confidence.h). Reconstruction() and ComputeConfidence() run it for their part; `matfit
+// fit` runs it once for both.
 #pragma once
 
 #include <cstdint>
@@ -24,14 +24,24 @@ struct TexelResiduals {
 
 struct StackScore {
   ReconstructionMetrics reconstruction;  // empty unless asked for
-  TexelResiduals residuals;
+  TexelResiduals residuals;              // empty unless asked for
 };
 
-// Texels whose status is not 0 (ok) are skipped by both (status may be empty: all texels).
-// Batched: runs of kEvalRun texels in parallel, each light's constants once; `progress` gets
-// runs done / total.
+struct ScoreParts {
+  bool reconstruction = true;
+  bool residuals = true;
+};
+
+// Over images `images` of the stack (held-out folds score their test images in place). Texels
+// whose status is not 0 (ok) are skipped by both parts (status may be empty: all texels).
+// Batched: runs of kEvalRun texels in parallel, each light's constants once, sums in run order
+// (the same for any thread count); `progress` gets runs done / total.
+StackScore ScoreStack(const LightStack& stack, const std::vector<int>& images,
+                      const MaterialMaps& maps, const std::vector<uint8_t>& status,
+                      const ProgressFn& progress = {}, ScoreParts parts = {});
+// The same over every image.
 StackScore ScoreStack(const LightStack& stack, const MaterialMaps& maps,
                       const std::vector<uint8_t>& status, const ProgressFn& progress = {},
-                      bool reconstruction = true);
+                      ScoreParts parts = {});
 
 }  // namespace matfit::fit

@@ -153,9 +153,9 @@ TEST(BatchedMetrics, ShadingCostIsAMeasurement) {
   EXPECT_GT(ns, 0);
 }
 
-// The fused pass of `matfit fit` (issue 16) gives bit for bit the reconstruction metrics of
-// Reconstruction() and the bounds of ComputeConfidence's own pass, on native-depth and float
-// stacks, with flagged texels, for any thread count.
+// The fused pass of `matfit fit` (issue 16) gives bit for bit what Reconstruction() and
+// ComputeConfidence's own pass give when each runs alone (one part of ScoreStack each), on float
+// and 8-bit stacks, with flagged texels, for any thread count.
 TEST(BatchedMetrics, FusedScoreEqualsTheSeparatePasses) {
   for (const char* name : {"lambert", "ptm", "blinn-phong"})
     for (int channels : {1, 3}) {
