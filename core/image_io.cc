@@ -323,9 +323,8 @@ bool EncodeInto(OIIO::ImageOutput* out, const std::string& file_name,
   // --force replaces only files matfit wrote; this tag is how it knows (core/output_marker.h).
   spec.attribute("Software", std::string("matfit ") + kMatfitVersion);
   if (!srgb) spec.attribute("oiio:Gamma", 1.0f);
-  // Float EXR: PIZ (lossless wavelet) instead of OpenEXR's default ZIP. On fitted maps (noisy
-  // floats, where ZIP saves ~4 %) it writes ~1.5× faster and 10–12 % smaller
-  // (docs/benchmarks.md).
+  // Float EXR: PIZ (lossless wavelet) instead of OpenEXR's default ZIP: on fitted coefficient
+  // maps (noisy floats, where ZIP saves 4 %) 1.4× faster and 12 % smaller (docs/benchmarks.md).
   if (options.format == PixelFormat::kFloat && std::strcmp(out->format_name(), "openexr") == 0)
     spec.attribute("compression", "piz");
   // Quantise ourselves (round to nearest) so that 8-bit sRGB codes are exact. The planes are
