@@ -212,10 +212,12 @@ Status WritePack(const MaterialMaps& m, const std::vector<uint8_t>& status, cons
   tasks.push_back(
       [&] { return WriteImage((root / "preview.png").string(), Preview(m, status), srgb8); });
   json previews = json::array({"preview.png"});
-  for (const auto& [name, img] : info.previews) {
-    tasks.push_back(
-        [path = (root / name).string(), &img, &srgb8] { return WriteImage(path, img, srgb8); });
-    previews.push_back(name);
+  for (const auto& extra : info.previews) {  // (clang 14 cannot capture structured bindings)
+    const Image* img = &extra.second;
+    tasks.push_back([path = (root / extra.first).string(), img, &srgb8] {
+      return WriteImage(path, *img, srgb8);
+    });
+    previews.push_back(extra.first);
   }
   // The shaders' parameter planes for the web viewer (core/pack/shader_params.h), made and
   // written beside the image files.
