@@ -10,6 +10,7 @@
 #include <cstring>
 #include <filesystem>
 #include <fstream>
+#include <limits>
 #include <memory>
 #include <new>
 #include <type_traits>
@@ -342,25 +343,20 @@ bool EncodeInto(OIIO::ImageOutput* out, const std::string& file_name,
     // RGBA: the alpha plane stays linear.
     return srgb && !(ch == 4 && c == 3) ? LinearToSrgb(std::clamp(v, 0.0f, 1.0f)) : v;
   };
-  // Interleaved samples of rows [y0, y1) in the buffer's type.
+  // Interleaved samples of rows [y0, y1) in the buffer's type: codes round(v · max) for the
+  // integer formats.
   auto interleave = [&](int y0, int y1) -> const void* {
     const int64_t p0 = int64_t(y0) * W, n = int64_t(y1 - y0) * W;
-    if (options.format == PixelFormat::kUint8) {
-      q8.resize(size_t(n) * ch);
+    auto quantise = [&]<typename T>(std::vector<T>& q) -> const void* {
+      const float top = float(std::numeric_limits<T>::max());
+      q.resize(size_t(n) * ch);
       for (int c = 0; c < ch; ++c)
         for (int64_t p = 0; p < n; ++p)
-          q8[p * ch + c] =
-              uint8_t(std::lround(std::clamp(encoded(c, p0 + p), 0.0f, 1.0f) * 255.0f));
-      return q8.data();
-    }
-    if (options.format == PixelFormat::kUint16) {
-      q16.resize(size_t(n) * ch);
-      for (int c = 0; c < ch; ++c)
-        for (int64_t p = 0; p < n; ++p)
-          q16[p * ch + c] =
-              uint16_t(std::lround(std::clamp(encoded(c, p0 + p), 0.0f, 1.0f) * 65535.0f));
-      return q16.data();
-    }
+          q[p * ch + c] = T(std::lround(std::clamp(encoded(c, p0 + p), 0.0f, 1.0f) * top));
+      return q.data();
+    };
+    if (options.format == PixelFormat::kUint8) return quantise(q8);
+    if (options.format == PixelFormat::kUint16) return quantise(q16);
     f32.resize(size_t(n) * ch);
     for (int c = 0; c < ch; ++c)
       for (int64_t p = 0; p < n; ++p) f32[p * ch + c] = encoded(c, p0 + p);

@@ -122,7 +122,8 @@ Confidence ComputeConfidence(const LightStack& s, const MaterialMaps& maps, Mode
   // Pass 1 (fit/score.h): per-texel residual sums Σ r², n_x, usable lights m_x, mean level μ_x.
   TexelResiduals own;
   if (!residuals) {
-    own = ScoreStack(s, maps, status ? *status : std::vector<uint8_t>{}, progress,
+    static const std::vector<uint8_t> kAllOk;  // no status plane: every texel
+    own = ScoreStack(s, maps, status ? *status : kAllOk, progress,
                      {.reconstruction = false, .residuals = true})
               .residuals;
     residuals = &own;

@@ -146,12 +146,14 @@ StackScore ScoreStack(const LightStack& s, const std::vector<int>& images, const
             ok[t] = use ? 1.0f : 0.0f, ok_count += use;
           }
           if (ok_count == 0) continue;
-          std::fill_n(acc.begin(), len, 0.0), std::fill_n(sum.begin(), len, 0.0);
-          std::fill_n(k.begin(), len, 0), std::fill_n(m.begin(), len, 0);
+          if (residuals) {
+            std::fill_n(acc.begin(), len, 0.0), std::fill_n(sum.begin(), len, 0.0);
+            std::fill_n(k.begin(), len, 0), std::fill_n(m.begin(), len, 0);
+          }
           for (int j = 0; j < n; ++j) {
             const int i = images[size_t(j)];
             eval.Evaluate(j, p0, len, C, pred.data());
-            std::fill_n(used.begin(), len, 0);
+            if (residuals) std::fill_n(used.begin(), len, 0);
             double d2 = 0;
             for (int c = 0; c < C; ++c) {
               const float* raw = s.Texels(i, c, p0, len, scratch.data());

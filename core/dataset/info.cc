@@ -38,20 +38,25 @@ T MaxCode(std::span<const T> codes) {
   return m;
 }
 
-// True when no finite sample of image i reaches kBlackLevel. Integer stacks compare codes: with
-// a non-decreasing table (every transfer function matfit decodes with) the codes that decode to
-// ≥ kBlackLevel are exactly those ≥ the first such code, so the largest code decides without
-// decoding the image. Other tables and float stacks look at every decoded sample.
-bool IsBlackImage(const LightStack& s, int i) {
+// The first code that decodes to ≥ kBlackLevel when every code at or above it does too (a
+// non-decreasing table: every transfer function matfit decodes with); -1 when no code does; -2
+// for float stacks and other tables, which must be decoded.
+int64_t FirstBrightCode(const LightStack& s) {
   const std::vector<float>& lut = s.lut();
-  if (!s.is_float() && std::is_sorted(lut.begin(), lut.end())) {
-    const auto bright =
-        std::find_if(lut.begin(), lut.end(), [](float v) { return v >= kBlackLevel; });
-    if (bright == lut.end()) return true;
-    const size_t first_bright = size_t(bright - lut.begin());
+  if (s.is_float() || !std::is_sorted(lut.begin(), lut.end())) return -2;
+  const auto bright =
+      std::find_if(lut.begin(), lut.end(), [](float v) { return v >= kBlackLevel; });
+  return bright == lut.end() ? -1 : int64_t(bright - lut.begin());
+}
+
+// True when no finite sample of image i reaches kBlackLevel. With a first bright code the
+// largest code of each plane decides without decoding the image.
+bool IsBlackImage(const LightStack& s, int i, int64_t first_bright) {
+  if (first_bright == -1) return true;
+  if (first_bright >= 0) {
     for (int c = 0; c < s.channels(); ++c) {
-      const size_t top = s.sample_type() == SampleType::kUint8 ? MaxCode(s.Codes<uint8_t>(i, c))
-                                                               : MaxCode(s.Codes<uint16_t>(i, c));
+      const int64_t top = s.sample_type() == SampleType::kUint8 ? MaxCode(s.Codes<uint8_t>(i, c))
+                                                                : MaxCode(s.Codes<uint16_t>(i, c));
       if (top >= first_bright) return false;
     }
     return true;
@@ -147,8 +152,9 @@ DatasetInfo ComputeDatasetInfo(const LightStack& s) {
 
   // Black images: no sample reaches kBlackLevel.
   std::vector<char> is_black(size_t(n), 0);
+  const int64_t first_bright = FirstBrightCode(s);
   ParallelFor(0, n, [&](int64_t i0, int64_t i1) {
-    for (int64_t i = i0; i < i1; ++i) is_black[size_t(i)] = IsBlackImage(s, int(i));
+    for (int64_t i = i0; i < i1; ++i) is_black[size_t(i)] = IsBlackImage(s, int(i), first_bright);
   });
   std::vector<int> black;
   for (int i = 0; i < n; ++i)
