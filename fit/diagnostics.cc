@@ -4,105 +4,179 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <cstring>
+#include <limits>
 
 #include "core/parallel.h"
+#include "core/simd_clones.h"
 #include "core/warnings.h"
 #include "fit/fit_common.h"
 
 namespace matfit::fit {
 namespace {
 
-struct TexelSamples {
-  std::vector<Eigen::Vector3d> l;
-  std::vector<double> p;
-  std::vector<double> log_p;          // ln p, so that p^γ = exp(γ ln p) per trial γ
-  Eigen::LDLT<Eigen::Matrix3d> ldlt;  // of A = Σ l lᵀ, which does not depend on γ
+typedef float V8f __attribute__((vector_size(32)));
+typedef int V8i __attribute__((vector_size(32)));
+typedef double V4d __attribute__((vector_size(32)));
+constexpr int kLanes = 8;
+
+// The sampled texels, structure of arrays: texel x owns samples [begin[x], begin[x + 1]), a
+// multiple of 8 padded with log2 p = −∞ (which gives y = 0 and no weight); directions l and
+// log2 p of each sample (p = relative luminance in (0, 1]), and A_x = Σ l lᵀ, which does not
+// depend on γ.
+struct SampledTexels {
+  std::vector<int64_t> begin{0};
+  std::vector<int> count;
+  std::vector<float> lx, ly, lz, log2p;
+  std::vector<Eigen::LDLT<Eigen::Matrix3d>> ldlt;
+  size_t size() const { return count.size(); }
 };
+
+// 2^x for x ≤ 0 (relative error < 3e-7), 0 below −125: 2^x = 2^n · e^{f ln 2} with n the
+// nearest integer, f ∈ [−½, ½], e^t by its degree-6 Taylor polynomial (|t| ≤ 0.35).
+__attribute__((always_inline)) inline void Exp2(const V8f& x, V8f* out) {
+  const V8f xc = x < -125.0f ? V8f{} - 125.0f : (x > 0.0f ? V8f{} : x);
+  const V8i n = __builtin_convertvector(xc - 0.5f, V8i);  // toward 0: ⌈x − ½⌉, as x ≤ 0
+  const V8f t = (xc - __builtin_convertvector(n, V8f)) * 0.69314718f;
+  V8f e = V8f{} + 1.0f / 720.0f;
+  for (const float c : {1.0f / 120.0f, 1.0f / 24.0f, 1.0f / 6.0f, 0.5f, 1.0f, 1.0f}) e = e * t + c;
+  const V8i bits = (n + 127) << 23;
+  V8f scale;
+  std::memcpy(&scale, &bits, sizeof scale);
+  *out = x < -125.0f ? V8f{} : e * scale;
+}
 
 // Pooled relative residual Σ_x Σ (y − l·g_x)² / Σ_x Σ (y − ȳ_x)² of per-texel least squares on
 // y = p^γ: the share of each texel's variation over lights that n·l does not explain (the
-// variance, not the energy, so γ → 0, where y flattens to a constant, is not favoured).
-// Parallel over fixed chunks of texels, summed in chunk order (the same for any thread count).
-double LambertResidual(const std::vector<TexelSamples>& texels, double gamma) {
-  constexpr int64_t kChunk = 64;
-  const int64_t chunks = (int64_t(texels.size()) + kChunk - 1) / kChunk;
-  std::vector<double> nums(size_t(chunks), 0.0), dens(size_t(chunks), 0.0);
-  ParallelFor(0, chunks, [&](int64_t c0, int64_t c1) {
-    std::vector<double> y;
-    for (int64_t c = c0; c < c1; ++c) {
-      double num = 0, den = 0;
-      for (int64_t x = c * kChunk; x < std::min<int64_t>((c + 1) * kChunk, texels.size()); ++x) {
-        const TexelSamples& t = texels[size_t(x)];
-        y.resize(t.p.size());
-        Eigen::Vector3d b = Eigen::Vector3d::Zero();
-        double mean = 0;
-        for (size_t i = 0; i < t.p.size(); ++i) {
-          y[i] = gamma == 1.0 ? t.p[i] : std::exp(gamma * t.log_p[i]);
-          mean += y[i] / double(y.size());
-          b += y[i] * t.l[i];
-        }
-        const Eigen::Vector3d g = t.ldlt.solve(b);
-        for (size_t i = 0; i < y.size(); ++i) {
-          const double r = y[i] - t.l[i].dot(g);
-          num += r * r, den += (y[i] - mean) * (y[i] - mean);
-        }
+// variance, not the energy, so γ → 0, where y flattens to a constant, is not favoured). One pass
+// per texel: y in float, the sums Σy, Σy², Σy·l in double, then Σ(y − l·g)² = Σy² − bᵀg with
+// b = Σy·l, g = A⁻¹b, and Σ(y − ȳ)² = Σy² − (Σy)²/n. This part: texels [x0, x1) of one set.
+MATFIT_CLONES_V3
+void ResidualChunk(const SampledTexels& s, float gamma, size_t x0, size_t x1, double* num,
+                   double* den) {
+  *num = 0, *den = 0;
+  for (size_t x = x0; x < x1; ++x) {
+    V4d sy{}, syy{}, sx{}, sly{}, slz{};
+    for (int64_t k = s.begin[x]; k < s.begin[x + 1]; k += kLanes) {
+      V8f lg, a, b, c;
+      std::memcpy(&lg, &s.log2p[size_t(k)], sizeof lg);
+      std::memcpy(&a, &s.lx[size_t(k)], sizeof a);
+      std::memcpy(&b, &s.ly[size_t(k)], sizeof b);
+      std::memcpy(&c, &s.lz[size_t(k)], sizeof c);
+      V8f y;
+      Exp2(gamma * lg, &y);
+      for (int h = 0; h < 2; ++h) {
+        const V4d yd = h ? V4d{y[4], y[5], y[6], y[7]} : V4d{y[0], y[1], y[2], y[3]};
+        const V4d ad = h ? V4d{a[4], a[5], a[6], a[7]} : V4d{a[0], a[1], a[2], a[3]};
+        const V4d bd = h ? V4d{b[4], b[5], b[6], b[7]} : V4d{b[0], b[1], b[2], b[3]};
+        const V4d cd = h ? V4d{c[4], c[5], c[6], c[7]} : V4d{c[0], c[1], c[2], c[3]};
+        sy += yd, syy += yd * yd, sx += yd * ad, sly += yd * bd, slz += yd * cd;
       }
-      nums[size_t(c)] = num, dens[size_t(c)] = den;
+    }
+    auto total = [](V4d v) { return (v[0] + v[2]) + (v[1] + v[3]); };
+    const Eigen::Vector3d bvec(total(sx), total(sly), total(slz));
+    const Eigen::Vector3d g = s.ldlt[x].solve(bvec);
+    const double yy = total(syy), y1 = total(sy);
+    *num += std::max(0.0, yy - bvec.dot(g));
+    *den += std::max(0.0, yy - y1 * y1 / s.count[x]);
+  }
+}
+
+// Over the sampled rows in parallel, summed in row order (the same for any thread count).
+double LambertResidual(const std::vector<SampledTexels>& rows, double gamma) {
+  std::vector<double> nums(rows.size(), 0.0), dens(rows.size(), 0.0);
+  ParallelFor(0, int64_t(rows.size()), [&](int64_t r0, int64_t r1) {
+    for (int64_t r = r0; r < r1; ++r) {
+      const SampledTexels& row = rows[size_t(r)];
+      ResidualChunk(row, float(gamma), 0, row.size(), &nums[size_t(r)], &dens[size_t(r)]);
     }
   });
   double num = 0, den = 0;
-  for (int64_t c = 0; c < chunks; ++c) num += nums[size_t(c)], den += dens[size_t(c)];
+  for (size_t r = 0; r < rows.size(); ++r) num += nums[r], den += dens[r];
   return den > 0 ? num / den : 0;
 }
+
+// One texel's samples: y = luminance / I per usable light (finite, unclipped, lit from above,
+// above 1e-3), sorted, the middle [10 %, 75 %) kept, relative to the largest kept. False when
+// fewer than 6 remain.
+struct TexelCollector {
+  std::vector<std::pair<double, int>> v;
+  bool Add(const LightStack& s, SampledTexels* out) {
+    if (v.size() < 8) return false;
+    std::sort(v.begin(), v.end());
+    const size_t lo = v.size() / 10, hi = v.size() - v.size() / 4;
+    if (hi - lo < 6) return false;
+    const double scale = 1.0 / v[hi - 1].first;  // γ acts on relative values
+    Eigen::Matrix3d A = Eigen::Matrix3d::Zero();
+    for (size_t k = lo; k < hi; ++k) {
+      const auto& dir = s.lights()[size_t(v[k].second)].direction;
+      const Eigen::Vector3d l(dir.x, dir.y, dir.z);
+      out->lx.push_back(float(dir.x)), out->ly.push_back(float(dir.y));
+      out->lz.push_back(float(dir.z));
+      out->log2p.push_back(float(std::log2(v[k].first * scale)));
+      A += l * l.transpose();
+    }
+    const size_t padded = (out->lx.size() + kLanes - 1) / kLanes * kLanes;
+    out->lx.resize(padded, 0.0f), out->ly.resize(padded, 0.0f), out->lz.resize(padded, 0.0f);
+    out->log2p.resize(padded, -std::numeric_limits<float>::infinity());
+    out->begin.push_back(int64_t(padded));
+    out->count.push_back(int(hi - lo));
+    out->ldlt.emplace_back(A);
+    return true;
+  }
+};
 
 }  // namespace
 
 StackDiagnostics DiagnoseStack(const LightStack& s, int max_texels) {
   StackDiagnostics d;
-  const int n = s.num_images(), C = s.channels();
+  const int n = s.num_images(), C = s.channels(), W = s.width();
   if (n < 6) return d;
   const int64_t T = s.plane_size();
-  // A regular 2-D grid of about max_texels texels (a 1-D stride would pick a few columns).
+  // A regular 2-D grid of about max_texels texels (a 1-D stride would pick a few columns),
+  // gathered row by row (sequential reads of each plane), rows in parallel, kept in row order.
   const int step = std::max(1, int(std::sqrt(double(T) / std::max(1, max_texels))));
   const bool clip = StackMayBeClipped(s);
   const std::vector<float> inv = InverseIntensities(s);
-  std::vector<TexelSamples> texels;
-  std::vector<std::pair<double, int>> v;
-  for (int64_t p0 = 0; p0 < T; ++p0) {
-    const int x = int(p0 % s.width()), yy = int(p0 / s.width());
-    if (x % step != step / 2 || yy % step != step / 2) continue;
-    const int64_t p = p0;
-    if (s.has_mask() && s.mask.data()[p] < 0.5f) continue;
-    v.clear();
-    for (int i = 0; i < n; ++i) {
-      double y = 0;
-      bool good = s.lights()[i].direction.z > 0;
-      for (int c = 0; c < C; ++c) {
-        const float raw = s.Sample(i, c, p);
-        good = good && std::isfinite(raw) && !(clip && raw >= kClipLevel);
-        y += (C == 3 ? kLuma[c] : 1.0f) * raw * inv[size_t(i) * C + c];
+  std::vector<int> xs, ys;
+  for (int x = step / 2; x < W; x += step) xs.push_back(x);
+  for (int y = step / 2; y < s.height(); y += step) ys.push_back(y);
+  const int X = int(xs.size());
+  std::vector<SampledTexels> texels(ys.size());  // per sampled row
+  ParallelFor(0, int64_t(ys.size()), [&](int64_t r0, int64_t r1) {
+    std::vector<double> y(size_t(X) * n);
+    std::vector<char> good(size_t(X) * n);
+    TexelCollector collect;
+    for (int64_t r = r0; r < r1; ++r) {
+      const int64_t row = int64_t(ys[size_t(r)]) * W;
+      SampledTexels& out = texels[size_t(r)];
+      const size_t most = size_t(X) * ((n + kLanes - 1) / kLanes * kLanes);  // no regrowth
+      for (auto* v : {&out.lx, &out.ly, &out.lz, &out.log2p}) v->reserve(most);
+      for (int i = 0; i < n; ++i) {
+        const bool lit = s.lights()[size_t(i)].direction.z > 0;
+        for (int k = 0; k < X; ++k) y[size_t(k) * n + i] = 0, good[size_t(k) * n + i] = lit;
+        for (int c = 0; c < C; ++c) {
+          const float w = (C == 3 ? kLuma[c] : 1.0f) * inv[size_t(i) * C + c];
+          for (int k = 0; k < X; ++k) {
+            const float raw = s.Sample(i, c, row + xs[size_t(k)]);
+            char& g = good[size_t(k) * n + i];
+            g = g && std::isfinite(raw) && !(clip && raw >= kClipLevel);
+            y[size_t(k) * n + i] += w * raw;
+          }
+        }
       }
-      if (good && y > 1e-3) v.push_back({y, i});
+      for (int k = 0; k < X; ++k) {
+        if (s.has_mask() && s.mask.data()[row + xs[size_t(k)]] < 0.5f) continue;
+        collect.v.clear();
+        for (int i = 0; i < n; ++i)
+          if (good[size_t(k) * n + i] && y[size_t(k) * n + i] > 1e-3)
+            collect.v.push_back({y[size_t(k) * n + i], i});
+        collect.Add(s, &out);
+      }
     }
-    if (v.size() < 8) continue;
-    std::sort(v.begin(), v.end());
-    const size_t lo = v.size() / 10, hi = v.size() - v.size() / 4;
-    if (hi - lo < 6) continue;
-    TexelSamples t;
-    const double scale = 1.0 / v[hi - 1].first;  // γ acts on relative values
-    Eigen::Matrix3d A = Eigen::Matrix3d::Zero();
-    for (size_t k = lo; k < hi; ++k) {
-      const auto& dir = s.lights()[v[k].second].direction;
-      t.l.emplace_back(dir.x, dir.y, dir.z);
-      t.p.push_back(v[k].first * scale);
-      t.log_p.push_back(std::log(t.p.back()));
-      A += t.l.back() * t.l.back().transpose();
-    }
-    t.ldlt.compute(A);
-    texels.push_back(std::move(t));
-  }
-  d.texels_used = int(texels.size());
-  if (texels.size() < 16) return d;
+  });
+  for (const SampledTexels& r : texels) d.texels_used += int(r.size());
+  if (d.texels_used < 16) return d;
   d.residual_linear = LambertResidual(texels, 1.0);
   // Golden-section search on log γ over [0.3, 3.3] after a coarse scan.
   double best = 1.0, best_r = d.residual_linear;

@@ -10,14 +10,9 @@
 
 #include "core/model/model.h"
 #include "core/parallel.h"
+#include "core/simd_clones.h"
 #include "fit/fit_common.h"
 #include "fit/fit_types.h"
-
-#if defined(__x86_64__) && defined(__GNUC__) && !defined(__clang__) && defined(__linux__)
-#define MATFIT_SCORE_CLONES __attribute__((target_clones("arch=haswell", "default")))
-#else
-#define MATFIT_SCORE_CLONES
-#endif
 
 namespace matfit::fit {
 namespace {
@@ -43,7 +38,7 @@ __attribute__((always_inline)) inline void Accumulate8(const float* obs, const f
   *a += lo * lo, *b += hi * hi;
 }
 
-MATFIT_SCORE_CLONES
+MATFIT_CLONES_V3
 double SumSquaredDiff(const float* obs, const float* pred, float intensity, const float* ok,
                       int n) {
   V4d a = {}, b = {}, c = {}, e = {};  // four chains: the adds' latency, not the loads, bound it
@@ -62,13 +57,37 @@ double SumSquaredDiff(const float* obs, const float* pred, float intensity, cons
 }
 
 // One light and channel of a run: q = raw / I, r = q − pred for the samples that are finite and
-// below the clip level; Σ r², Σ |q|, the sample count, and whether the light was used.
-MATFIT_SCORE_CLONES
+// below the clip level; Σ r², Σ |q|, the sample count, and whether the light was used. Four
+// texels at a time in double, the same operations as one at a time (so the same sums): valid
+// ⇔ −∞ < raw < clip and |r| < ∞ (NaN fails every comparison).
+typedef long long V4l __attribute__((vector_size(32)));
+typedef int V4i __attribute__((vector_size(16)));
+
+MATFIT_CLONES_V3
 void ResidualSums(const float* __restrict raw, const float* __restrict pred, float inv,
                   float clip_level, int n, double* __restrict acc, double* __restrict sum,
                   int* __restrict k, int* __restrict used) {
-  for (int t = 0; t < n; ++t) {
-    const double q = double(raw[t]) * inv;
+  const double inf = std::numeric_limits<double>::infinity(), clip = clip_level, scale = inv;
+  int t = 0;
+  for (; t + 4 <= n; t += 4) {
+    V4f rf, pf;
+    V4d a, b;
+    V4i kt, ut;
+    std::memcpy(&rf, raw + t, sizeof rf), std::memcpy(&pf, pred + t, sizeof pf);
+    std::memcpy(&a, acc + t, sizeof a), std::memcpy(&b, sum + t, sizeof b);
+    std::memcpy(&kt, k + t, sizeof kt), std::memcpy(&ut, used + t, sizeof ut);
+    const V4d rd = __builtin_convertvector(rf, V4d), q = rd * scale;
+    const V4d r = q - __builtin_convertvector(pf, V4d);
+    const V4d ar = r < 0 ? -r : r, aq = q < 0 ? -q : q;
+    const V4l valid = (rd > -inf) & (rd < clip) & (ar < inf);
+    a += valid ? r * r : V4d{}, b += valid ? aq : V4d{};
+    const V4i v = __builtin_convertvector(valid, V4i);  // −1 or 0
+    kt -= v, ut |= v & 1;
+    std::memcpy(acc + t, &a, sizeof a), std::memcpy(sum + t, &b, sizeof b);
+    std::memcpy(k + t, &kt, sizeof kt), std::memcpy(used + t, &ut, sizeof ut);
+  }
+  for (; t < n; ++t) {
+    const double q = double(raw[t]) * scale;
     const double r = q - double(pred[t]);
     const bool valid = std::isfinite(raw[t]) && raw[t] < clip_level && std::isfinite(r);
     acc[t] += valid ? r * r : 0.0;

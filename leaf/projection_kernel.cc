@@ -2,17 +2,12 @@
 
 #include <algorithm>
 
+#include "core/simd_clones.h"
 #include "leaf/horizon.h"
 
 namespace matfit::leaf {
 
-#if defined(__x86_64__) && defined(__GNUC__) && !defined(__clang__)
-#define MATFIT_LEAF_CLONES __attribute__((target_clones("arch=x86-64-v3", "default")))
-#else
-#define MATFIT_LEAF_CLONES
-#endif
-
-MATFIT_LEAF_CLONES
+MATFIT_CLONES_V3
 void ProjectIrradianceBlock(const float* __restrict nx, const float* __restrict ny,
                             const float* __restrict nz, const float* __restrict rho,
                             const float* __restrict hz, int64_t hz_stride, int64_t n,

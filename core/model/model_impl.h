@@ -6,15 +6,11 @@
 
 #include "core/model/model.h"
 #include "core/shading/shading.h"
+#include "core/simd_clones.h"
 
 // Hot texel loops are built for the baseline ISA and for AVX2+FMA / AVX-512, picked at load
-// time (GCC function multi-versioning), like the fit's row kernels.
-#if defined(__x86_64__) && defined(__GNUC__) && !defined(__clang__) && defined(__linux__)
-#define MATFIT_MODEL_CLONES \
-  __attribute__((target_clones("arch=skylake-avx512", "arch=haswell", "default")))
-#else
-#define MATFIT_MODEL_CLONES
-#endif
+// time (core/simd_clones.h), like the fit's row kernels.
+#define MATFIT_MODEL_CLONES MATFIT_CLONES_V4
 
 namespace matfit::model_impl {
 
