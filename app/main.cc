@@ -6,6 +6,7 @@
 #include <string>
 
 #include "app/commands.h"
+#include "core/large_page_allocator.h"
 #include "core/version.h"
 
 namespace matfit::app {
@@ -46,6 +47,7 @@ int ApplyReadArgs(const char* command, const std::string& layout, const std::str
 }  // namespace matfit::app
 
 int main(int argc, char** argv) {
+  matfit::TuneAllocatorForImageBuffers();
   CLI::App app{
       "matfit: fit materials (normals, albedo, specular, translucency) to multi-light "
       "measurements"};

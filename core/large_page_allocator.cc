@@ -5,6 +5,24 @@
 #ifdef __linux__
 #include <sys/mman.h>
 #endif
+#ifdef __GLIBC__
+#include <malloc.h>
+#endif
+
+namespace matfit {
+
+// glibc serves blocks above M_MMAP_THRESHOLD (128 KiB at first, raised on the fly) by mmap and
+// returns them on free, and trims the heap top above M_TRIM_THRESHOLD: a 512×344 RGB decode
+// buffer then costs ~130 fresh page faults per image. Measured on 240 such JPEGs, 1 thread:
+// read 1.6 s → 0.7 s with these settings (98k → 44k faults; docs/benchmarks.md).
+void TuneAllocatorForImageBuffers() {
+#ifdef __GLIBC__
+  mallopt(M_MMAP_THRESHOLD, 16 << 20);
+  mallopt(M_TRIM_THRESHOLD, 64 << 20);
+#endif
+}
+
+}  // namespace matfit
 
 namespace matfit::detail {
 

@@ -9,6 +9,12 @@
 
 namespace matfit {
 
+// Tunes the C allocator for a process that makes and frees many image-sized buffers (decoding
+// hundreds of files, encoding maps): freed blocks up to 16 MiB are kept for reuse instead of
+// being returned to the kernel and faulted in again page by page. Call once at start-up, before
+// threads exist (app/main.cc). Without glibc it does nothing.
+void TuneAllocatorForImageBuffers();
+
 namespace detail {
 void* AllocateLarge(std::size_t bytes);
 void DeallocateLarge(void* p, std::size_t bytes);
