@@ -130,6 +130,9 @@ void RegisterFit(CLI::App& app, int* exit_code) {
                   std::string("pack folder (or .zip file with --zip), written atomically ") +
                       RequiredUnless("--decode-only, --report-only or --model list"));
   sub->add_flag("--zip", j.zip, "write the pack as one zip file");
+  sub->add_flag("--compact-maps", j.compact_maps,
+                "smaller map files, slower to write (PNG zlib level 6 and PIZ-compressed EXR "
+                "instead of level 1 and uncompressed EXR; lossless either way)");
   sub->add_flag("--force", j.overwrite, kForceHelp);
   sub->add_option("--holdout", j.holdout, "k-fold held-out-light error (0 = off)")
       ->capture_default_str();

@@ -324,10 +324,12 @@ bool EncodeInto(OIIO::ImageOutput* out, const std::string& file_name,
   // --force replaces only files matfit wrote; this tag is how it knows (core/output_marker.h).
   spec.attribute("Software", std::string("matfit ") + kMatfitVersion);
   if (!srgb) spec.attribute("oiio:Gamma", 1.0f);
-  // Float EXR: PIZ (lossless wavelet) instead of OpenEXR's default ZIP: on fitted coefficient
-  // maps (noisy floats, where ZIP saves 4 %) 1.4× faster and 12 % smaller (docs/benchmarks.md).
+  // Float EXR: uncompressed, or (compact) PIZ, the lossless wavelet coder, which on fitted maps
+  // is 1.4× faster than OpenEXR's default ZIP and 12 % smaller. PNG: zlib level 1 or 6.
   if (options.format == PixelFormat::kFloat && std::strcmp(out->format_name(), "openexr") == 0)
-    spec.attribute("compression", "piz");
+    spec.attribute("compression", options.compact ? "piz" : "none");
+  if (std::strcmp(out->format_name(), "png") == 0)
+    spec.attribute("png:compressionLevel", options.compact ? 6 : 1);
   // Quantise ourselves (round to nearest) so that 8-bit sRGB codes are exact. The planes are
   // interleaved a strip of rows at a time, so the encoder's input costs a strip, not a copy of
   // the image.

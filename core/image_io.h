@@ -84,6 +84,10 @@ struct ImageWriteOptions {
   // kSrgb encodes linear values with the sRGB curve (albedo maps, 8-bit datasets);
   // kLinear stores values as they are (normals, data maps, 16-bit datasets, EXR).
   TransferFunction transfer = TransferFunction::kLinear;
+  // Encoding effort (both lossless): fast = PNG at zlib level 1 and uncompressed float EXR;
+  // compact = PNG at zlib level 6 and PIZ EXR, 1–30 % smaller on fitted maps (noisy floats
+  // barely compress) for 2–3× the encode time (docs/benchmarks.md).
+  bool compact = false;
 };
 
 // Writes `image` (values clamped to [0, 1] for integer formats) to `path`, format from the

@@ -284,7 +284,8 @@ StatusOr<FitJobResult> RunFitJob(const FitJobOptions& o, const StageProgress& pr
                              "per-texel bound on the RMS relighting error (linear, per unit "
                              "light; +inf = flagged), docs/stability.md",
                              std::move(bound)});
-  MATFIT_RETURN_IF_ERROR(WritePack(r.fit.maps, r.fit.status, info, {o.zip, o.overwrite}, o.out));
+  MATFIT_RETURN_IF_ERROR(
+      WritePack(r.fit.maps, r.fit.status, info, {o.zip, o.overwrite, o.compact_maps}, o.out));
   stages.End();
   r.timings = stages.Snapshot();
   return r;

@@ -28,6 +28,7 @@ struct FitJobOptions {
   std::string out;                // pack folder (or .zip with zip); report file with report_only
   std::string report_only;        // score this existing pack against the dataset (no fitting)
   bool zip = false, overwrite = false;
+  bool compact_maps = false;  // PackWriteOptions::compact
   // Read the dataset and stop: the decode floor (same reader, parallel decode and threads as a
   // fit; no fit, no scores, nothing written). Not with out, report_only or holdout.
   bool decode_only = false;

@@ -38,6 +38,7 @@ struct PackInfo {
 struct PackWriteOptions {
   bool zip = false;        // write one .zip file instead of a folder
   bool overwrite = false;  // replace an existing output
+  bool compact = false;    // smaller, slower-to-write map files (ImageWriteOptions::compact)
 };
 
 // Writes the pack atomically to `out` (a folder; with zip, `out` is the .zip file path).

@@ -137,10 +137,11 @@ Status WritePack(const MaterialMaps& m, const std::vector<uint8_t>& status, cons
                     {"channels", img.channels()}});
     return Status::Ok();
   };
-  const ImageWriteOptions srgb8{PixelFormat::kUint8, TransferFunction::kSrgb};
-  const ImageWriteOptions lin8{PixelFormat::kUint8, TransferFunction::kLinear};
-  const ImageWriteOptions lin16{PixelFormat::kUint16, TransferFunction::kLinear};
-  const ImageWriteOptions exr{PixelFormat::kFloat, TransferFunction::kLinear};
+  const bool compact = options.compact;
+  const ImageWriteOptions srgb8{PixelFormat::kUint8, TransferFunction::kSrgb, compact};
+  const ImageWriteOptions lin8{PixelFormat::kUint8, TransferFunction::kLinear, compact};
+  const ImageWriteOptions lin16{PixelFormat::kUint16, TransferFunction::kLinear, compact};
+  const ImageWriteOptions exr{PixelFormat::kFloat, TransferFunction::kLinear, compact};
   const ModelDescriptor& model = Model(m.model);
   const bool has_normal = model.writes_normal_map();
   MATFIT_RETURN_IF_ERROR(put("albedo", "albedo.png", m.albedo, srgb8, model.albedo_semantic()));
