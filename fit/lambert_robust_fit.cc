@@ -12,17 +12,26 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
-#include <numeric>
 #include <vector>
 
 #include "fit/fit_common.h"
 #include "fit/methods.h"
+#include "fit/select_kth.h"
 
 namespace matfit::fit {
 namespace {
 
 constexpr double kTrimDark = 0.2, kTrimBright = 0.1;
 constexpr int kRounds = 4;
+
+struct RankKey {
+  double y;
+  int i;
+};
+// Branch-free: (y, i) in lexicographic order.
+constexpr auto ByValueThenIndex = [](const RankKey& a, const RankKey& b) {
+  return (a.y < b.y) | ((a.y == b.y) & (a.i < b.i));
+};
 
 // Least squares g over the samples with keep[i] set; false when fewer than 3 or singular
 // (smallest eigenvalue of Σ l lᵀ ≤ 1e-12). The sums run branch-free (keep as a 0/1 factor):
@@ -71,10 +80,11 @@ StatusOr<FitResult> FitLambertRobust(const LightStack& s, const FitOptions& o) {
   const bool may_clip = StackMayBeClipped(s);
 
   const bool ok = ForEachTile(s, o, [&](const Tile& t) {
+    // The row's samples (linear, [c][i][k]) and luminance ([i][k]) for the texels' loops.
+    std::vector<float> vals(size_t(C) * n * t.width);
     std::vector<double> lum(size_t(n) * t.width), y(n), absr(n);
-    std::vector<int> order(n);
+    std::vector<RankKey> keys(n);
     std::vector<char> keep(n), next(n), clipped(n);
-    std::vector<float> scratch(s.is_float() ? 0 : t.width);
     for (int row = t.y0; row < t.y0 + t.height; ++row) {
       const int64_t base = int64_t(row) * W + t.x0;
       // Gather luminance image by image (contiguous rows).
@@ -83,19 +93,22 @@ StatusOr<FitResult> FitLambertRobust(const LightStack& s, const FitOptions& o) {
         std::fill(dst, dst + t.width, 0.0);
         for (int c = 0; c < C; ++c) {
           const float w = (C == 1 ? 1.0f : kLuma[c]) * inv[i * C + c];
-          const float* src = s.Row(i, c, row, t.x0, t.width, scratch.data());
-          for (int k = 0; k < t.width; ++k) dst[k] += w * src[k];
+          float* v = vals.data() + (size_t(c) * n + i) * t.width;
+          const float* src = s.Row(i, c, row, t.x0, t.width, v);
+          if (src != v) std::copy_n(src, t.width, v);
+          for (int k = 0; k < t.width; ++k) dst[k] += w * v[k];
         }
       }
       for (int k = 0; k < t.width; ++k) {
         const int64_t p = base + k;
         if (r.status[p] != kTexelOk) continue;
+        auto sample = [&](int i, int c) { return vals[(size_t(c) * n + i) * t.width + k]; };
         // Clipped samples (at the file's maximum code) and non-finite ones (NaN/Inf in any
         // channel: dead pixels, decode holes) are never used; they rank as dark.
         std::fill(clipped.begin(), clipped.end(), 0);
         if (may_clip)
           for (int i = 0; i < n; ++i)
-            for (int c = 0; c < C; ++c) clipped[i] |= s.Sample(i, c, p) >= kClipLevel;
+            for (int c = 0; c < C; ++c) clipped[i] |= sample(i, c) >= kClipLevel;
         int finite = 0;
         for (int i = 0; i < n; ++i) {
           y[i] = lum[size_t(i) * t.width + k];
@@ -109,17 +122,20 @@ StatusOr<FitResult> FitLambertRobust(const LightStack& s, const FitOptions& o) {
           r.status[p] = kTexelNonFinite;
           continue;
         }
-        // 1. Rank trimming (keep at least 3 of the middle ranks): two selections put the
-        // ranks [lo, hi) in order[lo, hi) (a full sort is not needed).
-        std::iota(order.begin(), order.end(), 0);
+        // 1. Rank trimming (keep at least 3 of the middle ranks): the samples ranked [lo, hi)
+        // are those between the rank-lo and rank-hi keys (two selections, no sort). Ties
+        // (shadow zeros, 8-bit codes) break by index, so the kept set is deterministic.
         int lo = int(std::floor(kTrimDark * n)), hi = int(std::ceil((1 - kTrimBright) * n));
         if (hi - lo < 3) lo = std::max(0, std::min(lo, n - 3)), hi = std::min(n, lo + 3);
-        // Ties (shadow zeros, 8-bit codes) break by index, so the kept set is deterministic.
-        const auto by_y = [&](int a, int b) { return y[a] < y[b] || (y[a] == y[b] && a < b); };
-        std::nth_element(order.begin(), order.begin() + lo, order.end(), by_y);
-        if (hi < n) std::nth_element(order.begin() + lo, order.begin() + hi, order.end(), by_y);
-        std::fill(keep.begin(), keep.end(), 0);
-        for (int q = lo; q < hi; ++q) keep[order[q]] = !clipped[order[q]];
+        for (int i = 0; i < n; ++i) keys[i] = {y[i], i};
+        const RankKey first = SelectKth(keys.data(), n, lo, ByValueThenIndex);
+        const RankKey end = hi < n ? SelectKth(keys.data(), n, hi, ByValueThenIndex)
+                                   : RankKey{0, n};  // past every sample
+        for (int i = 0; i < n; ++i) {
+          const RankKey key{y[i], i};
+          keep[i] = !clipped[i] && !ByValueThenIndex(key, first) &&
+                    (hi == n || ByValueThenIndex(key, end));
+        }
         Vec3 g;
         double cond = 0;
         bool solved = SolveSubset(dirs, y.data(), keep, &g, &cond);
@@ -129,8 +145,7 @@ StatusOr<FitResult> FitLambertRobust(const LightStack& s, const FitOptions& o) {
           int m = 0;
           for (int i = 0; i < n; ++i)
             if (keep[i]) absr[m++] = std::abs(y[i] - std::max(0.0, Dot(g, dirs[i])));
-          std::nth_element(absr.begin(), absr.begin() + m / 2, absr.begin() + m);
-          const double sigma = 1.4826 * absr[m / 2] + 1e-3 * Length(g) + 1e-6;
+          const double sigma = 1.4826 * SelectKth(absr.data(), m, m / 2) + 1e-3 * Length(g) + 1e-6;
           for (int i = 0; i < n; ++i) {
             const double pred = std::max(0.0, Dot(g, dirs[i]));
             next[i] = !clipped[i] && Dot(nn, dirs[i]) > 0.05 && std::abs(y[i] - pred) <= 3 * sigma;
@@ -161,7 +176,7 @@ StatusOr<FitResult> FitLambertRobust(const LightStack& s, const FitOptions& o) {
           if (!keep[i]) continue;
           const double si = std::max(0.0, Dot(nn, dirs[i]));
           den += si * si;
-          for (int c = 0; c < C; ++c) num[c] += s.Sample(i, c, p) * inv[i * C + c] * si;
+          for (int c = 0; c < C; ++c) num[c] += sample(i, c) * inv[i * C + c] * si;
         }
         for (int c = 0; c < 3; ++c) {
           r.maps.normal.Plane(c)[p] = float(nn[c]);
