@@ -2,7 +2,8 @@
 // like std::nth_element but with branch-free partitions. Per-texel residuals are random data:
 // std::nth_element's comparisons mispredict about half the time, and in lambert-robust the
 // selections were half of the fit's time. The value returned is the same as
-// std::nth_element's a[k] for any strict weak order `less`; the array is permuted.
+// std::nth_element's a[k] for any strict weak order `less`; the array is permuted (not left
+// partitioned around a[k]).
 #pragma once
 
 #include <utility>
@@ -42,9 +43,18 @@ T SelectKth(T* a, int n, int k, Less less) {
     if (k < eq) return a[k];  // equal to the pivot
     lo = eq;
   }
-  for (int i = lo + 1; i < hi; ++i)  // insertion sort of the last few
-    for (int j = i; j > lo && less(a[j], a[j - 1]); --j) std::swap(a[j], a[j - 1]);
-  return a[k];
+  // The last few by counting, branch-free: the answer is the element with fewer than k − lo
+  // elements below it and more than k − lo at or below it.
+  const int r = k - lo;
+  for (int i = lo; i < hi; ++i) {
+    int below = 0, at_or_below = 0;
+    for (int j = lo; j < hi; ++j) {
+      below += less(a[j], a[i]) ? 1 : 0;
+      at_or_below += less(a[i], a[j]) ? 0 : 1;
+    }
+    if (below <= r && r < at_or_below) return a[i];
+  }
+  return a[k];  // unreachable for a strict weak order
 }
 
 template <typename T>
