@@ -1,9 +1,12 @@
 #include <gtest/gtest.h>
+
+#include <Eigen/Dense>
 #include <algorithm>
 #include <cstdio>
 #include <random>
 #include <vector>
 
+#include "fit/fit_common.h"
 #include "fit/methods.h"
 #include "fit/metrics.h"
 #include "fit/select_kth.h"
@@ -94,6 +97,173 @@ TEST(SelectKth, LexicographicKeys) {
       ASSERT_EQ(s.y, ref[size_t(k)].y);
       ASSERT_EQ(s.i, ref[size_t(k)].i);
     }
+  }
+}
+
+// SelectTwo returns what two std::nth_element calls return, for pairs of ranks on arrays with
+// ties (one value, a few, many) and sorted inputs.
+TEST(SelectKth, SelectTwoMatchesTwoSelections) {
+  std::mt19937 rng(5);
+  for (int trial = 0; trial < 120; ++trial) {
+    const int n = 2 + int(rng() % 300);
+    const int levels = trial % 3 == 0 ? 1 : trial % 3 == 1 ? 6 : 1 << 30;
+    std::vector<double> a(static_cast<size_t>(n));
+    for (double& v : a) v = double(rng() % uint32_t(levels));
+    if (trial % 5 == 0) std::sort(a.begin(), a.end());
+    std::vector<double> sorted = a;
+    std::sort(sorted.begin(), sorted.end());
+    for (int rep = 0; rep < 20; ++rep) {
+      int k1 = int(rng() % uint32_t(n)), k2 = int(rng() % uint32_t(n));
+      if (k1 == k2) continue;
+      if (k1 > k2) std::swap(k1, k2);
+      std::vector<double> got = a;
+      double v1 = -1, v2 = -1;
+      SelectTwo(got.data(), n, k1, k2, std::less<double>(), &v1, &v2);
+      ASSERT_EQ(v1, sorted[size_t(k1)]) << "n " << n << " k1 " << k1;
+      ASSERT_EQ(v2, sorted[size_t(k2)]) << "n " << n << " k2 " << k2;
+      std::sort(got.begin(), got.end());
+      ASSERT_EQ(got, sorted);  // a permutation of the input
+    }
+  }
+}
+
+// lambert-robust written the plain way, straight from its definition (METHODS.md §3, the file
+// comment of fit/lambert_robust_fit.cc): ranks by sorting (y, i), medians by std::nth_element,
+// the eigen-decomposition of every subset. The optimised fit must give the same maps exactly.
+struct PlainRobust {
+  std::vector<float> normal, albedo;  // [c][p]
+  std::vector<uint8_t> status;
+};
+PlainRobust PlainLambertRobust(const LightStack& s) {
+  const int n = s.num_images(), C = s.channels();
+  const int64_t P = s.texels();
+  const std::vector<float> inv = InverseIntensities(s);
+  const bool may_clip = StackMayBeClipped(s);
+  PlainRobust out{std::vector<float>(3 * P, 0.f), std::vector<float>(3 * P, 0.f),
+                  std::vector<uint8_t>(P, kTexelOk)};
+  auto solve = [&](const std::vector<double>& y, const std::vector<char>& keep, Vec3* g,
+                   double* cond) {
+    Eigen::Matrix3d m = Eigen::Matrix3d::Zero();
+    Eigen::Vector3d b = Eigen::Vector3d::Zero();
+    int count = 0;
+    for (int i = 0; i < n; ++i) {
+      if (!keep[i]) continue;
+      const Vec3 l = s.lights()[i].direction;
+      const Eigen::Vector3d e(l.x, l.y, l.z);
+      m += e * e.transpose(), b += e * y[i], ++count;
+    }
+    if (count < 3) return false;
+    Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> eig;
+    eig.computeDirect(m, Eigen::EigenvaluesOnly);
+    const auto ev = eig.eigenvalues();
+    *cond = ev[2] > 0 ? ev[0] / ev[2] : 0;
+    if (!(ev[0] > 1e-12)) return false;
+    const Eigen::Vector3d x = m.ldlt().solve(b);
+    *g = {x.x(), x.y(), x.z()};
+    return true;
+  };
+  for (int64_t p = 0; p < P; ++p) {
+    std::vector<double> y(n);
+    std::vector<char> bad(n, 0);
+    int finite = 0;
+    for (int i = 0; i < n; ++i) {
+      double sum = 0;
+      for (int c = 0; c < C; ++c) {
+        const float v = s.Sample(i, c, p);
+        bad[i] |= may_clip && v >= kClipLevel;
+        sum += (C == 1 ? 1.0f : kLuma[c]) * inv[i * C + c] * v;
+      }
+      y[i] = std::isfinite(sum) ? sum : 0.0;
+      bad[i] |= !std::isfinite(sum);
+      finite += std::isfinite(sum) ? 1 : 0;
+    }
+    if (finite < 3) {
+      out.status[p] = kTexelNonFinite;
+      continue;
+    }
+    std::vector<std::pair<double, int>> ranked(n);
+    for (int i = 0; i < n; ++i) ranked[i] = {y[i], i};
+    std::sort(ranked.begin(), ranked.end());
+    int lo = int(std::floor(0.2 * n)), hi = int(std::ceil(0.9 * n));
+    if (hi - lo < 3) lo = std::max(0, std::min(lo, n - 3)), hi = std::min(n, lo + 3);
+    std::vector<char> keep(n, 0);
+    for (int r = lo; r < hi; ++r) keep[ranked[r].second] = !bad[ranked[r].second];
+    Vec3 g;
+    double cond = 0;
+    bool solved = solve(y, keep, &g, &cond);
+    for (int round = 0; solved && round < 4; ++round) {
+      const Vec3 nn = Normalize(g);
+      std::vector<double> absr;
+      for (int i = 0; i < n; ++i)
+        if (keep[i])
+          absr.push_back(std::abs(y[i] - std::max(0.0, Dot(g, s.lights()[i].direction))));
+      std::nth_element(absr.begin(), absr.begin() + absr.size() / 2, absr.end());
+      const double sigma = 1.4826 * absr[absr.size() / 2] + 1e-3 * Length(g) + 1e-6;
+      std::vector<char> next(n);
+      for (int i = 0; i < n; ++i) {
+        const Vec3 l = s.lights()[i].direction;
+        next[i] =
+            !bad[i] && Dot(nn, l) > 0.05 && std::abs(y[i] - std::max(0.0, Dot(g, l))) <= 3 * sigma;
+      }
+      if (next == keep) break;
+      Vec3 g2;
+      double c2 = 0;
+      if (!solve(y, next, &g2, &c2)) break;
+      keep = next, g = g2, cond = c2;
+    }
+    const int inliers = int(std::count(keep.begin(), keep.end(), 1));
+    if (!solved || inliers < 3) {
+      out.status[p] = kTexelTooFewLights;
+    } else if (cond < 1e-3) {
+      out.status[p] = kTexelIllConditioned;
+    } else if (!(Length(g) > 1e-6)) {
+      out.status[p] = kTexelNoSignal;
+    } else {
+      const Vec3 nn = g / Length(g);
+      double num[3] = {0, 0, 0}, den = 0;
+      for (int i = 0; i < n; ++i) {
+        if (!keep[i]) continue;
+        const double si = std::max(0.0, Dot(nn, s.lights()[i].direction));
+        den += si * si;
+        for (int c = 0; c < C; ++c) num[c] += s.Sample(i, c, p) * inv[i * C + c] * si;
+      }
+      for (int c = 0; c < 3; ++c) {
+        out.normal[c * P + p] = float(nn[c]);
+        out.albedo[c * P + p] = float(den > 0 ? num[C == 1 ? 0 : c] / den : 0);
+      }
+    }
+  }
+  return out;
+}
+
+// Shadows, noise, highlights clipped at 1 (the stack says it is clipped), NaN samples, and a
+// 12-light set where the robust fit runs out of inliers: every texel the same as the plain form.
+TEST(LambertRobust, EqualsItsPlainDefinitionExactly) {
+  for (const char* lights : {"bonn81", "ring:12:35"}) {
+    auto data = Glossy(lights, 40, 0.01);
+    LightStack& s = data.stack;
+    std::mt19937 rng(3);
+    for (int i = 0; i < s.num_images(); ++i)
+      for (int c = 0; c < s.channels(); ++c)
+        for (float& v : s.Plane(i, c)) {
+          v = std::min(v * 1.6f, 1.0f);  // bright enough to clip the highlights
+          if (rng() % 500 == 0) v = std::nanf("");
+        }
+    s.saturated_pixels.assign(size_t(s.num_images()), 1);
+    auto fit = FitLambertRobust(s, {});
+    ASSERT_TRUE(fit.ok());
+    const PlainRobust ref = PlainLambertRobust(s);
+    const int64_t P = s.texels();
+    int64_t ok = 0;
+    for (int64_t p = 0; p < P; ++p) {
+      ASSERT_EQ(int(fit->status[p]), int(ref.status[p])) << lights << " texel " << p;
+      ok += fit->status[p] == kTexelOk;
+      for (int c = 0; c < 3; ++c) {
+        ASSERT_EQ(fit->maps.normal.Plane(c)[p], ref.normal[c * P + p]) << lights << " " << p;
+        ASSERT_EQ(fit->maps.albedo.Plane(c)[p], ref.albedo[c * P + p]) << lights << " " << p;
+      }
+    }
+    EXPECT_GT(ok, P / 2) << lights;  // the comparison covers fitted texels, not only flags
   }
 }
 
