@@ -58,20 +58,21 @@ void BM_ReadStack(benchmark::State& state) {
 }
 BENCHMARK(BM_ReadStack)->Name("read_stack")->Unit(benchmark::kMillisecond)->UseRealTime();
 
-// Predictions only: every light × texel × channel into a run buffer.
+// Predictions only: every light × texel × channel into a run buffer, a group of lights at a time
+// (BatchEvaluator::EvaluateLights, as the scoring pass uses it).
 void BM_EvaluateAll(benchmark::State& state) {
   const LightStack& s = Stack();
   const MaterialMaps& m = Fitted(int(state.range(0))).maps;
   std::vector<Vec3f> lights;
   for (const auto& l : s.lights()) lights.emplace_back(l.direction);
-  std::vector<float> out(size_t(3) * kEvalRun);
+  std::vector<float> out(size_t(kMaxEvalLightGroup) * 3 * kEvalRun);
   for (auto _ : state) {
     const BatchEvaluator eval(m, lights, Vec3f(0, 0, 1));
     float acc = 0;
     for (int64_t p0 = 0; p0 < s.plane_size(); p0 += kEvalRun) {
       const int n = int(std::min<int64_t>(kEvalRun, s.plane_size() - p0));
-      for (int i = 0; i < eval.lights(); ++i) {
-        eval.Evaluate(i, p0, n, 3, out.data());
+      for (int i = 0; i < eval.lights(); i += eval.group()) {
+        eval.EvaluateLights(i, std::min(eval.group(), eval.lights() - i), p0, n, 3, out.data());
         acc += out[0];
       }
     }

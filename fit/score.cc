@@ -152,7 +152,7 @@ StackScore ScoreStack(const LightStack& s, const std::vector<int>& images, const
   ParallelFor(
       0, runs,
       [&](int64_t r0, int64_t r1) {
-        std::vector<float> pred(size_t(3) * kEvalRun), scratch(kEvalRun);
+        std::vector<float> pred(size_t(eval.group()) * 3 * kEvalRun), scratch(kEvalRun);
         std::vector<double> acc(kEvalRun), sum(kEvalRun);
         std::vector<int> k(kEvalRun), m(kEvalRun), used(kEvalRun);
         float ok[kEvalRun];
@@ -171,12 +171,14 @@ StackScore ScoreStack(const LightStack& s, const std::vector<int>& images, const
           }
           for (int j = 0; j < n; ++j) {
             const int i = images[size_t(j)];
-            eval.Evaluate(j, p0, len, C, pred.data());
+            const int in_group = j % eval.group();  // predictions come a group of lights at once
+            if (in_group == 0)
+              eval.EvaluateLights(j, std::min(eval.group(), n - j), p0, len, C, pred.data());
             if (residuals) std::fill_n(used.begin(), len, 0);
             double d2 = 0;
             for (int c = 0; c < C; ++c) {
               const float* raw = s.Texels(i, c, p0, len, scratch.data());
-              const float* pc = pred.data() + size_t(c) * len;
+              const float* pc = pred.data() + (size_t(in_group) * C + c) * len;
               if (residuals)
                 ResidualSums(raw, pc, inv[size_t(i) * C + c], clip_level, len, acc.data(),
                              sum.data(), k.data(), used.data());

@@ -97,6 +97,13 @@ class ModelDescriptor {
                        ModelLight* out) const;
   virtual void EvaluateBatch(const MaterialMaps& m, const ModelLight& light, int64_t p0, int n,
                              int channels, float* out) const = 0;
+  // Several lights over one run: out[(l · channels + c) · n + t] = EvaluateBatch(lights[l], ...)
+  // bit for bit. Models whose texel work is shared between lights (a basis model loads its k
+  // coefficient planes once for a group of lights) override it; the default loops over lights.
+  virtual void EvaluateLights(const MaterialMaps& m, const ModelLight* lights, int count,
+                              int64_t p0, int n, int channels, float* out) const;
+  // Lights per EvaluateLights call that pay off (1: no sharing; a group's outputs cost cache).
+  virtual int light_group() const { return 1; }
   // Scattered evaluation (per-sample texel, light and view, as a renderer's pixels need):
   // out[c · n + k] = R(texels[k], c, l[k], v[k]) for c < 3.
   virtual void EvaluateSamples(const MaterialMaps& m, const int64_t* texels, const Vec3f* l,
@@ -159,6 +166,13 @@ class BatchEvaluator {
   void Evaluate(int light, int64_t p0, int n, int channels, float* out) const {
     model_->EvaluateBatch(*maps_, prepared_[size_t(light)], p0, n, channels, out);
   }
+  // Lights [first, first + count): out[(l · channels + c) · n + t], the same values as
+  // Evaluate(first + l, ...) — faster for models that share texel work between lights, in groups
+  // of group() lights (≤ kMaxEvalLightGroup).
+  void EvaluateLights(int first, int count, int64_t p0, int n, int channels, float* out) const {
+    model_->EvaluateLights(*maps_, prepared_.data() + first, count, p0, n, channels, out);
+  }
+  int group() const { return model_->light_group(); }
 
  private:
   const MaterialMaps* maps_;
@@ -169,5 +183,8 @@ class BatchEvaluator {
 // Texels per run for batched evaluation: long enough to amortise per-run work, short enough
 // that a run's parameter planes and outputs stay in L1/L2.
 inline constexpr int kEvalRun = 1024;
+// The largest light_group() of any model (a basis model keeps four lights' sums in registers
+// while it reads each coefficient once): buffers for a group hold this many lights' outputs.
+inline constexpr int kMaxEvalLightGroup = 4;
 
 }  // namespace matfit

@@ -21,6 +21,12 @@ void ModelDescriptor::Prepare(const MaterialMaps& m, const Vec3f& l, const Vec3f
   out->l = l, out->v = v, out->h = Normalize(l + v);
 }
 
+void ModelDescriptor::EvaluateLights(const MaterialMaps& m, const ModelLight* lights, int count,
+                                     int64_t p0, int n, int channels, float* out) const {
+  for (int l = 0; l < count; ++l)
+    EvaluateBatch(m, lights[l], p0, n, channels, out + size_t(l) * channels * n);
+}
+
 BatchEvaluator::BatchEvaluator(const MaterialMaps& maps, const std::vector<Vec3f>& lights,
                                const Vec3f& view)
     : maps_(&maps), model_(&Model(maps.model)), prepared_(lights.size()) {

@@ -79,6 +79,35 @@ TEST(ModelBatch, EqualsPerSampleEvaluationForEveryModel) {
     }
 }
 
+// Groups of lights (BatchEvaluator::EvaluateLights) give exactly Evaluate's values light by light,
+// for every model, group size (whole groups of four and remainders), channel count and run length
+// (whole 16-texel blocks and tails).
+TEST(ModelBatch, LightGroupsEqualSingleLightsExactly) {
+  const std::vector<Vec3f> lights = TestLights();  // 26 lights
+  for (const ModelDescriptor* d : AllModels())
+    for (bool grey : {false, true}) {
+      if (grey && d->name() != std::string("ptm") && d->name() != std::string("hsh")) continue;
+      const MaterialMaps m = RandomModelMaps(d->id(), 23, 7, 3, grey);
+      const BatchEvaluator eval(m, lights, Vec3f(0, 0, 1));
+      for (int channels : {1, 3})
+        for (int n : {1, 16, 37, 154}) {
+          const int64_t p0 = 161 - n;
+          std::vector<float> one(size_t(channels) * n), group(size_t(6) * channels * n);
+          for (int count : {4, 6, 3}) {
+            for (int first = 0; first + count <= int(lights.size()); first += count) {
+              eval.EvaluateLights(first, count, p0, n, channels, group.data());
+              for (int l = 0; l < count; ++l) {
+                eval.Evaluate(first + l, p0, n, channels, one.data());
+                for (size_t q = 0; q < one.size(); ++q)
+                  ASSERT_EQ(group[size_t(l) * channels * n + q], one[q])
+                      << d->name() << " lights " << first << "+" << l << " n " << n;
+              }
+            }
+          }
+        }
+    }
+}
+
 TEST(ModelBatch, ScatteredEvaluationEqualsPerSample) {
   const std::vector<Vec3f> lights = TestLights();
   for (const ModelDescriptor* d : AllModels()) {
