@@ -54,7 +54,10 @@ StatusOr<Image> ConvertFrame(const uint8_t* bytes, size_t size, const FrameForma
                        std::to_string(w) + "x" + std::to_string(h));
     const int ch = spec.nchannels;
     std::vector<uint8_t> px(size_t(w) * h * ch);
-    if (!in->read_image(0, 0, 0, ch, OIIO::TypeDesc::UINT8, px.data()))
+    // UINT8 files asked for natively: no staging buffer (core/image_io.cc says why).
+    const OIIO::TypeDesc want =
+        spec.format == OIIO::TypeDesc::UINT8 ? OIIO::TypeDesc::UNKNOWN : OIIO::TypeDesc::UINT8;
+    if (!in->read_image(0, 0, 0, ch, want, px.data()))
       return DataError("MJPEG frame could not be decoded");
     const int out_ch = ch >= 3 ? 3 : 1;
     Image img(w, h, out_ch);

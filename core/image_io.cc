@@ -232,7 +232,11 @@ StatusOr<NativeImage> ReadImageNative(const std::string& path, const ImageReadOp
     img.type = sample;
     bytes_per_sample = int(sizeof(T));
     std::vector<T> raw(size_t(n) * file_ch);
-    ok = in->read_image(0, 0, 0, file_ch, type, raw.data());
+    // The file's own type is asked for as "native" (TypeDesc::UNKNOWN): OpenImageIO 2.4 then
+    // decodes straight into `raw`, where an explicit type, even the same one, goes through a
+    // 64 MiB staging buffer that is mapped, faulted in and unmapped for every image.
+    ok = in->read_image(0, 0, 0, file_ch, type == spec.format ? OIIO::TypeDesc::UNKNOWN : type,
+                        raw.data());
     if (ok) *planes = Deinterleave(raw, n, file_ch, keep_ch, &fi.saturated_pixels);
   };
   try {  // a header within the caps can still ask for more memory than there is
@@ -245,7 +249,9 @@ StatusOr<NativeImage> ReadImageNative(const std::string& path, const ImageReadOp
       img.type = SampleType::kFloat32;
       img.floats = Image(spec.width, spec.height, keep_ch);
       std::vector<float> raw(size_t(n) * file_ch);
-      ok = in->read_image(0, 0, 0, file_ch, OIIO::TypeDesc::FLOAT, raw.data());
+      const OIIO::TypeDesc want =
+          spec.format == OIIO::TypeDesc::FLOAT ? OIIO::TypeDesc::UNKNOWN : OIIO::TypeDesc::FLOAT;
+      ok = in->read_image(0, 0, 0, file_ch, want, raw.data());  // native: no staging buffer
       if (ok) {
         for (int64_t p = 0; p < n; ++p)
           for (int c = 0; c < keep_ch; ++c) {
