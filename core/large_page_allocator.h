@@ -28,6 +28,17 @@ struct LargePageAllocator {
   LargePageAllocator(const LargePageAllocator<U>&) {}
   T* allocate(std::size_t n) { return static_cast<T*>(detail::AllocateLarge(n * sizeof(T))); }
   void deallocate(T* p, std::size_t n) { detail::DeallocateLarge(p, n * sizeof(T)); }
+  // resize(n) leaves new elements default-initialised (uninitialised for numbers): big sample
+  // buffers are filled by their producers, often in parallel, so each page is first touched
+  // once, by the thread that writes it. assign(n, v) and explicit values still initialise.
+  template <class U>
+  void construct(U* p) noexcept {
+    ::new (static_cast<void*>(p)) U;
+  }
+  template <class U, class... Args>
+  void construct(U* p, Args&&... args) {
+    ::new (static_cast<void*>(p)) U(static_cast<Args&&>(args)...);
+  }
   template <class U>
   bool operator==(const LargePageAllocator<U>&) const {
     return true;

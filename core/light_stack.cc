@@ -43,6 +43,14 @@ LightStack::LightStack(int width, int height, int channels, int num_images)
 
 LightStack::LightStack(int width, int height, int channels, int num_images, SampleType type,
                        std::vector<float> lut)
+    : LightStack(width, height, channels, num_images, type, std::move(lut), Uninitialised{}) {
+  std::fill(f32_.begin(), f32_.end(), 0.0f);
+  std::fill(u8_.begin(), u8_.end(), uint8_t(0));
+  std::fill(u16_.begin(), u16_.end(), uint16_t(0));
+}
+
+LightStack::LightStack(int width, int height, int channels, int num_images, SampleType type,
+                       std::vector<float> lut, Uninitialised)
     : width_(width),
       height_(height),
       channels_(channels),
@@ -54,10 +62,10 @@ LightStack::LightStack(int width, int height, int channels, int num_images, Samp
   MATFIT_CHECK(lut_.size() == size_t(SampleCodes(type)),
                "an integer stack needs one table entry per code, a float stack none");
   const size_t samples = size_t(plane_size()) * channels * num_images;
-  switch (type) {
-    case SampleType::kFloat32: f32_.assign(samples, 0.0f); break;
-    case SampleType::kUint8: u8_.assign(samples, 0); break;
-    case SampleType::kUint16: u16_.assign(samples, 0); break;
+  switch (type) {  // default-initialised (LargePageAllocator): no value written yet
+    case SampleType::kFloat32: f32_.resize(samples); break;
+    case SampleType::kUint8: u8_.resize(samples); break;
+    case SampleType::kUint16: u16_.resize(samples); break;
   }
   lights_.resize(num_images);
 }

@@ -38,6 +38,11 @@ class LightStack {
   // (code → linear value), float32 an empty one.
   LightStack(int width, int height, int channels, int num_images, SampleType type,
              std::vector<float> lut);
+  // The same without zeroing: for a producer that writes every sample (the dataset loader), so
+  // the stack's pages are first touched by the threads that decode into them, not by one memset.
+  struct Uninitialised {};
+  LightStack(int width, int height, int channels, int num_images, SampleType type,
+             std::vector<float> lut, Uninitialised);
 
   int width() const { return width_; }
   int height() const { return height_; }

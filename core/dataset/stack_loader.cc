@@ -67,7 +67,9 @@ StatusOr<LightStack> Load(const std::vector<std::string>& files, std::vector<Lig
   std::vector<float> lut;
   if (type != SampleType::kFloat32)
     lut = LinearDecodeTable(first_info.encoding, type == SampleType::kUint8 ? 8 : 16);
-  LightStack stack(w, h, ch, n, type, std::move(lut));
+  // Every sample is written by StorePlanes below (in the decoding threads) before the stack is
+  // returned; a failed or mixed load discards it.
+  LightStack stack(w, h, ch, n, type, std::move(lut), LightStack::Uninitialised{});
   stack.lights() = std::move(lights);
   stack.image_files = files;
   stack.encodings.resize(n);

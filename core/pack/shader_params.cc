@@ -87,11 +87,19 @@ StatusOr<ShaderParams> PackShaderParams(const MaterialMaps& m) {
   const std::vector<float> ones(n_texels, 1.0f), zeros(n_texels, 0.0f);
   if (Status st = CollectPlanes(m, ones.data(), zeros.data(), &g, &planes); !st.ok()) return st;
   const int w = m.width, h = m.height;
-  g.texels.assign(size_t(g.layers) * w * h * 4, 0.0f);
   const int64_t n = int64_t(w) * h;
-  for (size_t q = 0; q < planes.size(); ++q) {
-    float* dst = g.texels.data() + (q / 4) * n * 4 + q % 4;
-    for (int64_t p = 0; p < n; ++p) dst[p * 4] = planes[q][p];
+  g.texels.resize(size_t(g.layers) * size_t(n) * 4);  // every element written below
+  // Layer by layer, its four planes interleaved in one pass (lanes past the last plane: 0).
+  for (int layer = 0; layer < g.layers; ++layer) {
+    const float* lane[4];
+    for (int k = 0; k < 4; ++k) {
+      const size_t q = size_t(layer) * 4 + size_t(k);
+      lane[k] = q < planes.size() ? planes[q] : zeros.data();
+    }
+    float* dst = g.texels.data() + size_t(layer) * size_t(n) * 4;
+    for (int64_t p = 0; p < n; ++p)
+      dst[4 * p] = lane[0][p], dst[4 * p + 1] = lane[1][p], dst[4 * p + 2] = lane[2][p],
+              dst[4 * p + 3] = lane[3][p];
   }
   return g;
 }
