@@ -89,13 +89,7 @@ class BasisModel final : public ModelBase<BasisModel<kPtm>> {
   }
   void EvaluateBatch(const MaterialMaps& m, const ModelLight& light, int64_t p0, int n,
                      int channels, float* out) const override {
-    const int k = m.basis_terms;
-    const float* planes[ModelLight::kMaxBasis];
-    for (int c = 0; c < channels; ++c) {
-      const int base = (m.coefficients.channels() == k ? 0 : c) * k;
-      for (int j = 0; j < k; ++j) planes[j] = m.coefficients.Plane(base + j).data();
-      BasisKernel(planes, light.basis, k, p0, n, out + c * n);
-    }
+    EvaluateLights(m, &light, 1, p0, n, channels, out);  // one light: BasisKernel per channel
   }
   int light_group() const override { return 4; }
   void EvaluateLights(const MaterialMaps& m, const ModelLight* lights, int count, int64_t p0, int n,
