@@ -163,7 +163,7 @@ StatusOr<FitResult> FitLambertRobust(const LightStack& s, const FitOptions& o) {
           char* clipped = bad.data() + size_t(j) * n;
           auto sample = [&](int i, int c) { return vals[(size_t(c) * n + i) * tw + k]; };
           // Non-finite samples (NaN/Inf in any channel: dead pixels, decode holes) are never
-          // used either; both kinds rank as dark.
+          // used either; they rank as dark (y = 0), clipped ones keep their value.
           int finite = 0;
           for (int i = 0; i < n; ++i) {
             const bool f = std::isfinite(y[i]);

@@ -44,6 +44,9 @@ TEST(ModelRegistry, IdsNamesAndLookupsAgree) {
     EXPECT_EQ(ModelId(m->name()), m->id());
     EXPECT_EQ(&Model(m->id()), m);
     EXPECT_STREQ(ShadingModelName(m->id()), m->name());
+    // Light-group buffers (score, eval_bench) hold kMaxEvalLightGroup lights' outputs.
+    EXPECT_GE(m->light_group(), 1) << m->name();
+    EXPECT_LE(m->light_group(), kMaxEvalLightGroup) << m->name();
   }
   EXPECT_EQ(FindModel("no-such-model"), nullptr);
   EXPECT_EQ(AllModels().size(), 8u);
