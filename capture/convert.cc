@@ -1,12 +1,10 @@
 #include "capture/convert.h"
 
-#include <OpenImageIO/filesystem.h>
-#include <OpenImageIO/imageio.h>
-
 #include <algorithm>
 #include <vector>
 
 #include "core/color.h"
+#include "core/image_codec.h"
 
 namespace matfit::capture {
 namespace {
@@ -42,23 +40,20 @@ StatusOr<Image> ConvertFrame(const uint8_t* bytes, size_t size, const FrameForma
   if (w <= 0 || h <= 0) return InvalidArgument("frame size must be positive");
   const float* srgb = Srgb8ToLinearTable();
   if (f.pixel_format == PixelFormat::kMjpeg) {
-    // Decode from memory (OIIO's in-memory reader); the JPEG carries sRGB values.
-    OIIO::Filesystem::IOMemReader mem(bytes, size);
-    auto in = OIIO::ImageInput::open("frame.jpg", nullptr, &mem);
+    // Decode from memory (core's JPEG codec); the JPEG carries sRGB values.
+    std::string error;
+    auto in = codec::OpenJpegMemory(bytes, size, &error);
     if (!in)
-      return DataError("MJPEG frame is not a valid JPEG (" + std::to_string(size) + " bytes)");
-    const OIIO::ImageSpec& spec = in->spec();
+      return DataError("MJPEG frame is not a valid JPEG (" + std::to_string(size) +
+                       " bytes): " + error);
+    const codec::Header& spec = in->header();
     if (spec.width != w || spec.height != h)
       return DataError("MJPEG frame is " + std::to_string(spec.width) + "x" +
                        std::to_string(spec.height) + ", the negotiated format is " +
                        std::to_string(w) + "x" + std::to_string(h));
-    const int ch = spec.nchannels;
+    const int ch = spec.channels;
     std::vector<uint8_t> px(size_t(w) * h * ch);
-    // UINT8 files asked for natively: no staging buffer (core/image_io.cc says why).
-    const OIIO::TypeDesc want =
-        spec.format == OIIO::TypeDesc::UINT8 ? OIIO::TypeDesc::UNKNOWN : OIIO::TypeDesc::UINT8;
-    if (!in->read_image(0, 0, 0, ch, want, px.data()))
-      return DataError("MJPEG frame could not be decoded");
+    if (!in->Read(px.data())) return DataError("MJPEG frame could not be decoded: " + in->error());
     const int out_ch = ch >= 3 ? 3 : 1;
     Image img(w, h, out_ch);
     for (int c = 0; c < out_ch; ++c)

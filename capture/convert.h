@@ -10,8 +10,8 @@
 namespace matfit::capture {
 
 // `bytes` holds one frame of `f`; `bytesperline` is the row stride (0 = packed). MJPEG frames
-// are decoded with OpenImageIO. Errors name the format and what was wrong (short buffer, bad
-// JPEG).
+// are decoded with libjpeg (core/image_codec.h). Errors name the format and what was wrong
+// (short buffer, bad JPEG).
 StatusOr<Image> ConvertFrame(const uint8_t* bytes, size_t size, const FrameFormat& f,
                              size_t bytesperline = 0);
 

@@ -1,9 +1,7 @@
 #include "core/image_io.h"
 
-#include <OpenImageIO/filesystem.h>
-#include <OpenImageIO/imageio.h>
-
 #include <algorithm>
+#include <cctype>
 #include <cerrno>
 #include <cmath>
 #include <cstdio>
@@ -17,6 +15,7 @@
 #include <vector>
 
 #include "core/atomic_file.h"
+#include "core/image_codec.h"
 #include "core/path_util.h"
 #include "core/version.h"
 
@@ -25,38 +24,8 @@ namespace {
 
 namespace fs = std::filesystem;
 
-std::string LastOiioError(OIIO::ImageInput* in) {
-  std::string e = in ? in->geterror() : std::string();
-  if (e.empty()) e = OIIO::geterror();
-  if (e.empty()) e = "unknown decoder error";
-  // Keep one line: decoders sometimes append newlines.
-  std::replace(e.begin(), e.end(), '\n', ' ');
-  return e;
-}
-
-// OpenImageIO's writes to a file, keeping the first error (errno): some writers ignore short
-// writes, and a full disk gave empty PNG files that "succeeded".
-class CheckedFileOutput : public OIIO::Filesystem::IOFile {
- public:
-  explicit CheckedFileOutput(FILE* f) : IOFile(f, Write) {}
-  size_t write(const void* buf, size_t size) override {
-    return Checked(IOFile::write(buf, size), size);
-  }
-  size_t pwrite(const void* buf, size_t size, int64_t offset) override {
-    return Checked(IOFile::pwrite(buf, size, offset), size);
-  }
-  int error() const { return error_; }
-
- private:
-  size_t Checked(size_t written, size_t size) {
-    if (written != size && error_ == 0) error_ = errno != 0 ? errno : EIO;
-    return written;
-  }
-  int error_ = 0;
-};
-
 // Decides the transfer function of a file being read.
-ColorEncoding ChooseEncoding(const OIIO::ImageSpec& spec, const ImageReadOptions& opt,
+ColorEncoding ChooseEncoding(const codec::Header& h, const ImageReadOptions& opt,
                              std::string* reason) {
   auto from_choice = [](ColorSpaceChoice c) {
     return ColorEncoding{
@@ -70,20 +39,20 @@ ColorEncoding ChooseEncoding(const OIIO::ImageSpec& spec, const ImageReadOptions
     *reason = "layout default";
     return from_choice(opt.layout_default);
   }
-  const std::string cs = spec.get_string_attribute("oiio:ColorSpace");
+  const std::string& cs = h.color_space;
   if (!cs.empty()) {
     *reason = "file metadata (" + cs + ")";
     if (cs == "Linear" || cs == "linear" || cs == "scene_linear") return {};
     if (cs == "sRGB") return {TransferFunction::kSrgb, 1.0f};
     if (cs.rfind("Gamma", 0) == 0) {
-      const float g = spec.get_float_attribute("oiio:Gamma", 0.0f);
+      const float g = h.gamma;
       if (g > 0.0f && std::isfinite(g)) {
         if (std::abs(g - 1.0f) < 1e-3f) return {};
         return {TransferFunction::kGamma, g};
       }
     }
   }
-  if (spec.format.basetype == OIIO::TypeDesc::UINT8) {
+  if (h.sample == codec::Sample::kUint8) {
     *reason = "8-bit default (sRGB)";
     return {TransferFunction::kSrgb, 1.0f};
   }
@@ -157,23 +126,27 @@ Status CheckPngDeclaredSize(const std::string& real, const std::string& shown) {
 // is allocated: a layout matfit reads, at most 2^30 samples, and (PNG) a file long enough for
 // the pixel data it claims.
 Status OpenChecked(const std::string& path, const ImageReadOptions& options,
-                   std::unique_ptr<OIIO::ImageInput>* in, OIIO::ImageSpec* spec) {
+                   std::unique_ptr<codec::Reader>* in) {
   std::error_code ec;
   const std::string shown = DatasetRelative(path, options.confine_to);
   auto real = ResolveInDataset(path, options.confine_to);
   if (!real.ok()) return Status(real.status().code(), "image " + real.status().message());
   if (!fs::is_regular_file(*real, ec)) return NotFound("image file '" + shown + "' does not exist");
   MATFIT_RETURN_IF_ERROR(CheckPngDeclaredSize(*real, shown));
-  *in = OIIO::ImageInput::open(*real);
-  if (!*in) return DataError("cannot open image '" + shown + "': " + LastOiioError(nullptr));
-  *spec = (*in)->spec();
-  if (spec->width <= 0 || spec->height <= 0 || spec->nchannels <= 0 || spec->depth > 1)
+  std::string error;
+  *in = codec::OpenAny(*real, &error);
+  if (!*in) {
+    std::replace(error.begin(), error.end(), '\n', ' ');  // one line: decoders append newlines
+    return DataError("cannot open image '" + shown + "': " + error);
+  }
+  const codec::Header& h = (*in)->header();
+  if (h.width <= 0 || h.height <= 0 || h.channels <= 0 || h.volume)
     return DataError("image '" + shown + "' has an unsupported size or layout");
   // Refuse absurd headers before allocating (a corrupt or hostile file must not exhaust memory).
   constexpr int64_t kMaxSamples = int64_t(1) << 30;  // 4 GiB of float32
-  if (int64_t(spec->width) * spec->height * std::max(1, spec->nchannels) > kMaxSamples)
-    return DataError("image '" + shown + "' claims " + std::to_string(spec->width) + "x" +
-                     std::to_string(spec->height) + "x" + std::to_string(spec->nchannels) +
+  if (int64_t(h.width) * h.height * std::max(1, h.channels) > kMaxSamples)
+    return DataError("image '" + shown + "' claims " + std::to_string(h.width) + "x" +
+                     std::to_string(h.height) + "x" + std::to_string(h.channels) +
                      " samples, more than matfit reads at once (2^30); crop or tile it");
   return Status::Ok();
 }
@@ -191,67 +164,59 @@ Status OutOfMemory(const std::string& shown, int w, int h, int channels, int byt
 }  // namespace
 
 StatusOr<ImageHeader> ReadImageHeader(const std::string& path, const ImageReadOptions& options) {
-  std::unique_ptr<OIIO::ImageInput> in;
-  OIIO::ImageSpec spec;
-  MATFIT_RETURN_IF_ERROR(OpenChecked(path, options, &in, &spec));
+  std::unique_ptr<codec::Reader> in;
+  MATFIT_RETURN_IF_ERROR(OpenChecked(path, options, &in));
+  const codec::Header& f = in->header();
   ImageHeader h;
-  h.width = spec.width, h.height = spec.height, h.file_channels = spec.nchannels;
-  h.channels = options.all_channels ? spec.nchannels : (spec.nchannels >= 3 ? 3 : 1);
-  const auto base = spec.format.basetype;
-  h.type = base == OIIO::TypeDesc::UINT8 || base == OIIO::TypeDesc::INT8     ? SampleType::kUint8
-           : base == OIIO::TypeDesc::UINT16 || base == OIIO::TypeDesc::INT16 ? SampleType::kUint16
-                                                                             : SampleType::kFloat32;
+  h.width = f.width, h.height = f.height, h.file_channels = f.channels;
+  h.channels = options.all_channels ? f.channels : (f.channels >= 3 ? 3 : 1);
+  h.type = f.sample == codec::Sample::kUint8    ? SampleType::kUint8
+           : f.sample == codec::Sample::kUint16 ? SampleType::kUint16
+                                                : SampleType::kFloat32;
   return h;
 }
 
 StatusOr<NativeImage> ReadImageNative(const std::string& path, const ImageReadOptions& options,
                                       ImageFileInfo* info) {
-  std::unique_ptr<OIIO::ImageInput> in;
-  OIIO::ImageSpec spec;
-  MATFIT_RETURN_IF_ERROR(OpenChecked(path, options, &in, &spec));
+  std::unique_ptr<codec::Reader> in;
+  MATFIT_RETURN_IF_ERROR(OpenChecked(path, options, &in));
+  const codec::Header& h = in->header();
   const std::string shown = DatasetRelative(path, options.confine_to);
-  const int file_ch = spec.nchannels;
+  const int file_ch = h.channels;
   // grey(+alpha) → 1, RGB(A) → 3; data maps keep everything.
   const int keep_ch = options.all_channels ? file_ch : (file_ch >= 3 ? 3 : 1);
   ImageFileInfo local;
   ImageFileInfo& fi = info ? *info : local;
   fi = {};
   fi.file_channels = file_ch;
-  fi.encoding = ChooseEncoding(spec, options, &fi.encoding_reason);
+  fi.encoding = ChooseEncoding(h, options, &fi.encoding_reason);
 
   NativeImage img;
-  img.width = spec.width, img.height = spec.height, img.channels = keep_ch;
-  const int64_t n = int64_t(spec.width) * spec.height;
-  const auto base = spec.format.basetype;
+  img.width = h.width, img.height = h.height, img.channels = keep_ch;
+  const int64_t n = int64_t(h.width) * h.height;
   bool ok = false;
   int bytes_per_sample = 4;
   // Integer files keep their codes (native depth): read as T, split into planes.
-  auto read_codes = [&](auto* planes, OIIO::TypeDesc type, SampleType sample, const char* name) {
+  auto read_codes = [&](auto* planes, SampleType sample, const char* name) {
     using T = typename std::decay_t<decltype(*planes)>::value_type;
     fi.pixel_format = name;
     img.type = sample;
     bytes_per_sample = int(sizeof(T));
     std::vector<T> raw(size_t(n) * file_ch);
-    // The file's own type is asked for as "native" (TypeDesc::UNKNOWN): OpenImageIO 2.4 then
-    // decodes straight into `raw`, where an explicit type, even the same one, goes through a
-    // 64 MiB staging buffer that is mapped, faulted in and unmapped for every image.
-    ok = in->read_image(0, 0, 0, file_ch, type == spec.format ? OIIO::TypeDesc::UNKNOWN : type,
-                        raw.data());
+    ok = in->Read(raw.data());
     if (ok) *planes = Deinterleave(raw, n, file_ch, keep_ch, &fi.saturated_pixels);
   };
   try {  // a header within the caps can still ask for more memory than there is
-    if (base == OIIO::TypeDesc::UINT8 || base == OIIO::TypeDesc::INT8) {
-      read_codes(&img.u8, OIIO::TypeDesc::UINT8, SampleType::kUint8, "uint8");
-    } else if (base == OIIO::TypeDesc::UINT16 || base == OIIO::TypeDesc::INT16) {
-      read_codes(&img.u16, OIIO::TypeDesc::UINT16, SampleType::kUint16, "uint16");
+    if (h.sample == codec::Sample::kUint8) {
+      read_codes(&img.u8, SampleType::kUint8, "uint8");
+    } else if (h.sample == codec::Sample::kUint16) {
+      read_codes(&img.u16, SampleType::kUint16, "uint16");
     } else {
-      fi.pixel_format = base == OIIO::TypeDesc::HALF ? "half" : "float";
+      fi.pixel_format = h.sample == codec::Sample::kHalf ? "half" : "float";
       img.type = SampleType::kFloat32;
-      img.floats = Image(spec.width, spec.height, keep_ch);
+      img.floats = Image(h.width, h.height, keep_ch);
       std::vector<float> raw(size_t(n) * file_ch);
-      const OIIO::TypeDesc want =
-          spec.format == OIIO::TypeDesc::FLOAT ? OIIO::TypeDesc::UNKNOWN : OIIO::TypeDesc::FLOAT;
-      ok = in->read_image(0, 0, 0, file_ch, want, raw.data());  // native: no staging buffer
+      ok = in->Read(raw.data());
       if (ok) {
         for (int64_t p = 0; p < n; ++p)
           for (int c = 0; c < keep_ch; ++c) {
@@ -262,13 +227,13 @@ StatusOr<NativeImage> ReadImageNative(const std::string& path, const ImageReadOp
       }
     }
   } catch (const std::bad_alloc&) {
-    return OutOfMemory(shown, spec.width, spec.height, file_ch, bytes_per_sample);
+    return OutOfMemory(shown, h.width, h.height, file_ch, bytes_per_sample);
   }
-  if (!ok || in->has_error()) {
-    return DataError("cannot decode image '" + shown +
-                     "' (truncated or corrupt file?): " + LastOiioError(in.get()));
+  if (!ok) {
+    std::string e = in->error();
+    std::replace(e.begin(), e.end(), '\n', ' ');
+    return DataError("cannot decode image '" + shown + "' (truncated or corrupt file?): " + e);
   }
-  in->close();
   return img;
 }
 
@@ -303,57 +268,48 @@ Status ReadImageSize(const std::string& path, int* width, int* height, int* chan
 
 namespace {
 
-// Encodes `image` into `out` (a file named `file_name`, or through `proxy` when given):
-// quantised as `options` say; false with out's error when the encoder fails.
-bool EncodeInto(OIIO::ImageOutput* out, const std::string& file_name,
-                OIIO::Filesystem::IOProxy* proxy, const Image& image,
-                const ImageWriteOptions& options) {
-  OIIO::TypeDesc type = OIIO::TypeDesc::UINT16;
-  switch (options.format) {
-    case PixelFormat::kUint8: type = OIIO::TypeDesc::UINT8; break;
-    case PixelFormat::kUint16: type = OIIO::TypeDesc::UINT16; break;
-    case PixelFormat::kHalf: type = OIIO::TypeDesc::HALF; break;
-    case PixelFormat::kFloat: type = OIIO::TypeDesc::FLOAT; break;
-  }
+std::string Extension(const std::string& path) {
+  std::string ext = fs::path(path).extension().string();
+  if (!ext.empty()) ext.erase(0, 1);
+  std::transform(ext.begin(), ext.end(), ext.begin(),
+                 [](unsigned char c) { return std::tolower(c); });
+  return ext == "jpeg" ? "jpg" : ext == "tiff" ? "tif" : ext;
+}
+
+// Encodes `image` as a `format` file at `path`, or into *memory: quantised as `options` say,
+// through the native codecs when they write this format, else OpenImageIO. false with *error.
+bool Encode(const Image& image, const std::string& format, const ImageWriteOptions& options,
+            const std::string& path, std::string* memory, std::string* error) {
+  codec::WriteSpec spec;
   const int ch = image.channels();
-  OIIO::ImageSpec spec(image.width(), image.height(), ch, type);
-  const bool srgb = options.transfer == TransferFunction::kSrgb;
-  if (ch > 4) {
-    // Data maps with many planes: EXR sorts channels by name, so name them in numeric order.
-    spec.channelnames.clear();
-    char name[16];
-    for (int c = 0; c < ch; ++c)
-      std::snprintf(name, sizeof name, "ch%02d", c), spec.channelnames.push_back(name);
-    spec.alpha_channel = -1;
+  const int W = image.width(), H = image.height();
+  spec.width = W, spec.height = H, spec.channels = ch;
+  switch (options.format) {
+    case PixelFormat::kUint8: spec.sample = codec::Sample::kUint8; break;
+    case PixelFormat::kUint16: spec.sample = codec::Sample::kUint16; break;
+    case PixelFormat::kHalf: spec.sample = codec::Sample::kHalf; break;
+    case PixelFormat::kFloat: spec.sample = codec::Sample::kFloat; break;
   }
-  spec.attribute("oiio:ColorSpace", srgb ? "sRGB" : "Linear");
+  const bool srgb = options.transfer == TransferFunction::kSrgb;
+  spec.srgb = srgb;
+  spec.compact = options.compact;
   // --force replaces only files matfit wrote; this tag is how it knows (core/output_marker.h).
-  spec.attribute("Software", std::string("matfit ") + kMatfitVersion);
-  if (!srgb) spec.attribute("oiio:Gamma", 1.0f);
-  // Float EXR: uncompressed, or (compact) PIZ, the lossless wavelet coder, which on fitted maps
-  // is 1.4× faster than OpenEXR's default ZIP and 12 % smaller. PNG: zlib level 1 or 6.
-  if (options.format == PixelFormat::kFloat && std::strcmp(out->format_name(), "openexr") == 0)
-    spec.attribute("compression", options.compact ? "piz" : "none");
-  if (std::strcmp(out->format_name(), "png") == 0)
-    spec.attribute("png:compressionLevel", options.compact ? 6 : 1);
+  spec.software = std::string("matfit ") + kMatfitVersion;
   // Quantise ourselves (round to nearest) so that 8-bit sRGB codes are exact. The planes are
   // interleaved a strip of rows at a time, so the encoder's input costs a strip, not a copy of
   // the image.
-  const int W = image.width(), H = image.height();
-  const int strip_rows =
+  spec.strip_rows =
       std::max(1, std::min(H, int((1 << 20) / std::max<int64_t>(1, int64_t(W) * ch))));
   std::vector<uint8_t> q8;
   std::vector<uint16_t> q16;
   std::vector<float> f32;
-  OIIO::TypeDesc buffer_type = type;
   auto encoded = [&](int c, int64_t p) {
     const float v = image.Plane(c)[p];
     // RGBA: the alpha plane stays linear.
     return srgb && !(ch == 4 && c == 3) ? LinearToSrgb(std::clamp(v, 0.0f, 1.0f)) : v;
   };
-  // Interleaved samples of rows [y0, y1) in the buffer's type: codes round(v · max) for the
-  // integer formats.
-  auto interleave = [&](int y0, int y1) -> const void* {
+  // Interleaved samples of rows [y0, y1): codes round(v · max) for the integer formats.
+  spec.rows = [&](int y0, int y1) -> const void* {
     const int64_t p0 = int64_t(y0) * W, n = int64_t(y1 - y0) * W;
     auto quantise = [&]<typename T>(std::vector<T>& q) -> const void* {
       const float top = float(std::numeric_limits<T>::max());
@@ -370,61 +326,37 @@ bool EncodeInto(OIIO::ImageOutput* out, const std::string& file_name,
       for (int64_t p = 0; p < n; ++p) f32[p * ch + c] = encoded(c, p0 + p);
     return f32.data();
   };
-  if (options.format != PixelFormat::kUint8 && options.format != PixelFormat::kUint16)
-    buffer_type = OIIO::TypeDesc::FLOAT;
-  if (proxy) out->set_ioproxy(proxy);
-  if (!out->open(file_name, spec)) return false;
-  bool written = true;
-  for (int y0 = 0; y0 < H && written; y0 += strip_rows) {
-    const int y1 = std::min(H, y0 + strip_rows);
-    written = out->write_scanlines(y0, y1, 0, buffer_type, interleave(y0, y1));
+  codec::Backend* backend = &codec::Native();
+  if (!backend->CanWrite(format, spec, memory != nullptr)) {
+    backend = codec::OpenImageIo(error);
+    if (!backend) return false;
   }
-  return out->close() && written;
+  return backend->Write(format, spec, path, memory, error);
 }
 
 }  // namespace
 
 Status WriteImage(const std::string& path, const Image& image, const ImageWriteOptions& options) {
   if (image.empty()) return InvalidArgument("refusing to write empty image '" + path + "'");
-  auto out = OIIO::ImageOutput::create(path);
-  if (!out)
-    return InvalidArgument("cannot write '" + path + "': no image format for this extension (" +
-                           OIIO::geterror() + ")");
+  const std::string format = Extension(path);
+  if (format.empty())
+    return InvalidArgument("cannot write '" + path +
+                           "': no image format for a file without an extension (use .png, "
+                           ".exr, .jpg, .tif, ...)");
   AtomicFile file(path);
-  // Writers that take an I/O proxy write through one that sees every failed write (errno).
-  std::unique_ptr<FILE, int (*)(FILE*)> f(nullptr, std::fclose);
-  std::unique_ptr<CheckedFileOutput> proxy;
-  if (out->supports("ioproxy")) {
-    f.reset(std::fopen(file.temp_path().c_str(), "wb"));
-    if (!f) return IoError("cannot create '" + file.temp_path() + "': " + std::strerror(errno));
-    proxy = std::make_unique<CheckedFileOutput>(f.get());
-  }
-  const auto write_failed = [&](int err) {
-    return IoError("writing '" + path + "' failed: " + std::strerror(err));
-  };
-  const bool ok = EncodeInto(out.get(), file.temp_path(), proxy.get(), image, options);
-  if (proxy && proxy->error() != 0) return write_failed(proxy->error());
-  if (!ok) return IoError("writing '" + path + "' failed: " + out->geterror());
-  if (f) {  // buffered bytes: a full disk shows here
-    errno = 0;
-    if (std::fflush(f.get()) != 0) return write_failed(errno != 0 ? errno : EIO);
-    if (std::fclose(f.release()) != 0) return write_failed(errno != 0 ? errno : EIO);
-  }
+  std::string error;
+  if (!Encode(image, format, options, file.temp_path(), nullptr, &error))
+    return IoError("writing '" + path + "' failed: " + error);
   return file.Commit();
 }
 
 StatusOr<std::string> EncodeImage(const Image& image, const std::string& format,
                                   const ImageWriteOptions& options) {
   if (image.empty()) return InvalidArgument("refusing to encode an empty image");
-  const std::string name = "image." + format;
-  auto out = OIIO::ImageOutput::create(name);
-  if (!out || !out->supports("ioproxy"))
-    return InvalidArgument("cannot encode '" + format + "' images in memory");
-  std::vector<unsigned char> bytes;
-  OIIO::Filesystem::IOVecOutput vec(bytes);
-  if (!EncodeInto(out.get(), name, &vec, image, options))
-    return IoError("encoding a " + format + " image failed: " + out->geterror());
-  return std::string(bytes.begin(), bytes.end());
+  std::string bytes, error;
+  if (!Encode(image, format, options, "", &bytes, &error))
+    return IoError("encoding a " + format + " image failed: " + error);
+  return bytes;
 }
 
 }  // namespace matfit

@@ -1,5 +1,7 @@
-// Image files in and out through OpenImageIO: PNG (8/16-bit), JPEG, TGA, TIFF, EXR, ...
-// Reading yields linear float planes; writing encodes linear planes. Writes are atomic.
+// Image files in and out: JPEG, PNG (8/16-bit) and OpenEXR through their own libraries, every
+// other format (TGA, TIFF, RAW, HDR, ...) through OpenImageIO, loaded on first use
+// (core/image_codec.h). Reading yields linear float planes; writing encodes linear planes.
+// Writes are atomic.
 #pragma once
 
 #include <cstdint>

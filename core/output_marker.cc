@@ -2,7 +2,6 @@
 
 #include <zip.h>
 
-#include <OpenImageIO/imageio.h>
 #include <algorithm>
 #include <filesystem>
 #include <fstream>
@@ -11,6 +10,7 @@
 #include <vector>
 
 #include "core/atomic_file.h"
+#include "core/image_codec.h"
 #include "core/version.h"
 
 namespace matfit {
@@ -35,14 +35,13 @@ bool ZipHasMarker(const std::string& path) {
 }
 
 bool ImageIsMatfits(const std::string& path) {
-  auto in = OIIO::ImageInput::open(path);
-  if (!in) {
-    (void)OIIO::geterror();  // clear the thread's error state
-    return false;
+  std::string error;
+  auto in = codec::OpenAny(path, &error);
+  if (in && !in->header().software_known) {  // a native reader that skips the tag (JPEG)
+    codec::Backend* oiio = codec::OpenImageIo(&error);
+    in = oiio ? oiio->Open(path, &error) : nullptr;
   }
-  const std::string software = in->spec().get_string_attribute("Software");
-  in->close();
-  return software.rfind("matfit", 0) == 0;
+  return in && in->header().software.rfind("matfit", 0) == 0;
 }
 
 // A JSON report matfit wrote: {"generator": "matfit ...", ...}.

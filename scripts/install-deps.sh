@@ -7,8 +7,10 @@ set -euo pipefail
 PACKAGES=(
   # toolchain
   build-essential cmake ninja-build pkg-config ccache clang-format git nodejs
-  # core: image I/O, JSON, CLI, logging, threading, math
-  libopenimageio-dev openimageio-tools nlohmann-json3-dev libcli11-dev
+  # core: image I/O (JPEG, PNG and OpenEXR directly; OpenImageIO as a module for the other
+  # formats), JSON, CLI, logging, threading, math
+  libjpeg-dev libpng-dev libopenexr-dev libopenimageio-dev openimageio-tools nlohmann-json3-dev
+  libcli11-dev
   libspdlog-dev libfmt-dev libtbb-dev libeigen3-dev libglm-dev
   # fuzzing and the sanitizer test job (build-san/): clang, libFuzzer + ASan/UBSan runtimes
   clang libclang-rt-14-dev

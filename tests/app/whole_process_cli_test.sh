@@ -64,5 +64,23 @@ msg=$("$bin" fit "$tmp/jpg" --decode-only --out "$tmp/nope" 2>&1); rc=$?
 expect_contains "decode-only --out" "$msg" "--decode-only"
 [ ! -e "$tmp/nope" ] && ok || bad "--decode-only wrote output"
 
+# OpenImageIO is not linked: a fit of a JPEG stack that writes a PNG + EXR pack never loads it
+# (ld.so lists every library it loads, dlopen included); a TIFF stack loads it as a module.
+loads=$(LD_DEBUG=files "$bin" fit "$tmp/jpg" --model ptm --out "$tmp/pack3" --quiet 2>&1 | grep -c "OpenImageIO")
+[ "$loads" -eq 0 ] && ok || bad "a JPEG -> PNG/EXR fit loaded OpenImageIO ($loads lines of LD_DEBUG)"
+[ -f "$tmp/pack3/maps/coefficients.exr" ] && ok || bad "the ptm pack has no maps/coefficients.exr"
+if command -v oiiotool >/dev/null; then
+  mkdir "$tmp/tif"
+  for f in "$tmp"/jpg/img_*.jpg; do
+    oiiotool "$f" -o "$tmp/tif/$(basename "${f%.jpg}").tif" || bad "oiiotool could not convert $f"
+  done
+  sed 's/\.jpg /.tif /' "$tmp/jpg/lights.lp" >"$tmp/tif/lights.lp"
+  out=$(LD_DEBUG=files "$bin" fit "$tmp/tif" --decode-only --threads 1 2>&1) && ok || bad "decode-only tif: $out"
+  expect_contains "decode-only tif summary" "$out" "decoded     24 images of 40x24, 3 channels"
+  grep -q "libmatfit_oiio.so" <<<"$out" && ok || bad "the TIFF stack did not load the OpenImageIO module"
+else
+  echo "skip: oiiotool missing (scripts/install-deps.sh), the TIFF case of the OpenImageIO module"
+fi
+
 echo "$pass passed, $fail failed"
 [ $fail -eq 0 ]

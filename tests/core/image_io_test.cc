@@ -60,7 +60,8 @@ TEST_P(ImageRoundTrip, WriteThenReadGivesTheSameLinearValues) {
   TempDir tmp;
   const Image img = Ramp(17, 9, 3);
   const std::string path = tmp / (std::string("img") + f.ext);
-  ASSERT_TRUE(WriteImage(path, img, {f.format, f.transfer}).ok());
+  const Status written = WriteImage(path, img, {f.format, f.transfer});
+  ASSERT_TRUE(written.ok()) << written.ToString();
   ImageFileInfo info;
   auto back = ReadImage(path, {}, &info);
   ASSERT_TRUE(back.ok()) << back.status().ToString();

@@ -1,0 +1,139 @@
+// JPEG reading through libjpeg(-turbo), as OpenImageIO 2.4 decodes it: libjpeg's default
+// decoder settings (islow IDCT, fancy upsampling), greyscale as 1 channel, YCbCr/RGB as RGB,
+// colour space "sRGB". CMYK/YCCK files are declined (OpenImageIO converts them).
+#include <cstdio>
+// clang-format off: jpeglib.h needs <cstdio> first
+#include <jerror.h>
+#include <jpeglib.h>
+// clang-format on
+
+#include <csetjmp>
+#include <cstring>
+#include <fstream>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "core/codec_native.h"
+
+namespace matfit::codec {
+namespace {
+
+struct ErrorManager {
+  jpeg_error_mgr pub;
+  std::jmp_buf jump;
+  char message[JMSG_LENGTH_MAX] = {};
+  bool truncated = false;
+};
+
+[[noreturn]] void OnError(j_common_ptr cinfo) {
+  auto* e = reinterpret_cast<ErrorManager*>(cinfo->err);
+  (*cinfo->err->format_message)(cinfo, e->message);
+  std::longjmp(e->jump, 1);
+}
+
+// Warnings are not printed; a file that ends early (libjpeg pads it with an end marker and
+// carries on) is an error, as OpenImageIO makes it.
+void OnMessage(j_common_ptr cinfo, int level) {
+  auto* e = reinterpret_cast<ErrorManager*>(cinfo->err);
+  if (level < 0 && cinfo->err->msg_code == JWRN_JPEG_EOF) e->truncated = true;
+}
+
+class JpegReader : public Reader {
+ public:
+  JpegReader(std::vector<unsigned char> owned, const unsigned char* bytes, size_t size)
+      : owned_(std::move(owned)), bytes_(bytes), size_(size) {
+    cinfo_.err = jpeg_std_error(&err_.pub);
+    err_.pub.error_exit = OnError;
+    err_.pub.emit_message = OnMessage;
+  }
+  ~JpegReader() override {
+    if (created_) jpeg_destroy_decompress(&cinfo_);
+  }
+
+  // false: not a JPEG this reader decodes (declined) or a broken header (error() set).
+  bool OpenHeader(bool* declined) {
+    *declined = false;
+    if (setjmp(err_.jump)) return false;
+    jpeg_create_decompress(&cinfo_);
+    created_ = true;
+    jpeg_mem_src(&cinfo_, bytes_, static_cast<unsigned long>(size_));
+    jpeg_read_header(&cinfo_, TRUE);
+    if (cinfo_.jpeg_color_space == JCS_GRAYSCALE) {
+      cinfo_.out_color_space = JCS_GRAYSCALE;
+      h_.channels = 1;
+    } else if (cinfo_.jpeg_color_space == JCS_YCbCr || cinfo_.jpeg_color_space == JCS_RGB) {
+      cinfo_.out_color_space = JCS_RGB;
+      h_.channels = 3;
+    } else {
+      *declined = true;
+      return false;
+    }
+    h_.width = int(cinfo_.image_width);
+    h_.height = int(cinfo_.image_height);
+    h_.sample = Sample::kUint8;
+    h_.color_space = "sRGB";
+    return true;
+  }
+
+  const Header& header() const override { return h_; }
+
+  bool Read(void* dst) override {
+    auto* out = static_cast<unsigned char*>(dst);
+    if (setjmp(err_.jump)) return false;
+    jpeg_start_decompress(&cinfo_);
+    const size_t row_bytes = size_t(h_.width) * h_.channels;
+    while (cinfo_.output_scanline < cinfo_.output_height) {
+      JSAMPROW row = out + row_bytes * cinfo_.output_scanline;
+      jpeg_read_scanlines(&cinfo_, &row, 1);
+    }
+    jpeg_finish_decompress(&cinfo_);
+    if (err_.truncated) {
+      std::strcpy(err_.message, "premature end of JPEG data (truncated file)");
+      return false;
+    }
+    return true;
+  }
+
+  std::string error() const override {
+    return err_.message[0] ? std::string(err_.message) : "unknown JPEG error";
+  }
+
+ private:
+  std::vector<unsigned char> owned_;
+  const unsigned char* bytes_;
+  size_t size_;
+  jpeg_decompress_struct cinfo_{};
+  ErrorManager err_{};
+  bool created_ = false;
+  Header h_;
+};
+
+std::unique_ptr<Reader> Finish(std::unique_ptr<JpegReader> r, std::string* error) {
+  bool declined = false;
+  if (r->OpenHeader(&declined)) return r;
+  if (!declined) *error = r->error();
+  return nullptr;
+}
+
+}  // namespace
+
+std::unique_ptr<Reader> OpenJpeg(std::vector<unsigned char> bytes, std::string* error) {
+  const unsigned char* data = bytes.data();
+  const size_t size = bytes.size();
+  return Finish(std::make_unique<JpegReader>(std::move(bytes), data, size), error);
+}
+
+std::unique_ptr<Reader> OpenJpegMemory(const unsigned char* bytes, size_t size,
+                                       std::string* error) {
+  error->clear();
+  if (size < 3 || bytes[0] != 0xFF || bytes[1] != 0xD8) {
+    *error = "not a JPEG (no start-of-image marker)";
+    return nullptr;
+  }
+  auto r = Finish(std::make_unique<JpegReader>(std::vector<unsigned char>(), bytes, size), error);
+  if (!r && error->empty()) *error = "a CMYK/YCCK JPEG, which this reader does not decode";
+  return r;
+}
+
+}  // namespace matfit::codec

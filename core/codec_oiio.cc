@@ -1,0 +1,195 @@
+// The OpenImageIO backend, built as a module (libmatfit_oiio.so) that core loads with dlopen
+// when a file needs it (core/image_codec.h says why). Uses nothing from the rest of matfit.
+#include <OpenImageIO/filesystem.h>
+#include <OpenImageIO/imageio.h>
+
+#include <algorithm>
+#include <cerrno>
+#include <cstdio>
+#include <cstring>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "core/image_codec.h"
+
+namespace matfit::codec {
+namespace {
+
+std::string LastError(OIIO::ImageInput* in) {
+  std::string e = in ? in->geterror() : std::string();
+  if (e.empty()) e = OIIO::geterror();
+  if (e.empty()) e = "unknown decoder error";
+  std::replace(e.begin(), e.end(), '\n', ' ');  // one line: decoders append newlines
+  return e;
+}
+
+class OiioReader : public Reader {
+ public:
+  explicit OiioReader(std::unique_ptr<OIIO::ImageInput> in) : in_(std::move(in)) {
+    const OIIO::ImageSpec& s = in_->spec();
+    h_.width = s.width, h_.height = s.height, h_.channels = s.nchannels;
+    h_.volume = s.depth > 1 || s.deep;
+    const auto base = s.format.basetype;
+    h_.sample = base == OIIO::TypeDesc::UINT8 || base == OIIO::TypeDesc::INT8     ? Sample::kUint8
+                : base == OIIO::TypeDesc::UINT16 || base == OIIO::TypeDesc::INT16 ? Sample::kUint16
+                : base == OIIO::TypeDesc::HALF                                    ? Sample::kHalf
+                                                                                  : Sample::kFloat;
+    h_.color_space = s.get_string_attribute("oiio:ColorSpace");
+    h_.gamma = s.get_float_attribute("oiio:Gamma", 0.0f);
+    h_.software = s.get_string_attribute("Software");
+    h_.software_known = true;
+  }
+  ~OiioReader() override { in_->close(); }
+  const Header& header() const override { return h_; }
+  bool Read(void* dst) override {
+    const OIIO::ImageSpec& s = in_->spec();
+    const OIIO::TypeDesc want = h_.sample == Sample::kUint8    ? OIIO::TypeDesc::UINT8
+                                : h_.sample == Sample::kUint16 ? OIIO::TypeDesc::UINT16
+                                                               : OIIO::TypeDesc::FLOAT;
+    // The file's own type is asked for as "native" (TypeDesc::UNKNOWN): OpenImageIO 2.4 then
+    // decodes straight into dst, where an explicit type, even the same one, goes through a
+    // 64 MiB staging buffer that is mapped, faulted in and unmapped for every image.
+    const bool ok = in_->read_image(0, 0, 0, s.nchannels,
+                                    want == s.format ? OIIO::TypeDesc::UNKNOWN : want, dst);
+    return ok && !in_->has_error();
+  }
+  std::string error() const override { return LastError(in_.get()); }
+
+ private:
+  std::unique_ptr<OIIO::ImageInput> in_;
+  Header h_;
+};
+
+// OpenImageIO's writes to a file, keeping the first error (errno): some writers ignore short
+// writes, and a full disk gave empty PNG files that "succeeded".
+class CheckedFileOutput : public OIIO::Filesystem::IOFile {
+ public:
+  explicit CheckedFileOutput(FILE* f) : IOFile(f, Write) {}
+  size_t write(const void* buf, size_t size) override {
+    return Checked(IOFile::write(buf, size), size);
+  }
+  size_t pwrite(const void* buf, size_t size, int64_t offset) override {
+    return Checked(IOFile::pwrite(buf, size, offset), size);
+  }
+  int error() const { return error_; }
+
+ private:
+  size_t Checked(size_t written, size_t size) {
+    if (written != size && error_ == 0) error_ = errno != 0 ? errno : EIO;
+    return written;
+  }
+  int error_ = 0;
+};
+
+bool EncodeInto(OIIO::ImageOutput* out, const std::string& file_name,
+                OIIO::Filesystem::IOProxy* proxy, const WriteSpec& w) {
+  const OIIO::TypeDesc type = w.sample == Sample::kUint8    ? OIIO::TypeDesc::UINT8
+                              : w.sample == Sample::kUint16 ? OIIO::TypeDesc::UINT16
+                              : w.sample == Sample::kHalf   ? OIIO::TypeDesc::HALF
+                                                            : OIIO::TypeDesc::FLOAT;
+  OIIO::ImageSpec spec(w.width, w.height, w.channels, type);
+  if (w.channels > 4) {
+    // Data maps with many planes: EXR sorts channels by name, so name them in numeric order.
+    spec.channelnames.clear();
+    char name[16];
+    for (int c = 0; c < w.channels; ++c)
+      std::snprintf(name, sizeof name, "ch%02d", c), spec.channelnames.push_back(name);
+    spec.alpha_channel = -1;
+  }
+  spec.attribute("oiio:ColorSpace", w.srgb ? "sRGB" : "Linear");
+  spec.attribute("Software", w.software);
+  if (!w.srgb) spec.attribute("oiio:Gamma", 1.0f);
+  const bool is_float = w.sample == Sample::kHalf || w.sample == Sample::kFloat;
+  if (is_float && std::strcmp(out->format_name(), "openexr") == 0)
+    spec.attribute("compression", w.compact ? "piz" : "none");
+  if (std::strcmp(out->format_name(), "png") == 0)
+    spec.attribute("png:compressionLevel", w.compact ? 6 : 1);
+  const OIIO::TypeDesc buffer_type = is_float ? OIIO::TypeDesc::FLOAT : type;
+  if (proxy) out->set_ioproxy(proxy);
+  if (!out->open(file_name, spec)) return false;
+  bool written = true;
+  for (int y0 = 0; y0 < w.height && written; y0 += w.strip_rows) {
+    const int y1 = std::min(w.height, y0 + w.strip_rows);
+    written = out->write_scanlines(y0, y1, 0, buffer_type, w.rows(y0, y1));
+  }
+  return out->close() && written;
+}
+
+class OiioBackend : public Backend {
+ public:
+  std::unique_ptr<Reader> Open(const std::string& path, std::string* error) override {
+    auto in = OIIO::ImageInput::open(path);
+    if (!in) {
+      *error = LastError(nullptr);
+      return nullptr;
+    }
+    return std::make_unique<OiioReader>(std::move(in));
+  }
+
+  bool CanWrite(const std::string& format, const WriteSpec&, bool) const override {
+    auto out = OIIO::ImageOutput::create("image." + format);
+    if (!out) (void)OIIO::geterror();  // clear the thread's error state
+    return out != nullptr;
+  }
+
+  bool Write(const std::string& format, const WriteSpec& spec, const std::string& path,
+             std::string* memory, std::string* error) override {
+    const std::string name = memory ? "image." + format : path;
+    auto out = OIIO::ImageOutput::create(memory ? name : "image." + format);
+    if (!out) {
+      *error = "no image format for this extension (" + OIIO::geterror() + ")";
+      return false;
+    }
+    if (memory) {
+      if (!out->supports("ioproxy")) {
+        *error = "cannot encode '" + format + "' images in memory";
+        return false;
+      }
+      std::vector<unsigned char> bytes;
+      OIIO::Filesystem::IOVecOutput vec(bytes);
+      if (!EncodeInto(out.get(), name, &vec, spec)) {
+        *error = out->geterror();
+        return false;
+      }
+      memory->assign(bytes.begin(), bytes.end());
+      return true;
+    }
+    // Writers that take an I/O proxy write through one that sees every failed write (errno).
+    std::unique_ptr<FILE, int (*)(FILE*)> f(nullptr, std::fclose);
+    std::unique_ptr<CheckedFileOutput> proxy;
+    if (out->supports("ioproxy")) {
+      f.reset(std::fopen(path.c_str(), "wb"));
+      if (!f) {
+        *error = std::string("cannot create it: ") + std::strerror(errno);
+        return false;
+      }
+      proxy = std::make_unique<CheckedFileOutput>(f.get());
+    }
+    const bool ok = EncodeInto(out.get(), path, proxy.get(), spec);
+    if (proxy && proxy->error() != 0) {
+      *error = std::strerror(proxy->error());
+      return false;
+    }
+    if (!ok) {
+      *error = out->geterror();
+      return false;
+    }
+    if (f) {  // buffered bytes: a full disk shows here
+      errno = 0;
+      if (std::fflush(f.get()) != 0 || std::fclose(f.release()) != 0) {
+        *error = std::strerror(errno != 0 ? errno : EIO);
+        return false;
+      }
+    }
+    return true;
+  }
+};
+
+}  // namespace
+}  // namespace matfit::codec
+
+extern "C" __attribute__((visibility("default"))) matfit::codec::Backend* matfit_oiio_backend() {
+  static matfit::codec::OiioBackend backend;
+  return &backend;
+}

@@ -1,0 +1,239 @@
+// PNG through libpng, read as OpenImageIO 2.4 reads it: 8/16-bit grey, grey+alpha, RGB, RGBA
+// (palette, < 8-bit and tRNS files are declined: OpenImageIO expands them); colour space from
+// the sRGB chunk ("sRGB") or gAMA ("linear" / "Gamma<g>", g = 1/gAMA rounded to 0.01); the
+// Software text chunk. Written with an sRGB chunk (sRGB) or gAMA 1.0 (linear) and Software.
+#include <png.h>
+
+#include <algorithm>
+#include <cerrno>
+#include <cmath>
+#include <csetjmp>
+#include <cstdio>
+#include <cstring>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "core/codec_native.h"
+
+namespace matfit::codec {
+namespace {
+
+struct ErrorState {
+  char message[256] = {};
+};
+
+[[noreturn]] void OnError(png_structp png, png_const_charp msg) {
+  auto* e = static_cast<ErrorState*>(png_get_error_ptr(png));
+  std::snprintf(e->message, sizeof e->message, "%s", msg ? msg : "libpng error");
+  png_longjmp(png, 1);
+}
+
+void OnWarning(png_structp, png_const_charp) {}  // ancillary-chunk trouble: not printed
+
+using FilePtr = std::unique_ptr<FILE, int (*)(FILE*)>;
+
+class PngReader : public Reader {
+ public:
+  explicit PngReader(FilePtr f) : f_(std::move(f)) {}
+  ~PngReader() override {
+    if (png_) png_destroy_read_struct(&png_, info_ ? &info_ : nullptr, nullptr);
+  }
+
+  bool OpenHeader(bool* declined) {
+    *declined = false;
+    png_ = png_create_read_struct(PNG_LIBPNG_VER_STRING, &err_, OnError, OnWarning);
+    if (!png_) return Fail("cannot create a PNG reader");
+    info_ = png_create_info_struct(png_);
+    if (!info_) return Fail("cannot create a PNG reader");
+    if (setjmp(png_jmpbuf(png_))) return false;
+    png_init_io(png_, f_.get());
+    png_read_info(png_, info_);
+    const int depth = png_get_bit_depth(png_, info_);
+    const int type = png_get_color_type(png_, info_);
+    if ((depth != 8 && depth != 16) ||
+        (type != PNG_COLOR_TYPE_GRAY && type != PNG_COLOR_TYPE_RGB) ||
+        png_get_valid(png_, info_, PNG_INFO_tRNS)) {
+      *declined = true;
+      return false;
+    }
+    h_.width = int(png_get_image_width(png_, info_));
+    h_.height = int(png_get_image_height(png_, info_));
+    h_.channels = int(png_get_channels(png_, info_));
+    h_.sample = depth == 16 ? Sample::kUint16 : Sample::kUint8;
+    double gamma = 0.0;
+    if (png_get_gAMA(png_, info_, &gamma) && gamma > 0.0) {
+      // 1/gAMA to the nearest hundredth (2.2, not 2.19998), as OpenImageIO reports it.
+      const float g = std::round(100.0f * float(1.0 / gamma)) / 100.0f;
+      h_.gamma = g;
+      char name[32];
+      std::snprintf(name, sizeof name, "Gamma%.2g", double(g));
+      h_.color_space = g == 1.0f ? "linear" : name;
+    }
+    if (png_get_valid(png_, info_, PNG_INFO_sRGB)) h_.color_space = "sRGB";
+    png_textp text = nullptr;
+    int n_text = 0;
+    png_get_text(png_, info_, &text, &n_text);
+    for (int i = 0; i < n_text; ++i) {
+      if (!text[i].key || !text[i].text) continue;
+      if (std::strcmp(text[i].key, "Software") == 0) h_.software = text[i].text;
+      // OpenImageIO's own tag (it writes one) wins over the chunks, as it does there.
+      if (std::strcmp(text[i].key, "oiio:ColorSpace") == 0) h_.color_space = text[i].text;
+    }
+    h_.software_known = true;
+    return true;
+  }
+
+  const Header& header() const override { return h_; }
+
+  bool Read(void* dst) override {
+    auto* out = static_cast<png_bytep>(dst);
+    const size_t row_bytes =
+        size_t(h_.width) * h_.channels * (h_.sample == Sample::kUint16 ? 2 : 1);
+    rows_.resize(size_t(h_.height));
+    for (int y = 0; y < h_.height; ++y) rows_[size_t(y)] = out + row_bytes * size_t(y);
+    if (setjmp(png_jmpbuf(png_))) return false;
+    if (h_.sample == Sample::kUint16) png_set_swap(png_);  // big-endian file → host order
+    png_set_interlace_handling(png_);
+    png_read_update_info(png_, info_);
+    png_read_image(png_, rows_.data());
+    png_read_end(png_, nullptr);
+    return true;
+  }
+
+  std::string error() const override {
+    return err_.message[0] ? std::string(err_.message) : "unknown PNG error";
+  }
+
+ private:
+  bool Fail(const char* why) {
+    std::snprintf(err_.message, sizeof err_.message, "%s", why);
+    return false;
+  }
+
+  FilePtr f_;
+  png_structp png_ = nullptr;
+  png_infop info_ = nullptr;
+  ErrorState err_;
+  Header h_;
+  std::vector<png_bytep> rows_;
+};
+
+// Where encoded bytes go: a FILE (first errno kept) or memory.
+struct Sink {
+  FILE* file = nullptr;
+  std::string* memory = nullptr;
+  int error = 0;
+};
+
+void WriteBytes(png_structp png, png_bytep data, png_size_t n) {
+  auto* s = static_cast<Sink*>(png_get_io_ptr(png));
+  if (s->memory) {
+    s->memory->append(reinterpret_cast<const char*>(data), n);
+  } else if (std::fwrite(data, 1, n, s->file) != n) {
+    if (s->error == 0) s->error = errno != 0 ? errno : EIO;
+    png_error(png, std::strerror(s->error));
+  }
+}
+
+void FlushBytes(png_structp) {}
+
+// The libpng part of WritePng, apart so that setjmp's frame holds no C++ objects.
+bool Encode(const WriteSpec& w, Sink* sink, ErrorState* err, std::vector<png_bytep>* rows) {
+  png_structp png = png_create_write_struct(PNG_LIBPNG_VER_STRING, err, OnError, OnWarning);
+  if (!png) return false;
+  png_infop info = png_create_info_struct(png);
+  if (!info || setjmp(png_jmpbuf(png))) {
+    png_destroy_write_struct(&png, info ? &info : nullptr);
+    return false;
+  }
+  png_set_write_fn(png, sink, WriteBytes, FlushBytes);
+  const int depth = w.sample == Sample::kUint16 ? 16 : 8;
+  const int type = w.channels == 1 ? PNG_COLOR_TYPE_GRAY : PNG_COLOR_TYPE_RGB;
+  png_set_IHDR(png, info, png_uint_32(w.width), png_uint_32(w.height), depth, type,
+               PNG_INTERLACE_NONE, PNG_COMPRESSION_TYPE_DEFAULT, PNG_FILTER_TYPE_DEFAULT);
+  png_set_compression_level(png, w.compact ? 6 : 1);
+  // No row filters, as OpenImageIO wrote them: with libpng's adaptive filters level 6 came out
+  // larger than level 1 on smooth 16-bit maps.
+  png_set_filter(png, PNG_FILTER_TYPE_BASE, PNG_FILTER_NONE);
+  if (w.srgb)
+    png_set_sRGB(png, info, PNG_sRGB_INTENT_PERCEPTUAL);
+  else
+    png_set_gAMA(png, info, 1.0);
+  png_text text[2] = {};
+  text[0].compression = text[1].compression = PNG_TEXT_COMPRESSION_NONE;
+  text[0].key = const_cast<char*>("oiio:ColorSpace");
+  text[0].text = const_cast<char*>(w.srgb ? "sRGB" : "Linear");
+  text[1].key = const_cast<char*>("Software");
+  text[1].text = const_cast<char*>(w.software.c_str());
+  png_set_text(png, info, text, 2);
+  png_write_info(png, info);
+  if (depth == 16) png_set_swap(png);  // host order → big-endian file
+  const size_t row_bytes = size_t(w.width) * w.channels * (depth / 8);
+  for (int y0 = 0; y0 < w.height; y0 += w.strip_rows) {
+    const int y1 = std::min(w.height, y0 + w.strip_rows);
+    const auto* strip = static_cast<const unsigned char*>(w.rows(y0, y1));
+    rows->resize(size_t(y1 - y0));
+    for (int y = y0; y < y1; ++y)
+      (*rows)[size_t(y - y0)] = const_cast<png_bytep>(strip + row_bytes * size_t(y - y0));
+    png_write_rows(png, rows->data(), png_uint_32(y1 - y0));
+  }
+  png_write_end(png, info);
+  png_destroy_write_struct(&png, &info);
+  return true;
+}
+
+}  // namespace
+
+std::unique_ptr<Reader> OpenPng(const std::string& path, std::string* error) {
+  FilePtr f(std::fopen(path.c_str(), "rb"), std::fclose);
+  if (!f) {
+    *error = std::string("cannot open it: ") + std::strerror(errno);
+    return nullptr;
+  }
+  auto r = std::make_unique<PngReader>(std::move(f));
+  bool declined = false;
+  if (r->OpenHeader(&declined)) return r;
+  if (!declined) *error = r->error();
+  return nullptr;
+}
+
+bool WritePng(const WriteSpec& spec, const std::string& path, std::string* memory,
+              std::string* error) {
+  if ((spec.channels != 1 && spec.channels != 3) ||
+      (spec.sample != Sample::kUint8 && spec.sample != Sample::kUint16)) {
+    *error = "the native PNG writer takes 1 or 3 channels of 8 or 16 bits";
+    return false;
+  }
+  Sink sink;
+  FilePtr f(nullptr, std::fclose);
+  if (memory) {
+    memory->clear();
+    sink.memory = memory;
+  } else {
+    f.reset(std::fopen(path.c_str(), "wb"));
+    if (!f) {
+      *error = std::string("cannot create it: ") + std::strerror(errno);
+      return false;
+    }
+    sink.file = f.get();
+  }
+  ErrorState err;
+  std::vector<png_bytep> rows;
+  if (!Encode(spec, &sink, &err, &rows)) {
+    *error = sink.error != 0  ? std::strerror(sink.error)
+             : err.message[0] ? err.message
+                              : "PNG encoder failed";
+    return false;
+  }
+  if (f) {  // buffered bytes: a full disk shows here
+    errno = 0;
+    if (std::fflush(f.get()) != 0 || std::fclose(f.release()) != 0) {
+      *error = std::strerror(errno != 0 ? errno : EIO);
+      return false;
+    }
+  }
+  return true;
+}
+
+}  // namespace matfit::codec

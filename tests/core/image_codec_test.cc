@@ -1,0 +1,286 @@
+// The native codecs (JPEG, PNG, OpenEXR) against OpenImageIO, loaded as a module: the same
+// header, colour space and pixels for the files matfit and other tools write, so image_io
+// decides the same whichever backend decoded a file.
+#include "core/image_codec.h"
+
+#include <gtest/gtest.h>
+#include <zlib.h>
+
+#include <algorithm>
+#include <cmath>
+#include <cstring>
+#include <filesystem>
+#include <fstream>
+#include <iterator>
+#include <string>
+#include <vector>
+
+#include "core/image_io.h"
+#include "tests/core/test_util.h"
+
+namespace matfit {
+namespace {
+
+namespace fs = std::filesystem;
+using testing::TempDir;
+
+codec::Backend& Oiio() {
+  std::string error;
+  codec::Backend* b = codec::OpenImageIo(&error);
+  if (!b) ADD_FAILURE() << "OpenImageIO module: " << error;
+  return *b;
+}
+
+size_t SampleBytes(codec::Sample s) {
+  return s == codec::Sample::kUint8 ? 1 : s == codec::Sample::kUint16 ? 2 : 4;
+}
+
+struct Decoded {
+  codec::Header header;
+  std::vector<unsigned char> bytes;
+};
+
+Decoded Decode(codec::Backend& backend, const std::string& path) {
+  std::string error;
+  auto r = backend.Open(path, &error);
+  EXPECT_TRUE(r) << path << ": " << error;
+  if (!r) return {};
+  Decoded d{r->header(), {}};
+  d.bytes.resize(size_t(d.header.width) * d.header.height * d.header.channels *
+                 SampleBytes(d.header.sample));
+  EXPECT_TRUE(r->Read(d.bytes.data())) << path << ": " << r->error();
+  return d;
+}
+
+// Native and OpenImageIO decode `path` alike: size, channels, sample type, colour space, gamma,
+// Software tag (where the native reader looks for it) and every pixel byte.
+void ExpectSameDecoding(const std::string& path) {
+  SCOPED_TRACE(path);
+  std::string error;
+  ASSERT_TRUE(codec::Native().Open(path, &error)) << "the native backend declined: " << error;
+  const Decoded n = Decode(codec::Native(), path), o = Decode(Oiio(), path);
+  EXPECT_EQ(n.header.width, o.header.width);
+  EXPECT_EQ(n.header.height, o.header.height);
+  EXPECT_EQ(n.header.channels, o.header.channels);
+  EXPECT_EQ(int(n.header.sample), int(o.header.sample));
+  EXPECT_EQ(n.header.color_space, o.header.color_space);
+  if (n.header.color_space.rfind("Gamma", 0) == 0) {
+    EXPECT_EQ(n.header.gamma, o.header.gamma);
+  }
+  if (n.header.software_known) {
+    EXPECT_EQ(n.header.software, o.header.software);
+  }
+  EXPECT_TRUE(n.bytes == o.bytes) << "pixels differ";
+}
+
+Image Pattern(int w, int h, int ch) {
+  Image img(w, h, ch);
+  for (int c = 0; c < ch; ++c)
+    for (int y = 0; y < h; ++y)
+      for (int x = 0; x < w; ++x)
+        img.Plane(c)[size_t(y) * w + x] =
+            0.5f + 0.45f * std::sin(0.21f * x + 1.3f * c) * std::cos(0.17f * y - 0.4f * c);
+  return img;
+}
+
+// Writes `img` through OpenImageIO (as matfit wrote every file before the native codecs).
+void WriteWithOiio(const std::string& path, const Image& img, codec::Sample sample, bool srgb) {
+  codec::WriteSpec spec;
+  spec.width = img.width(), spec.height = img.height(), spec.channels = img.channels();
+  spec.sample = sample, spec.srgb = srgb, spec.software = "matfit test";
+  spec.strip_rows = img.height();
+  std::vector<unsigned char> buf;
+  spec.rows = [&](int, int) -> const void* {
+    const size_t n = size_t(img.width()) * img.height();
+    buf.resize(n * img.channels() * SampleBytes(sample));
+    for (size_t p = 0; p < n; ++p)
+      for (int c = 0; c < img.channels(); ++c) {
+        const float v = std::clamp(img.Plane(c)[p], 0.0f, 1.0f);
+        const size_t k = p * img.channels() + c;
+        if (sample == codec::Sample::kUint8)
+          buf[k] = uint8_t(std::lround(v * 255));
+        else if (sample == codec::Sample::kUint16)
+          reinterpret_cast<uint16_t*>(buf.data())[k] = uint16_t(std::lround(v * 65535));
+        else
+          reinterpret_cast<float*>(buf.data())[k] = img.Plane(c)[p];
+      }
+    return buf.data();
+  };
+  const std::string ext = fs::path(path).extension().string().substr(1);
+  std::string error;
+  ASSERT_TRUE(Oiio().Write(ext, spec, path, nullptr, &error)) << path << ": " << error;
+}
+
+// A PNG chunk: length, type, data, CRC over type and data.
+std::string Chunk(const std::string& type, const std::string& data) {
+  std::string c;
+  for (int s = 24; s >= 0; s -= 8) c += char((data.size() >> s) & 0xFF);
+  const std::string body = type + data;
+  const uLong crc = crc32(0, reinterpret_cast<const Bytef*>(body.data()), uInt(body.size()));
+  c += body;
+  for (int s = 24; s >= 0; s -= 8) c += char((crc >> s) & 0xFF);
+  return c;
+}
+
+std::string PalettePng() {
+  const std::string ihdr("\0\0\0\2\0\0\0\1\x08\x03\0\0\0", 13);  // 2x1, 8-bit, palette
+  const std::string plte("\xff\0\0\0\0\xff", 6);                 // red, blue
+  const std::string raw("\0\0\1", 3);                            // filter 0, indices 0 1
+  uLongf n = compressBound(uLong(raw.size()));
+  std::string z(n, '\0');
+  compress(reinterpret_cast<Bytef*>(z.data()), &n, reinterpret_cast<const Bytef*>(raw.data()),
+           uLong(raw.size()));
+  z.resize(n);
+  return std::string("\x89PNG\r\n\x1a\n", 8) + Chunk("IHDR", ihdr) + Chunk("PLTE", plte) +
+         Chunk("IDAT", z) + Chunk("IEND", "");
+}
+
+std::vector<unsigned char> Bytes(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  return {std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>()};
+}
+
+TEST(ImageCodec, JpegDecodesAsOpenImageIoDoes) {
+  TempDir tmp;
+  for (int ch : {1, 3}) {
+    const std::string path = tmp / ("c" + std::to_string(ch) + ".jpg");
+    WriteWithOiio(path, Pattern(67, 41, ch), codec::Sample::kUint8, true);
+    ExpectSameDecoding(path);
+    // The same JPEG without its Exif/IPTC segments (a bare JFIF file, as cameras and other
+    // tools write): still sRGB for both.
+    std::vector<unsigned char> d = Bytes(path), bare(d.begin(), d.begin() + 2);
+    size_t i = 2;
+    while (i + 4 <= d.size() && d[i] == 0xFF && d[i + 1] != 0xDA) {
+      const size_t len = size_t(d[i + 2]) << 8 | d[i + 3];
+      if (d[i + 1] != 0xE1 && d[i + 1] != 0xED)
+        bare.insert(bare.end(), d.begin() + i, d.begin() + i + 2 + len);
+      i += 2 + len;
+    }
+    bare.insert(bare.end(), d.begin() + i, d.end());
+    ASSERT_LT(bare.size(), d.size());
+    const std::string bare_path = tmp / ("bare" + std::to_string(ch) + ".jpg");
+    std::ofstream(bare_path, std::ios::binary)
+        .write(reinterpret_cast<const char*>(bare.data()), std::streamsize(bare.size()));
+    ExpectSameDecoding(bare_path);
+  }
+}
+
+TEST(ImageCodec, PngDecodesAsOpenImageIoDoes) {
+  TempDir tmp;
+  for (int ch : {1, 3})  // grey+alpha and RGBA go to OpenImageIO (see below)
+    for (auto sample : {codec::Sample::kUint8, codec::Sample::kUint16})
+      for (bool srgb : {false, true}) {
+        const std::string name = "c" + std::to_string(ch) + "_" +
+                                 std::to_string(SampleBytes(sample) * 8) +
+                                 (srgb ? "_srgb" : "_lin");
+        // Written by OpenImageIO and by the native writer: both read alike by both readers.
+        WriteWithOiio(tmp / (name + "_oiio.png"), Pattern(33, 20, ch), sample, srgb);
+        ExpectSameDecoding(tmp / (name + "_oiio.png"));
+        ImageWriteOptions o;
+        o.format = sample == codec::Sample::kUint8 ? PixelFormat::kUint8 : PixelFormat::kUint16;
+        o.transfer = srgb ? TransferFunction::kSrgb : TransferFunction::kLinear;
+        ASSERT_TRUE(WriteImage(tmp / (name + ".png"), Pattern(33, 20, ch), o).ok());
+        ExpectSameDecoding(tmp / (name + ".png"));
+      }
+}
+
+TEST(ImageCodec, RealPngsDecodeAsOpenImageIoDoes) {
+  const fs::path sheet = fs::path(MATFIT_SHARED_DATA) / "leaf-sheet";
+  if (!fs::is_directory(sheet)) GTEST_SKIP() << "shared data absent: " << sheet;
+  int n = 0;
+  for (const auto& e : fs::directory_iterator(sheet))
+    if (e.path().extension() == ".png" && n++ < 4) ExpectSameDecoding(e.path().string());
+  EXPECT_GT(n, 0);
+}
+
+TEST(ImageCodec, ExrDecodesAsOpenImageIoDoes) {
+  TempDir tmp;
+  for (int ch : {1, 2, 3, 4, 18})
+    for (auto format : {PixelFormat::kHalf, PixelFormat::kFloat}) {
+      const std::string name =
+          "c" + std::to_string(ch) + (format == PixelFormat::kHalf ? "h" : "f");
+      Image img = Pattern(29, 13, ch);
+      img.Plane(0)[5] = -3.5f;  // data maps hold any value
+      ImageWriteOptions o{format, TransferFunction::kLinear, ch == 3};
+      ASSERT_TRUE(WriteImage(tmp / (name + ".exr"), img, o).ok());
+      ExpectSameDecoding(tmp / (name + ".exr"));
+      WriteWithOiio(tmp / (name + "_oiio.exr"), img,
+                    format == PixelFormat::kHalf ? codec::Sample::kHalf : codec::Sample::kFloat,
+                    false);
+      ExpectSameDecoding(tmp / (name + "_oiio.exr"));
+      if (format == PixelFormat::kFloat) {  // float maps round-trip exactly
+        ImageReadOptions ro;
+        ro.all_channels = true;
+        auto back = ReadImage(tmp / (name + ".exr"), ro);
+        ASSERT_TRUE(back.ok()) << back.status().ToString();
+        EXPECT_EQ(back->data(), img.data());
+      }
+    }
+}
+
+TEST(ImageCodec, UnusualFilesAreLeftToOpenImageIo) {
+  TempDir tmp;
+  // A palette PNG and a TIFF: the native backend declines them (no error), image_io reads them
+  // through the module.
+  const std::string tif = tmp / "a.tif";
+  ASSERT_TRUE(
+      WriteImage(tif, Pattern(8, 6, 3), {PixelFormat::kUint16, TransferFunction::kLinear}).ok());
+  std::string error;
+  EXPECT_FALSE(codec::Native().Open(tif, &error));
+  EXPECT_EQ(error, "");
+  auto img = ReadImage(tif);
+  ASSERT_TRUE(img.ok()) << img.status().ToString();
+  EXPECT_EQ(img->width(), 8);
+  // A PNG with alpha: OpenImageIO premultiplies, as matfit always read them.
+  const std::string rgba = tmp / "rgba.png";
+  ASSERT_TRUE(
+      WriteImage(rgba, Pattern(8, 6, 4), {PixelFormat::kUint8, TransferFunction::kLinear}).ok());
+  EXPECT_FALSE(codec::Native().Open(rgba, &error));
+  EXPECT_EQ(error, "");
+  ASSERT_TRUE(ReadImage(rgba).ok());
+  // PNG colour type 3 (palette): 2x1 pixels, red then blue.
+  const std::string pal = tmp / "pal.png";
+  std::ofstream(pal, std::ios::binary) << PalettePng();
+  EXPECT_FALSE(codec::Native().Open(pal, &error));
+  EXPECT_EQ(error, "");
+  auto p = ReadImage(pal);
+  ASSERT_TRUE(p.ok()) << p.status().ToString();
+  ASSERT_EQ(p->channels(), 3);
+  EXPECT_GT(p->Plane(0)[0], 0.99f);  // red
+  EXPECT_GT(p->Plane(2)[1], 0.99f);  // blue
+}
+
+TEST(ImageCodec, BrokenFilesNameTheirTrouble) {
+  TempDir tmp;
+  for (const char* name : {"t.jpg", "t.png", "t.exr"}) {
+    const std::string path = tmp / name;
+    const bool exr = std::strcmp(name, "t.exr") == 0;
+    ASSERT_TRUE(WriteImage(path, Pattern(64, 64, 3),
+                           {exr                               ? PixelFormat::kFloat
+                            : std::strcmp(name, "t.jpg") == 0 ? PixelFormat::kUint8
+                                                              : PixelFormat::kUint16,
+                            TransferFunction::kSrgb})
+                    .ok());
+    std::vector<unsigned char> d = Bytes(path);
+    d.resize(d.size() / 2);  // truncated
+    std::ofstream(path, std::ios::binary | std::ios::trunc)
+        .write(reinterpret_cast<const char*>(d.data()), std::streamsize(d.size()));
+    auto r = ReadImage(path);
+    ASSERT_FALSE(r.ok()) << name;
+    EXPECT_NE(r.status().message().find(name), std::string::npos) << r.status().ToString();
+  }
+}
+
+TEST(ImageCodec, EncodedPngInMemoryIsTheFile) {
+  TempDir tmp;
+  const Image img = Pattern(21, 11, 3);
+  const ImageWriteOptions o{PixelFormat::kUint8, TransferFunction::kSrgb};
+  auto bytes = EncodeImage(img, "png", o);
+  ASSERT_TRUE(bytes.ok()) << bytes.status().ToString();
+  ASSERT_TRUE(WriteImage(tmp / "f.png", img, o).ok());
+  const std::vector<unsigned char> file = Bytes(tmp / "f.png");
+  EXPECT_EQ(*bytes, std::string(file.begin(), file.end()));
+}
+
+}  // namespace
+}  // namespace matfit
