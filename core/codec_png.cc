@@ -92,11 +92,14 @@ class PngReader : public Reader {
         size_t(h_.width) * h_.channels * (h_.sample == Sample::kUint16 ? 2 : 1);
     rows_.resize(size_t(h_.height));
     for (int y = 0; y < h_.height; ++y) rows_[size_t(y)] = out + row_bytes * size_t(y);
-    if (setjmp(png_jmpbuf(png_))) return false;
+    // Trouble after the last row (a missing IEND, a bad trailing chunk) keeps the image, as
+    // OpenImageIO reads such files too.
+    if (setjmp(png_jmpbuf(png_))) return pixels_done_;
     if (h_.sample == Sample::kUint16) png_set_swap(png_);  // big-endian file → host order
     png_set_interlace_handling(png_);
     png_read_update_info(png_, info_);
     png_read_image(png_, rows_.data());
+    pixels_done_ = true;
     png_read_end(png_, nullptr);
     return true;
   }
@@ -117,6 +120,7 @@ class PngReader : public Reader {
   ErrorState err_;
   Header h_;
   std::vector<png_bytep> rows_;
+  volatile bool pixels_done_ = false;  // read after a longjmp
 };
 
 // Where encoded bytes go: a FILE (first errno kept) or memory.

@@ -271,6 +271,20 @@ TEST(ImageCodec, BrokenFilesNameTheirTrouble) {
   }
 }
 
+TEST(ImageCodec, PngWithoutItsEndChunkKeepsItsPixels) {
+  TempDir tmp;
+  const std::string full = tmp / "full.png", cut = tmp / "cut.png";
+  ASSERT_TRUE(
+      WriteImage(full, Pattern(16, 9, 3), {PixelFormat::kUint16, TransferFunction::kLinear}).ok());
+  std::vector<unsigned char> d = Bytes(full);
+  d.resize(d.size() - 12);  // IEND: length, type, CRC
+  std::ofstream(cut, std::ios::binary)
+      .write(reinterpret_cast<const char*>(d.data()), std::streamsize(d.size()));
+  auto a = ReadImage(full), b = ReadImage(cut);
+  ASSERT_TRUE(a.ok() && b.ok()) << b.status().ToString();
+  EXPECT_EQ(a->data(), b->data());
+}
+
 TEST(ImageCodec, EncodedPngInMemoryIsTheFile) {
   TempDir tmp;
   const Image img = Pattern(21, 11, 3);
