@@ -14,8 +14,11 @@
 #include <OpenEXR/ImfStringAttribute.h>
 
 #include <algorithm>
+#include <cstdint>
 #include <cstdio>
 #include <exception>
+#include <filesystem>
+#include <fstream>
 #include <memory>
 #include <string>
 #include <vector>
@@ -117,9 +120,95 @@ class ExrReader : public Reader {
 
 }  // namespace
 
+namespace {
+
+// The most raw bytes per file byte that a compression can give, generously: none stores them;
+// RLE packs a run of 128 bytes in 2; ZIP and PXR24 are deflate (at most 1032:1); PIZ's Huffman
+// codes runs of zeros (4096:1 covers it); B44 is at most 32:1. DWA (lossy DCT) has no useful
+// bound: 0, not checked.
+double MaxExpansion(Imf::Compression c) {
+  switch (c) {
+    case Imf::NO_COMPRESSION: return 1.0;
+    case Imf::RLE_COMPRESSION: return 64.0;
+    case Imf::ZIPS_COMPRESSION:
+    case Imf::ZIP_COMPRESSION:
+    case Imf::PXR24_COMPRESSION: return 1032.0;
+    case Imf::PIZ_COMPRESSION: return 4096.0;
+    case Imf::B44_COMPRESSION:
+    case Imf::B44A_COMPRESSION: return 32.0;
+    default: return 0.0;
+  }
+}
+
+// A header whose pixels cannot fit in the file at its compression's best ratio (truncated, or
+// a lying header: a decompression bomb's cheap form) is refused before pixels are allocated.
+bool HoldsItsPixels(const Imf::Header& hdr, const std::string& path, std::string* error) {
+  const Imath::Box2i dw = hdr.dataWindow();
+  double raw = 0.0;
+  for (auto it = hdr.channels().begin(); it != hdr.channels().end(); ++it)
+    raw += (it.channel().type == Imf::HALF ? 2.0 : 4.0) * (double(dw.max.x) - dw.min.x + 1) *
+           (double(dw.max.y) - dw.min.y + 1);
+  const double ratio = MaxExpansion(hdr.compression());
+  std::error_code ec;
+  const double size = double(std::filesystem::file_size(path, ec));
+  if (ec || ratio == 0.0 || raw <= ratio * size) return true;
+  char msg[320];
+  std::snprintf(msg, sizeof msg,
+                "the header declares %.0fx%.0f pixels (%.0f MiB of samples) but the file has "
+                "only %.0f bytes, more than its compression can hold (at most %.0f:1): it is "
+                "truncated or its header is wrong",
+                double(dw.max.x) - dw.min.x + 1, double(dw.max.y) - dw.min.y + 1,
+                raw / double(1 << 20), size, ratio);
+  *error = msg;
+  return false;
+}
+
+}  // namespace
+
+// Walks the first header's attributes (name\0 type\0 int32 size, value) and checks that each
+// value fits in the file: OpenEXR 3.1 allocates a declared size before reading it, so a few
+// hostile bytes could ask for gigabytes.
+bool AttributesFit(const std::string& path, std::string* error) {
+  std::ifstream in(path, std::ios::binary);
+  std::error_code ec;
+  const auto size = std::filesystem::file_size(path, ec);
+  if (!in || ec) return true;  // OpenEXR reports it
+  in.seekg(8);                 // magic, version and flags
+  auto read_name = [&](std::string* out) {
+    out->clear();
+    for (char c; in.get(c);) {
+      if (c == '\0') return true;
+      if (out->size() >= 255) return false;
+      out->push_back(c);
+    }
+    return false;
+  };
+  std::string name, type;
+  for (int n = 0; n < 100000; ++n) {
+    if (!read_name(&name)) return true;  // truncated or odd: OpenEXR explains it
+    if (name.empty()) return true;       // end of the header
+    unsigned char b[4];
+    if (!read_name(&type) || !in.read(reinterpret_cast<char*>(b), 4)) return true;
+    const int64_t value =
+        int64_t(uint32_t(b[0]) | uint32_t(b[1]) << 8 | uint32_t(b[2]) << 16 | uint32_t(b[3]) << 24);
+    const int64_t pos = int64_t(in.tellg());
+    if (pos < 0 || value > int64_t(size) - pos) {
+      *error = "its header attribute '" + name + "' (" + type + ") declares " +
+               std::to_string(value) + " bytes, more than the file holds (" + std::to_string(size) +
+               " bytes): it is truncated or corrupt";
+      return false;
+    }
+    in.seekg(value, std::ios::cur);
+  }
+  return true;
+}
+
 std::unique_ptr<Reader> OpenExr(const std::string& path, std::string* error) {
+  if (!AttributesFit(path, error)) return nullptr;
   try {
-    auto r = std::make_unique<ExrReader>(std::make_unique<Imf::InputFile>(path.c_str()));
+    auto file = std::make_unique<Imf::InputFile>(path.c_str());
+    if (!HoldsItsPixels(file->header(), path, error)) return nullptr;
+    auto r = std::make_unique<ExrReader>(std::move(file));
     if (r->OpenHeader()) return r;
     return nullptr;  // declined: OpenImageIO reads this layout
   } catch (const std::exception& e) {

@@ -7,6 +7,7 @@
 #include <jpeglib.h>
 // clang-format on
 
+#include <cmath>
 #include <csetjmp>
 #include <cstring>
 #include <fstream>
@@ -71,6 +72,19 @@ class JpegReader : public Reader {
     }
     h_.width = int(cinfo_.image_width);
     h_.height = int(cinfo_.image_height);
+    // Huffman-coded data holds at least one bit per 8x8 luma block (its DC code, in baseline
+    // and progressive files alike): a header declaring more blocks than 8 × the file's bytes
+    // describes data the file cannot hold (truncated, or a lying header). Refused before any
+    // pixel memory is allocated. (Arithmetic coding can go below a bit per block: not checked.)
+    const double blocks = std::ceil(h_.width / 8.0) * std::ceil(h_.height / 8.0);
+    if (!cinfo_.arith_code && blocks > 8.0 * double(size_)) {
+      std::snprintf(err_.message, sizeof err_.message,
+                    "the header declares %dx%d pixels (%.0f 8x8 blocks) but the file has only "
+                    "%zu bytes, too few even at JPEG's best compression (1 bit per block): it is "
+                    "truncated or its header is wrong",
+                    h_.width, h_.height, blocks, size_);
+      return false;
+    }
     h_.sample = Sample::kUint8;
     h_.color_space = "sRGB";
     return true;

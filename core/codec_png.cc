@@ -5,9 +5,11 @@
 #include <png.h>
 
 #include <algorithm>
+#include <cctype>
 #include <cerrno>
 #include <cmath>
 #include <csetjmp>
+#include <cstdint>
 #include <cstdio>
 #include <cstring>
 #include <memory>
@@ -187,6 +189,34 @@ bool Encode(const WriteSpec& w, Sink* sink, ErrorState* err, std::vector<png_byt
   return true;
 }
 
+// Walks the chunks (length, type, data, CRC) up to IEND and checks that each one's data fits in
+// the file: libpng allocates a text chunk's declared length before reading it, so a few hostile
+// bytes could ask for a gigabyte. Leaves `f` at the start.
+bool ChunksFit(FILE* f, std::string* error) {
+  if (std::fseek(f, 0, SEEK_END) != 0) return true;
+  const long size = std::ftell(f);
+  long pos = 8;  // the signature
+  for (int n = 0; n < 1'000'000 && pos + 8 <= size; ++n) {
+    unsigned char h[8];
+    if (std::fseek(f, pos, SEEK_SET) != 0 || std::fread(h, 1, 8, f) != 8) break;
+    const long length =
+        long(uint32_t(h[0]) << 24 | uint32_t(h[1]) << 16 | uint32_t(h[2]) << 8 | uint32_t(h[3]));
+    char type[5] = {char(h[4]), char(h[5]), char(h[6]), char(h[7]), 0};
+    for (char& c : type)
+      if (c && !std::isalpha(static_cast<unsigned char>(c))) c = '?';
+    if (length > size - pos - 12) {
+      *error = std::string("its '") + type + "' chunk declares " + std::to_string(length) +
+               " bytes but only " + std::to_string(std::max(0L, size - pos - 12)) +
+               " follow: the file is truncated or corrupt";
+      return false;
+    }
+    if (std::memcmp(type, "IEND", 4) == 0) break;
+    pos += 12 + length;
+  }
+  std::rewind(f);
+  return true;
+}
+
 }  // namespace
 
 std::unique_ptr<Reader> OpenPng(const std::string& path, std::string* error) {
@@ -195,6 +225,7 @@ std::unique_ptr<Reader> OpenPng(const std::string& path, std::string* error) {
     *error = std::string("cannot open it: ") + std::strerror(errno);
     return nullptr;
   }
+  if (!ChunksFit(f.get(), error)) return nullptr;
   auto r = std::make_unique<PngReader>(std::move(f));
   bool declined = false;
   if (r->OpenHeader(&declined)) return r;

@@ -285,6 +285,74 @@ TEST(ImageCodec, PngWithoutItsEndChunkKeepsItsPixels) {
   EXPECT_EQ(a->data(), b->data());
 }
 
+// A JPEG whose header claims far more pixels than its bytes can code is refused before any pixel
+// memory is allocated (a decompression bomb's cheap form), naming the file and the claim.
+TEST(ImageCodec, JpegHeaderClaimingMoreThanItsBytesIsRefused) {
+  TempDir tmp;
+  const std::string path = tmp / "bomb.jpg";
+  ASSERT_TRUE(
+      WriteImage(path, Pattern(16, 16, 3), {PixelFormat::kUint8, TransferFunction::kSrgb}).ok());
+  std::vector<unsigned char> d = Bytes(path);
+  size_t i = 2;  // find SOF0 and set its size to 30000x30000
+  while (i + 9 < d.size() && !(d[i] == 0xFF && (d[i + 1] == 0xC0 || d[i + 1] == 0xC2)))
+    i += 2 + (size_t(d[i + 2]) << 8 | d[i + 3]);
+  ASSERT_LT(i + 9, d.size());
+  d[i + 5] = d[i + 7] = 30000 >> 8;
+  d[i + 6] = d[i + 8] = 30000 & 0xFF;
+  std::ofstream(path, std::ios::binary | std::ios::trunc)
+      .write(reinterpret_cast<const char*>(d.data()), std::streamsize(d.size()));
+  auto h = ReadImageHeader(path);
+  ASSERT_FALSE(h.ok());
+  EXPECT_NE(h.status().message().find("bomb.jpg"), std::string::npos) << h.status().ToString();
+  EXPECT_NE(h.status().message().find("30000x30000"), std::string::npos) << h.status().ToString();
+  // The untouched file of the same bytes reads.
+  ASSERT_TRUE(
+      WriteImage(path, Pattern(16, 16, 3), {PixelFormat::kUint8, TransferFunction::kSrgb}).ok());
+  EXPECT_TRUE(ReadImageHeader(path).ok());
+}
+
+// PNG chunks and EXR header attributes whose declared length exceeds the file are refused before
+// libpng/OpenEXR allocate that length (both allocate first: a 2 KB file could ask for 800 MB).
+TEST(ImageCodec, ChunksAndAttributesLongerThanTheFileAreRefused) {
+  TempDir tmp;
+  const std::string png = tmp / "long.png", exr = tmp / "long.exr";
+  ASSERT_TRUE(
+      WriteImage(png, Pattern(8, 6, 3), {PixelFormat::kUint8, TransferFunction::kSrgb}).ok());
+  ASSERT_TRUE(
+      WriteImage(exr, Pattern(8, 6, 3), {PixelFormat::kFloat, TransferFunction::kLinear}).ok());
+  auto patch = [](const std::string& path, const std::string& marker, size_t offset,
+                  std::vector<unsigned char> bytes) {
+    std::vector<unsigned char> d = Bytes(path);
+    const auto it = std::search(d.begin(), d.end(), marker.begin(), marker.end());
+    ASSERT_NE(it, d.end()) << marker;
+    std::copy(bytes.begin(), bytes.end(), it + std::ptrdiff_t(offset));
+    std::ofstream(path, std::ios::binary | std::ios::trunc)
+        .write(reinterpret_cast<const char*>(d.data()), std::streamsize(d.size()));
+  };
+  // The tEXt chunk's length field (4 bytes before its type): 0x33000000 bytes.
+  const std::string text("tEXt");
+  std::vector<unsigned char> d = Bytes(png);
+  const auto t = std::search(d.begin(), d.end(), text.begin(), text.end());
+  ASSERT_NE(t, d.end());
+  const size_t at = size_t(t - d.begin()) - 4;
+  d[at] = 0x33, d[at + 1] = d[at + 2] = d[at + 3] = 0;
+  std::ofstream(png, std::ios::binary | std::ios::trunc)
+      .write(reinterpret_cast<const char*>(d.data()), std::streamsize(d.size()));
+  auto p = ReadImage(png);
+  ASSERT_FALSE(p.ok());
+  EXPECT_NE(p.status().message().find("long.png"), std::string::npos) << p.status().ToString();
+  EXPECT_NE(p.status().message().find("'tEXt' chunk declares 855638016 bytes"), std::string::npos)
+      << p.status().ToString();
+  // The Software attribute's size (after "Software\0string\0"): 0x7fffffff bytes.
+  patch(exr, std::string("Software\0string\0", 16), 16, {0xff, 0xff, 0xff, 0x7f});
+  auto e = ReadImage(exr);
+  ASSERT_FALSE(e.ok());
+  EXPECT_NE(e.status().message().find("long.exr"), std::string::npos) << e.status().ToString();
+  EXPECT_NE(e.status().message().find("'Software' (string) declares 2147483647 bytes"),
+            std::string::npos)
+      << e.status().ToString();
+}
+
 TEST(ImageCodec, EncodedPngInMemoryIsTheFile) {
   TempDir tmp;
   const Image img = Pattern(21, 11, 3);
