@@ -202,11 +202,13 @@ TEST_F(HardeningTest, PacksAndJobRecordsHoldNoServerPaths) {
 
 TEST_F(HardeningTest, AFailedJobsMessageNamesNoServerPath) {
   Start();
-  // Two broken uploads: an .lp naming an image that is not in the upload (caught when the
-  // headers are read at submission: 422), and an image whose pixel data is cut short (its header
-  // is fine, so the job fails when it decodes). Either way the message names the file and no
-  // folder of the server.
-  const std::string missing = (tmp_ / "missing.zip").string(), cut = (tmp_ / "cut.zip").string();
+  // Three broken uploads: an .lp naming an image that is not in the upload and an image cut
+  // short (both caught when the headers are read at submission: 422; a PNG's chunks must fit in
+  // the file), and an image whose compressed pixel data is corrupt (its header and chunks are
+  // fine, so the job fails when it decodes). Every message names the file and no folder of the
+  // server.
+  const std::string missing = (tmp_ / "missing.zip").string(), cut = (tmp_ / "cut.zip").string(),
+                    corrupt = (tmp_ / "corrupt.zip").string();
   {
     ArchiveWriter w(missing, ArchiveWriter::Format::kZip);
     w.Folder(kFixtures + "/plastic-ring12", "set", "img_003.png");
@@ -217,9 +219,21 @@ TEST_F(HardeningTest, AFailedJobsMessageNamesNoServerPath) {
     const std::string png = Slurp(kFixtures + "/plastic-ring12/img_003.png");
     w.File("set/img_003.png", png.substr(0, png.size() * 2 / 3));
   }
+  {
+    ArchiveWriter w(corrupt, ArchiveWriter::Format::kZip);
+    w.Folder(kFixtures + "/plastic-ring12", "set", "img_003.png");
+    std::string png = Slurp(kFixtures + "/plastic-ring12/img_003.png");
+    const size_t idat = png.find("IDAT");
+    ASSERT_NE(idat, std::string::npos);
+    const size_t len = size_t(uint8_t(png[idat - 4])) << 24 | size_t(uint8_t(png[idat - 3])) << 16 |
+                       size_t(uint8_t(png[idat - 2])) << 8 | size_t(uint8_t(png[idat - 1]));
+    ASSERT_GT(len, 16u);
+    for (size_t k = idat + 4 + len / 4; k < idat + 4 + len / 2; ++k) png[k] = char(~png[k]);
+    w.File("set/img_003.png", png);
+  }
   const std::string data = fs::canonical(opts_.data_dir).string();
   int job_failures = 0;
-  for (const std::string& zip : {missing, cut}) {
+  for (const std::string& zip : {missing, cut, corrupt}) {
     auto r = Upload(zip, {{"model", "mean"}});
     ASSERT_TRUE(r);
     std::string error;
