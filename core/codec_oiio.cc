@@ -11,6 +11,7 @@
 #include <string>
 #include <vector>
 
+#include "core/codec_file.h"
 #include "core/image_codec.h"
 
 namespace matfit::codec {
@@ -175,14 +176,7 @@ class OiioBackend : public Backend {
       *error = out->geterror();
       return false;
     }
-    if (f) {  // buffered bytes: a full disk shows here
-      errno = 0;
-      if (std::fflush(f.get()) != 0 || std::fclose(f.release()) != 0) {
-        *error = std::strerror(errno != 0 ? errno : EIO);
-        return false;
-      }
-    }
-    return true;
+    return !f || FlushAndClose(f.release(), error);
   }
 };
 

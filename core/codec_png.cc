@@ -16,6 +16,7 @@
 #include <string>
 #include <vector>
 
+#include "core/codec_file.h"
 #include "core/codec_native.h"
 
 namespace matfit::codec {
@@ -261,14 +262,7 @@ bool WritePng(const WriteSpec& spec, const std::string& path, std::string* memor
                               : "PNG encoder failed";
     return false;
   }
-  if (f) {  // buffered bytes: a full disk shows here
-    errno = 0;
-    if (std::fflush(f.get()) != 0 || std::fclose(f.release()) != 0) {
-      *error = std::strerror(errno != 0 ? errno : EIO);
-      return false;
-    }
-  }
-  return true;
+  return !f || FlushAndClose(f.release(), error);
 }
 
 }  // namespace matfit::codec
