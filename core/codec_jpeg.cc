@@ -7,6 +7,7 @@
 #include <jpeglib.h>
 // clang-format on
 
+#include <cerrno>
 #include <cmath>
 #include <csetjmp>
 #include <cstring>
@@ -42,14 +43,17 @@ void OnMessage(j_common_ptr cinfo, int level) {
 
 class JpegReader : public Reader {
  public:
-  JpegReader(std::vector<unsigned char> owned, const unsigned char* bytes, size_t size)
-      : owned_(std::move(owned)), bytes_(bytes), size_(size) {
+  // From memory (bytes, size) or from a file (file, size = its length; the reader closes it):
+  // libjpeg's stdio source reads 4 KB at a time, so a header read touches only the first few.
+  JpegReader(const unsigned char* bytes, FILE* file, size_t size)
+      : bytes_(bytes), file_(file), size_(size) {
     cinfo_.err = jpeg_std_error(&err_.pub);
     err_.pub.error_exit = OnError;
     err_.pub.emit_message = OnMessage;
   }
   ~JpegReader() override {
     if (created_) jpeg_destroy_decompress(&cinfo_);
+    if (file_) std::fclose(file_);
   }
 
   // false: not a JPEG this reader decodes (declined) or a broken header (error() set).
@@ -58,18 +62,11 @@ class JpegReader : public Reader {
     if (setjmp(err_.jump)) return false;
     jpeg_create_decompress(&cinfo_);
     created_ = true;
-    jpeg_mem_src(&cinfo_, bytes_, static_cast<unsigned long>(size_));
+    if (file_)
+      jpeg_stdio_src(&cinfo_, file_);
+    else
+      jpeg_mem_src(&cinfo_, bytes_, static_cast<unsigned long>(size_));
     jpeg_read_header(&cinfo_, TRUE);
-    if (cinfo_.jpeg_color_space == JCS_GRAYSCALE) {
-      cinfo_.out_color_space = JCS_GRAYSCALE;
-      h_.channels = 1;
-    } else if (cinfo_.jpeg_color_space == JCS_YCbCr || cinfo_.jpeg_color_space == JCS_RGB) {
-      cinfo_.out_color_space = JCS_RGB;
-      h_.channels = 3;
-    } else {
-      *declined = true;
-      return false;
-    }
     h_.width = int(cinfo_.image_width);
     h_.height = int(cinfo_.image_height);
     // Huffman-coded data holds at least one bit per 8x8 luma block (its DC code, in baseline
@@ -83,6 +80,16 @@ class JpegReader : public Reader {
                     "%zu bytes, too few even at JPEG's best compression (1 bit per block): it is "
                     "truncated or its header is wrong",
                     h_.width, h_.height, blocks, size_);
+      return false;
+    }
+    if (cinfo_.jpeg_color_space == JCS_GRAYSCALE) {
+      cinfo_.out_color_space = JCS_GRAYSCALE;
+      h_.channels = 1;
+    } else if (cinfo_.jpeg_color_space == JCS_YCbCr || cinfo_.jpeg_color_space == JCS_RGB) {
+      cinfo_.out_color_space = JCS_RGB;
+      h_.channels = 3;
+    } else {
+      *declined = true;
       return false;
     }
     h_.sample = Sample::kUint8;
@@ -114,8 +121,8 @@ class JpegReader : public Reader {
   }
 
  private:
-  std::vector<unsigned char> owned_;
   const unsigned char* bytes_;
+  FILE* file_;
   size_t size_;
   jpeg_decompress_struct cinfo_{};
   ErrorManager err_{};
@@ -132,10 +139,20 @@ std::unique_ptr<Reader> Finish(std::unique_ptr<JpegReader> r, std::string* error
 
 }  // namespace
 
-std::unique_ptr<Reader> OpenJpeg(std::vector<unsigned char> bytes, std::string* error) {
-  const unsigned char* data = bytes.data();
-  const size_t size = bytes.size();
-  return Finish(std::make_unique<JpegReader>(std::move(bytes), data, size), error);
+std::unique_ptr<Reader> OpenJpeg(const std::string& path, std::string* error) {
+  FILE* f = std::fopen(path.c_str(), "rb");
+  if (!f) {
+    *error = std::string("cannot open it: ") + std::strerror(errno);
+    return nullptr;
+  }
+  long size = -1;
+  if (std::fseek(f, 0, SEEK_END) == 0) size = std::ftell(f);
+  if (size < 0 || std::fseek(f, 0, SEEK_SET) != 0) {
+    std::fclose(f);
+    *error = std::string("cannot read it: ") + std::strerror(errno);
+    return nullptr;
+  }
+  return Finish(std::make_unique<JpegReader>(nullptr, f, size_t(size)), error);
 }
 
 std::unique_ptr<Reader> OpenJpegMemory(const unsigned char* bytes, size_t size,
@@ -145,7 +162,7 @@ std::unique_ptr<Reader> OpenJpegMemory(const unsigned char* bytes, size_t size,
     *error = "not a JPEG (no start-of-image marker)";
     return nullptr;
   }
-  auto r = Finish(std::make_unique<JpegReader>(std::vector<unsigned char>(), bytes, size), error);
+  auto r = Finish(std::make_unique<JpegReader>(bytes, nullptr, size), error);
   if (!r && error->empty()) *error = "a CMYK/YCCK JPEG, which this reader does not decode";
   return r;
 }

@@ -3,11 +3,8 @@
 #include <cerrno>
 #include <cstdio>
 #include <cstring>
-#include <fstream>
-#include <iterator>
 #include <memory>
 #include <string>
-#include <vector>
 
 #include "core/codec_native.h"
 
@@ -32,16 +29,7 @@ class NativeBackend : public Backend {
  public:
   std::unique_ptr<Reader> Open(const std::string& path, std::string* error) override {
     switch (Sniff(path)) {
-      case Kind::kJpeg: {
-        std::ifstream in(path, std::ios::binary);
-        std::vector<unsigned char> bytes((std::istreambuf_iterator<char>(in)),
-                                         std::istreambuf_iterator<char>());
-        if (in.bad()) {
-          *error = "cannot read it";
-          return nullptr;
-        }
-        return OpenJpeg(std::move(bytes), error);
-      }
+      case Kind::kJpeg: return OpenJpeg(path, error);
       case Kind::kPng: return OpenPng(path, error);
       case Kind::kExr: return OpenExr(path, error);
       case Kind::kOther: break;

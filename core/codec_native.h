@@ -10,7 +10,7 @@
 namespace matfit::codec {
 
 // Readers: nullptr with *error empty when the file is declined (OpenImageIO reads it instead).
-std::unique_ptr<Reader> OpenJpeg(std::vector<unsigned char> bytes, std::string* error);
+std::unique_ptr<Reader> OpenJpeg(const std::string& path, std::string* error);
 std::unique_ptr<Reader> OpenPng(const std::string& path, std::string* error);
 std::unique_ptr<Reader> OpenExr(const std::string& path, std::string* error);
 
