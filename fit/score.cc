@@ -17,84 +17,101 @@
 namespace matfit::fit {
 namespace {
 
-// Σ_t [ok_t] (obs_t − I · pred_t)² over a run: the difference in float (8 lanes; its rounding
-// is relative to each sample), its square summed in double in two 4-lane accumulators (the
-// compiler will not reassociate a scalar double sum), reduced in a fixed order so the result
-// does not depend on the ISA clone. `ok` holds 1.0f for texels to score, 0 elsewhere: a
-// select, so NaN outside scored texels never enters the sum.
-typedef double V4d __attribute__((vector_size(32)));
-typedef float V4f __attribute__((vector_size(16)));
+typedef double V8d __attribute__((vector_size(64)));
 typedef float V8f __attribute__((vector_size(32)));
+typedef int V8i __attribute__((vector_size(32)));
 
-// 8 differences squared into two double accumulators.
-__attribute__((always_inline)) inline void Accumulate8(const float* obs, const float* pred,
-                                                       float intensity, const float* ok, V4d* a,
-                                                       V4d* b) {
-  V8f o, p, w;
-  std::memcpy(&o, obs, sizeof o), std::memcpy(&p, pred, sizeof p), std::memcpy(&w, ok, sizeof w);
-  const V8f d = w != 0 ? o - intensity * p : V8f{};
-  const V4d lo = __builtin_convertvector(V4f{d[0], d[1], d[2], d[3]}, V4d);
-  const V4d hi = __builtin_convertvector(V4f{d[4], d[5], d[6], d[7]}, V4d);
-  *a += lo * lo, *b += hi * hi;
-}
+constexpr int kMaxChannels = 3;  // stacks hold 1 or 3 channels
 
-MATFIT_CLONES_V3
-double SumSquaredDiff(const float* obs, const float* pred, float intensity, const float* ok,
-                      int n) {
-  V4d a = {}, b = {}, c = {}, e = {};  // four chains: the adds' latency, not the loads, bound it
+// One light's channels (raw samples, predictions, 1 / I and I per channel) over a run.
+struct LightChannels {
+  const float* raw[kMaxChannels];
+  const float* pred[kMaxChannels];
+  float inv[kMaxChannels], intensity[kMaxChannels];
+};
+
+// Both scores of one light in one sweep of its samples, eight texels at a time:
+// - residuals (per texel t, over the lights): q = raw / I, r = q − pred for the samples that are
+//   finite and below the clip level with a finite prediction; Σ r² (acc), Σ |q| (sum), the sample
+//   count (k), and the lights with at least one such sample (m). q and r in double, each texel's
+//   sums in light then channel order: the same as one sample at a time. The validity test runs
+//   on the floats (raw, pred within float range make q, r finite in double), and an invalid
+//   sample enters as raw = pred = 0, adding +0.
+// - reconstruction: Σ_t,c [ok_t] (raw − I · pred)², the difference in float (its rounding is
+//   relative to each sample) squared and summed in double in eight-lane chains reduced in a
+//   fixed order, so the sum does not depend on the ISA clone or the thread count. `ok` is 1.0f for
+//   texels to score, 0 elsewhere: a select, so NaN outside scored texels never enters the sum.
+template <int C, bool kResiduals, bool kReconstruction>
+MATFIT_CLONES_V4 double ScoreLight(const LightChannels& l, float clip_level, const float* ok, int n,
+                                   double* __restrict acc, double* __restrict sum,
+                                   int* __restrict k, int* __restrict m) {
+  const float inf = std::numeric_limits<float>::infinity();
+  V8d rec = {};
   int t = 0;
-  for (; t + 16 <= n; t += 16) {
-    Accumulate8(obs + t, pred + t, intensity, ok + t, &a, &b);
-    Accumulate8(obs + t + 8, pred + t + 8, intensity, ok + t + 8, &c, &e);
+  for (; t + 8 <= n; t += 8) {
+    V8d a, b;
+    V8i kt, mt, used = {};
+    V8f w;
+    if constexpr (kResiduals) {
+      std::memcpy(&a, acc + t, sizeof a), std::memcpy(&b, sum + t, sizeof b);
+      std::memcpy(&kt, k + t, sizeof kt), std::memcpy(&mt, m + t, sizeof mt);
+    }
+    if constexpr (kReconstruction) std::memcpy(&w, ok + t, sizeof w);
+    for (int c = 0; c < C; ++c) {
+      V8f rf, pf;
+      std::memcpy(&rf, l.raw[c] + t, sizeof rf), std::memcpy(&pf, l.pred[c] + t, sizeof pf);
+      if constexpr (kResiduals) {
+        const V8f ap = pf < 0 ? -pf : pf;
+        const V8i valid = (rf > -inf) & (rf < clip_level) & (ap < inf);  // −1 or 0
+        const V8d q = __builtin_convertvector(valid ? rf : V8f{}, V8d) * double(l.inv[c]);
+        const V8d r = q - __builtin_convertvector(valid ? pf : V8f{}, V8d);
+        a += r * r, b += q < 0 ? -q : q;
+        kt -= valid, used |= valid & 1;
+      }
+      if constexpr (kReconstruction) {
+        const V8f d = w != 0 ? rf - l.intensity[c] * pf : V8f{};
+        const V8d dd = __builtin_convertvector(d, V8d);
+        rec += dd * dd;
+      }
+    }
+    if constexpr (kResiduals) {
+      mt += used;
+      std::memcpy(acc + t, &a, sizeof a), std::memcpy(sum + t, &b, sizeof b);
+      std::memcpy(k + t, &kt, sizeof kt), std::memcpy(m + t, &mt, sizeof mt);
+    }
   }
   double tail = 0;
   for (; t < n; ++t) {
-    const double d = ok[t] != 0 ? double(obs[t] - intensity * pred[t]) : 0.0;
-    tail += d * d;
+    int used = 0;
+    for (int c = 0; c < C; ++c) {
+      const float raw = l.raw[c][t], pred = l.pred[c][t];
+      if constexpr (kResiduals) {
+        const bool valid = raw > -inf && raw < clip_level && std::abs(pred) < inf;
+        const double q = double(valid ? raw : 0.0f) * double(l.inv[c]);
+        const double r = q - double(valid ? pred : 0.0f);
+        acc[t] += r * r, sum[t] += std::abs(q);
+        k[t] += valid, used |= valid;
+      }
+      if constexpr (kReconstruction) {
+        const double d = ok[t] != 0 ? double(raw - l.intensity[c] * pred) : 0.0;
+        tail += d * d;
+      }
+    }
+    if constexpr (kResiduals) m[t] += used;
   }
-  const V4d s = (a + c) + (b + e);
-  return ((s[0] + s[2]) + (s[1] + s[3])) + tail;
+  const double r4[4] = {rec[0] + rec[4], rec[1] + rec[5], rec[2] + rec[6], rec[3] + rec[7]};
+  return ((r4[0] + r4[2]) + (r4[1] + r4[3])) + tail;
 }
 
-// One light and channel of a run: q = raw / I, r = q − pred for the samples that are finite and
-// below the clip level; Σ r², Σ |q|, the sample count, and whether the light was used. Four
-// texels at a time in double, the same operations as one at a time (so the same sums): valid
-// ⇔ −∞ < raw < clip and |r| < ∞ (NaN fails every comparison).
-typedef long long V4l __attribute__((vector_size(32)));
-typedef int V4i __attribute__((vector_size(16)));
-
-MATFIT_CLONES_V3
-void ResidualSums(const float* __restrict raw, const float* __restrict pred, float inv,
-                  float clip_level, int n, double* __restrict acc, double* __restrict sum,
-                  int* __restrict k, int* __restrict used) {
-  const double inf = std::numeric_limits<double>::infinity(), clip = clip_level, scale = inv;
-  int t = 0;
-  for (; t + 4 <= n; t += 4) {
-    V4f rf, pf;
-    V4d a, b;
-    V4i kt, ut;
-    std::memcpy(&rf, raw + t, sizeof rf), std::memcpy(&pf, pred + t, sizeof pf);
-    std::memcpy(&a, acc + t, sizeof a), std::memcpy(&b, sum + t, sizeof b);
-    std::memcpy(&kt, k + t, sizeof kt), std::memcpy(&ut, used + t, sizeof ut);
-    const V4d rd = __builtin_convertvector(rf, V4d), q = rd * scale;
-    const V4d r = q - __builtin_convertvector(pf, V4d);
-    const V4d ar = r < 0 ? -r : r, aq = q < 0 ? -q : q;
-    const V4l valid = (rd > -inf) & (rd < clip) & (ar < inf);
-    a += valid ? r * r : V4d{}, b += valid ? aq : V4d{};
-    const V4i v = __builtin_convertvector(valid, V4i);  // −1 or 0
-    kt -= v, ut |= v & 1;
-    std::memcpy(acc + t, &a, sizeof a), std::memcpy(sum + t, &b, sizeof b);
-    std::memcpy(k + t, &kt, sizeof kt), std::memcpy(used + t, &ut, sizeof ut);
-  }
-  for (; t < n; ++t) {
-    const double q = double(raw[t]) * scale;
-    const double r = q - double(pred[t]);
-    const bool valid = std::isfinite(raw[t]) && raw[t] < clip_level && std::isfinite(r);
-    acc[t] += valid ? r * r : 0.0;
-    sum[t] += valid ? std::abs(q) : 0.0;
-    k[t] += valid;
-    used[t] |= valid;
-  }
+// The instance for the channel count and the parts asked for.
+template <int C>
+double ScoreLightParts(bool residuals, bool reconstruction, const LightChannels& l,
+                       float clip_level, const float* ok, int n, double* acc, double* sum, int* k,
+                       int* m) {
+  if (residuals && reconstruction)
+    return ScoreLight<C, true, true>(l, clip_level, ok, n, acc, sum, k, m);
+  if (residuals) return ScoreLight<C, true, false>(l, clip_level, ok, n, acc, sum, k, m);
+  return ScoreLight<C, false, true>(l, clip_level, ok, n, acc, sum, k, m);
 }
 
 ReconstructionMetrics ReduceReconstruction(const LightStack& s, const std::vector<int>& images,
@@ -152,9 +169,10 @@ StackScore ScoreStack(const LightStack& s, const std::vector<int>& images, const
   ParallelFor(
       0, runs,
       [&](int64_t r0, int64_t r1) {
-        std::vector<float> pred(size_t(eval.group()) * 3 * kEvalRun), scratch(kEvalRun);
+        std::vector<float> pred(size_t(eval.group()) * 3 * kEvalRun),
+            scratch(size_t(kMaxChannels) * kEvalRun);
         std::vector<double> acc(kEvalRun), sum(kEvalRun);
-        std::vector<int> k(kEvalRun), m(kEvalRun), used(kEvalRun);
+        std::vector<int> k(kEvalRun), m(kEvalRun);
         float ok[kEvalRun];
         for (int64_t r = r0; r < r1; ++r) {
           const int64_t p0 = r * kEvalRun;
@@ -174,20 +192,18 @@ StackScore ScoreStack(const LightStack& s, const std::vector<int>& images, const
             const int in_group = j % eval.group();  // predictions come a group of lights at once
             if (in_group == 0)
               eval.EvaluateLights(j, std::min(eval.group(), n - j), p0, len, C, pred.data());
-            if (residuals) std::fill_n(used.begin(), len, 0);
-            double d2 = 0;
+            LightChannels l;
             for (int c = 0; c < C; ++c) {
-              const float* raw = s.Texels(i, c, p0, len, scratch.data());
-              const float* pc = pred.data() + (size_t(in_group) * C + c) * len;
-              if (residuals)
-                ResidualSums(raw, pc, inv[size_t(i) * C + c], clip_level, len, acc.data(),
-                             sum.data(), k.data(), used.data());
-              if (reconstruction)
-                d2 += SumSquaredDiff(
-                    raw, pc, float(s.lights()[size_t(i)].intensity[C == 1 ? 0 : c]), ok, len);
+              l.raw[c] = s.Texels(i, c, p0, len, scratch.data() + size_t(c) * kEvalRun);
+              l.pred[c] = pred.data() + (size_t(in_group) * C + c) * len;
+              l.inv[c] = inv[size_t(i) * C + c];
+              l.intensity[c] = float(s.lights()[size_t(i)].intensity[C == 1 ? 0 : c]);
             }
-            if (residuals)
-              for (int t = 0; t < len; ++t) m[size_t(t)] += used[size_t(t)];
+            const double d2 =
+                C == 1 ? ScoreLightParts<1>(residuals, reconstruction, l, clip_level, ok, len,
+                                            acc.data(), sum.data(), k.data(), m.data())
+                       : ScoreLightParts<3>(residuals, reconstruction, l, clip_level, ok, len,
+                                            acc.data(), sum.data(), k.data(), m.data());
             if (reconstruction) {
               run_sum[size_t(r * n + j)] = d2;
               run_count[size_t(r * n + j)] = int64_t(ok_count) * C;
