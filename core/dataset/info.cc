@@ -30,12 +30,18 @@ std::string HumanBytes(double b) {
 
 constexpr float kBlackLevel = 1e-4f;  // linear; an image whose every sample is below is black
 
-// Largest code of a plane (the loop vectorises to byte/word max).
+// True when some code of the plane is at least `bright`: the largest code of each 4096-code block
+// (the loop vectorises to byte/word max), stopping at the first block that reaches it (an image
+// with any lit pixel stops within its first blocks instead of reading the whole plane).
 template <typename T>
-T MaxCode(std::span<const T> codes) {
-  T m = 0;
-  for (T c : codes) m = std::max(m, c);
-  return m;
+bool AnyCodeAtLeast(std::span<const T> codes, int64_t bright) {
+  constexpr size_t kBlock = 4096;
+  for (size_t b = 0; b < codes.size(); b += kBlock) {
+    T m = 0;
+    for (T c : codes.subspan(b, std::min(kBlock, codes.size() - b))) m = std::max(m, c);
+    if (m >= bright) return true;
+  }
+  return false;
 }
 
 // The first code that decodes to ≥ kBlackLevel when every code at or above it does too (a
@@ -50,14 +56,15 @@ int64_t FirstBrightCode(const LightStack& s) {
 }
 
 // True when no finite sample of image i reaches kBlackLevel. With a first bright code the
-// largest code of each plane decides without decoding the image.
+// codes decide without decoding the image.
 bool IsBlackImage(const LightStack& s, int i, int64_t first_bright) {
   if (first_bright == -1) return true;
   if (first_bright >= 0) {
     for (int c = 0; c < s.channels(); ++c) {
-      const int64_t top = s.sample_type() == SampleType::kUint8 ? MaxCode(s.Codes<uint8_t>(i, c))
-                                                                : MaxCode(s.Codes<uint16_t>(i, c));
-      if (top >= first_bright) return false;
+      if (s.sample_type() == SampleType::kUint8
+              ? AnyCodeAtLeast(s.Codes<uint8_t>(i, c), first_bright)
+              : AnyCodeAtLeast(s.Codes<uint16_t>(i, c), first_bright))
+        return false;
     }
     return true;
   }
