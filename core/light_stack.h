@@ -94,6 +94,18 @@ class LightStack {
     Decode(k, n, scratch);
     return scratch;
   }
+  // Asks the cache for texels [p, p + n) of (image, channel) ahead of a read (a gather across
+  // planes, which the hardware prefetcher cannot predict).
+  void Prefetch(int image, int channel, int64_t p, int n) const {
+    const int64_t k = PlaneOffset(image, channel) + p;
+    const char* b = type_ == SampleType::kFloat32 ? reinterpret_cast<const char*>(f32_.data() + k)
+                    : type_ == SampleType::kUint8 ? reinterpret_cast<const char*>(u8_.data() + k)
+                                                  : reinterpret_cast<const char*>(u16_.data() + k);
+    const int64_t bytes = int64_t(n) * (type_ == SampleType::kFloat32 ? 4
+                                        : type_ == SampleType::kUint8 ? 1
+                                                                      : 2);
+    for (int64_t o = 0; o < bytes; o += 64) __builtin_prefetch(b + o);
+  }
   // The stored codes of (image, channel) of an integer stack; T must match sample_type()
   // (uint8_t or uint16_t). For readers that store codes and writers that keep them.
   template <typename T>
