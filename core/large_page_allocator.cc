@@ -42,6 +42,16 @@ void* AllocateLarge(std::size_t bytes) {
   return p;
 }
 
+void* AllocateBlock(std::size_t bytes) noexcept {
+  if (bytes < kHugePage) return std::malloc(bytes ? bytes : 1);
+  void* p = nullptr;
+  if (posix_memalign(&p, kHugePage, bytes) != 0) return nullptr;
+#ifdef MADV_HUGEPAGE
+  madvise(p, bytes / kHugePage * kHugePage, MADV_HUGEPAGE);  // advice only
+#endif
+  return p;
+}
+
 void DeallocateLarge(void* p, std::size_t bytes) {
   if (bytes < kLargeBlock)
     ::operator delete(p);

@@ -18,6 +18,11 @@ void TuneAllocatorForImageBuffers();
 namespace detail {
 void* AllocateLarge(std::size_t bytes);
 void DeallocateLarge(void* p, std::size_t bytes);
+// Any block for the process's operator new (app/global_new.cc): from malloc, and blocks of 2 MiB
+// or more start on a 2 MiB boundary with their whole 2 MiB pages advised for transparent huge
+// pages (a fault then maps 2 MiB instead of 4 KiB; the partial page at the end stays small, so
+// resident memory does not grow). Freed with std::free. nullptr when out of memory.
+void* AllocateBlock(std::size_t bytes) noexcept;
 }  // namespace detail
 
 template <class T>
