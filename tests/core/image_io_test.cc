@@ -139,20 +139,9 @@ TEST(ImageIo, JpegRoundTripIsCloseAndSrgb) {
 // faults over repeated reads after a warm-up.
 // AddressSanitizer replaces malloc (no mallopt tuning, freed blocks quarantined): page faults per
 // read then measure its allocator, not the reader.
-#if defined(__SANITIZE_ADDRESS__)
-constexpr bool kAddressSanitizer = true;
-#elif defined(__has_feature)
-#if __has_feature(address_sanitizer)
-constexpr bool kAddressSanitizer = true;
-#else
-constexpr bool kAddressSanitizer = false;
-#endif
-#else
-constexpr bool kAddressSanitizer = false;
-#endif
 
 TEST(ImageIo, DecodingDoesNotFaultInAStagingBufferPerImage) {
-  if (kAddressSanitizer)
+  if (testing::kAddressSanitizer)
     GTEST_SKIP() << "AddressSanitizer's allocator ignores mallopt and quarantines freed buffers; "
                     "the normal build runs this test";
   TuneAllocatorForImageBuffers();  // as matfit does: freed image buffers are kept for reuse

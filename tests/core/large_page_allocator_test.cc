@@ -11,23 +11,12 @@
 #include <sstream>
 #include <string>
 
+#include "tests/core/test_util.h"
+
 namespace matfit {
 namespace {
 
 constexpr std::size_t kHugePage = std::size_t(2) << 20;
-
-// AddressSanitizer's allocator reports an impossible size as an error instead of returning null.
-#if defined(__SANITIZE_ADDRESS__)
-constexpr bool kAddressSanitizer = true;
-#elif defined(__has_feature)
-#if __has_feature(address_sanitizer)
-constexpr bool kAddressSanitizer = true;
-#else
-constexpr bool kAddressSanitizer = false;
-#endif
-#else
-constexpr bool kAddressSanitizer = false;
-#endif
 
 // "THPeligible:" of the mapping that holds `p` in /proc/self/smaps: 1 when the kernel may back it
 // with transparent huge pages. -1 when the field is missing (old kernels, no smaps).
@@ -82,7 +71,8 @@ TEST(LargePageAllocator, SmallBlocksComeFromMallocAndFreeWithFree) {
 }
 
 TEST(LargePageAllocator, ImpossibleBlocksReturnNull) {
-  if (kAddressSanitizer) GTEST_SKIP() << "AddressSanitizer aborts on impossible sizes by design";
+  if (testing::kAddressSanitizer)
+    GTEST_SKIP() << "AddressSanitizer aborts on impossible sizes by design";
   EXPECT_EQ(detail::AllocateBlock(~std::size_t(0) / 2), nullptr);
 }
 

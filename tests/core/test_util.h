@@ -10,6 +10,20 @@
 
 namespace matfit::testing {
 
+// Built with AddressSanitizer (GCC or clang): its allocator ignores mallopt, quarantines freed
+// blocks and reports impossible sizes, so tests of allocation behaviour skip themselves.
+#if defined(__SANITIZE_ADDRESS__)
+constexpr bool kAddressSanitizer = true;
+#elif defined(__has_feature)
+#if __has_feature(address_sanitizer)
+constexpr bool kAddressSanitizer = true;
+#else
+constexpr bool kAddressSanitizer = false;
+#endif
+#else
+constexpr bool kAddressSanitizer = false;
+#endif
+
 // A fresh empty folder under the system temp dir, removed by the destructor.
 class TempDir {
  public:
