@@ -33,12 +33,8 @@ constexpr std::size_t kLargeBlock = std::size_t(4) << 20;
 
 void* AllocateLarge(std::size_t bytes) {
   if (bytes < kLargeBlock) return ::operator new(bytes);
-  const std::size_t rounded = (bytes + kHugePage - 1) / kHugePage * kHugePage;
-  void* p = std::aligned_alloc(kHugePage, rounded);
+  void* p = AllocateBlock(bytes);
   if (!p) throw std::bad_alloc();
-#ifdef MADV_HUGEPAGE
-  madvise(p, rounded, MADV_HUGEPAGE);  // advice only: failure leaves normal pages
-#endif
   return p;
 }
 

@@ -152,10 +152,10 @@ StackDiagnostics DiagnoseStack(const LightStack& s, int max_texels) {
       SampledTexels& out = texels[size_t(r)];
       const size_t most = size_t(X) * ((n + kLanes - 1) / kLanes * kLanes);  // no regrowth
       for (auto* v : {&out.lx, &out.ly, &out.lz, &out.log2p}) v->reserve(most);
-      const int64_t span = xs.back() - xs.front() + 1;  // the row's sampled columns
+      const int64_t span = X ? xs.back() - xs.front() + 1 : 0;  // the row's sampled columns
       for (int i = 0; i < n; ++i) {
         // Two images ahead: each plane's row is a DRAM miss the loads below would wait for.
-        if (i + 2 < n)
+        if (i + 2 < n && span > 0)
           for (int c = 0; c < C; ++c) s.Prefetch(i + 2, c, row + xs.front(), int(span));
         const bool lit = s.lights()[size_t(i)].direction.z > 0;
         for (int k = 0; k < X; ++k) y[size_t(k) * n + i] = 0, good[size_t(k) * n + i] = lit;

@@ -35,8 +35,8 @@ struct LightChannels {
 //   finite and below the clip level with a finite prediction; Σ r² (acc), Σ |q| (sum), the sample
 //   count (k), and the lights with at least one such sample (m). q and r in double, each texel's
 //   sums in light then channel order: the same as one sample at a time. The validity test runs
-//   on the floats (raw, pred within float range make q, r finite in double), and an invalid
-//   sample enters as raw = pred = 0, adding +0.
+//   on the floats (finite raw, pred and 1 / I make q, r finite in double: |q| < 2^256), and an
+//   invalid sample enters as raw = pred = 0, adding +0.
 // - reconstruction: Σ_t,c [ok_t] (raw − I · pred)², the difference in float (its rounding is
 //   relative to each sample) squared and summed in double in eight-lane chains reduced in a
 //   fixed order, so the sum does not depend on the ISA clone or the thread count. `ok` is 1.0f for
@@ -47,6 +47,15 @@ MATFIT_CLONES_V4 double ScoreLight(const LightChannels& l, float clip_level, con
                                    int* __restrict k, int* __restrict m) {
   const float inf = std::numeric_limits<float>::infinity();
   V8d rec = {};
+  // 1 / I = ∞ (I = 0) makes every q of the channel non-finite: none is valid, and its scale is 0
+  // so that the invalid samples still add +0.
+  V8i channel_ok[kMaxChannels];
+  double scale[kMaxChannels];
+  bool finite[kMaxChannels];
+  for (int c = 0; c < C; ++c) {
+    finite[c] = std::abs(l.inv[c]) < inf;
+    channel_ok[c] = V8i{} - int(finite[c]), scale[c] = finite[c] ? double(l.inv[c]) : 0.0;
+  }
   int t = 0;
   for (; t + 8 <= n; t += 8) {
     V8d a, b;
@@ -62,8 +71,8 @@ MATFIT_CLONES_V4 double ScoreLight(const LightChannels& l, float clip_level, con
       std::memcpy(&rf, l.raw[c] + t, sizeof rf), std::memcpy(&pf, l.pred[c] + t, sizeof pf);
       if constexpr (kResiduals) {
         const V8f ap = pf < 0 ? -pf : pf;
-        const V8i valid = (rf > -inf) & (rf < clip_level) & (ap < inf);  // −1 or 0
-        const V8d q = __builtin_convertvector(valid ? rf : V8f{}, V8d) * double(l.inv[c]);
+        const V8i valid = (rf > -inf) & (rf < clip_level) & (ap < inf) & channel_ok[c];  // −1, 0
+        const V8d q = __builtin_convertvector(valid ? rf : V8f{}, V8d) * scale[c];
         const V8d r = q - __builtin_convertvector(valid ? pf : V8f{}, V8d);
         a += r * r, b += q < 0 ? -q : q;
         kt -= valid, used |= valid & 1;
@@ -86,8 +95,8 @@ MATFIT_CLONES_V4 double ScoreLight(const LightChannels& l, float clip_level, con
     for (int c = 0; c < C; ++c) {
       const float raw = l.raw[c][t], pred = l.pred[c][t];
       if constexpr (kResiduals) {
-        const bool valid = raw > -inf && raw < clip_level && std::abs(pred) < inf;
-        const double q = double(valid ? raw : 0.0f) * double(l.inv[c]);
+        const bool valid = raw > -inf && raw < clip_level && std::abs(pred) < inf && finite[c];
+        const double q = double(valid ? raw : 0.0f) * scale[c];
         const double r = q - double(valid ? pred : 0.0f);
         acc[t] += r * r, sum[t] += std::abs(q);
         k[t] += valid, used |= valid;

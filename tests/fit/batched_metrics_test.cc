@@ -4,6 +4,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <limits>
 #include <random>
 
 #include <algorithm>
@@ -12,6 +13,7 @@
 #include "core/stack_ops.h"
 #include "core/synth/light_sets.h"
 #include "fit/confidence.h"
+#include "fit/fit_common.h"
 #include "fit/metrics.h"
 #include "fit/score.h"
 #include "tests/core/model_maps.h"
@@ -195,6 +197,47 @@ TEST(BatchedMetrics, FusedScoreEqualsTheSeparatePasses) {
         }
       SetNumThreads(0);
     }
+}
+
+// The residual sums of the error bound against their definition, sample by sample: q = raw / I,
+// r = q − pred over samples that are finite, below the clip level, with a finite q and r. The
+// stack holds NaN and ±∞ samples and a light of zero intensity (1 / I = ∞: none of its samples
+// count), on 1 and 3 channels.
+TEST(BatchedMetrics, ResidualSumsEqualTheLiteralDefinition) {
+  for (int channels : {1, 3}) {
+    const MaterialMaps m = testing::RandomModelMaps(ModelId("lambert"), 29, 23, 6, channels == 1);
+    LightStack s = NoisyStack(m, channels, 5);
+    s.lights()[3].intensity = Vec3(0, 0, 0);
+    const float nan = std::numeric_limits<float>::quiet_NaN(),
+                inf = std::numeric_limits<float>::infinity();
+    s.Plane(1, 0)[7] = nan, s.Plane(2, 0)[8] = inf, s.Plane(4, channels - 1)[9] = -inf;
+    const StackScore score = ScoreStack(s, m, {}, {}, {.reconstruction = false, .residuals = true});
+    const std::vector<float> inv = InverseIntensities(s);
+    const float clip = StackMayBeClipped(s) ? kClipLevel : inf;
+    int64_t counted = 0;
+    for (int64_t p = 0; p < s.plane_size(); ++p) {
+      double rss = 0;
+      int samples = 0, used = 0;
+      for (int i = 0; i < s.num_images(); ++i) {
+        bool any = false;
+        for (int c = 0; c < channels; ++c) {
+          const float raw = s.Plane(i, c)[p];
+          const double q = double(raw) * double(inv[size_t(i) * channels + c]);
+          const double r = q - EvaluateTexel(m, p, c, Vec3f(s.lights()[size_t(i)].direction),
+                                             Vec3f(s.view_direction));
+          if (!(std::isfinite(raw) && raw < clip && std::isfinite(r))) continue;
+          rss += r * r, ++samples, any = true;
+        }
+        used += any;
+      }
+      EXPECT_EQ(score.residuals.samples[size_t(p)], samples) << "texel " << p;
+      EXPECT_EQ(score.residuals.used_lights[size_t(p)], used) << "texel " << p;
+      EXPECT_NEAR(score.residuals.rss[size_t(p)], rss, 1e-5 * rss + 1e-9) << "texel " << p;
+      counted += samples;
+    }
+    // The zero-intensity light and the three non-finite samples are out, the rest in.
+    EXPECT_EQ(counted, s.plane_size() * channels * (s.num_images() - 1) - 3) << channels;
+  }
 }
 
 }  // namespace
