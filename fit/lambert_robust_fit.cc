@@ -8,13 +8,26 @@
 //   3. The texel is kept only with ≥ 3 inliers whose light directions are well conditioned
 //      (smallest/largest eigenvalue of Σ l lᵀ ≥ 1e-3); otherwise it is flagged, not guessed.
 // Albedo per channel by 1-D least squares over the final inliers.
+//
+// Four texels run together, one per vector lane (FitBlock): the sums over the lights, the
+// predictions, the inlier tests and the rank cut-offs are lane-wise, each lane doing exactly
+// the scalar operations of one texel in the same order (no FMA contraction: fit/CMakeLists.txt),
+// so every texel's result is the same as fitting it alone. Only the selections (rank cut-offs,
+// medians) and the 3×3 solves run per lane.
 #include <Eigen/Dense>
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <cstdint>
+#include <cstdlib>
+#include <cstring>
 #include <functional>
+#include <limits>
+#include <memory>
+#include <new>
 #include <vector>
 
+#include "core/simd_clones.h"
 #include "fit/fit_common.h"
 #include "fit/methods.h"
 #include "fit/select_kth.h"
@@ -25,28 +38,22 @@ namespace {
 constexpr double kTrimDark = 0.2, kTrimBright = 0.1;
 constexpr int kRounds = 4;
 
-struct RankKey {
-  double y;
-  int i;
-};
-// Branch-free: (y, i) in lexicographic order.
-constexpr auto ByValueThenIndex = [](const RankKey& a, const RankKey& b) {
-  return (a.y < b.y) | ((a.y == b.y) & (a.i < b.i));
-};
+// Texels per block. Four: GCC 12 lowers comparisons of 64-byte vectors to scalar code inside a
+// target_clones function (32-byte ones stay vector compares).
+constexpr int kLanes = 4;
+typedef double Vd __attribute__((vector_size(8 * kLanes)));
+typedef float Vf __attribute__((vector_size(4 * kLanes)));
+typedef int64_t Vm __attribute__((vector_size(8 * kLanes)));  // lane masks: −1 true, 0 false
 
-// The key (value, index) of rank r in (value, index) order, given v, the value of rank r in value
-// order: the (r − #{y < v})-th sample, in index order, of those equal to v. Selecting plain values
-// and resolving ties here is about twice as fast as selecting 16-byte keys.
-RankKey KeyOfRank(const double* y, int n, double v, int r) {
-  int below = 0;
-  for (int i = 0; i < n; ++i) below += y[i] < v ? 1 : 0;
-  for (int i = 0, want = r - below; i < n; ++i)
-    if (y[i] == v && want-- == 0) return {v, i};
-  return {v, n};  // unreachable: v is one of the values
+bool AnyLane(Vm m) {
+  int64_t a = 0;
+  for (int j = 0; j < kLanes; ++j) a |= m[j];
+  return a != 0;
 }
 
-// Light directions and their products l lᵀ, one array per component (the sums below read them
-// contiguously).
+inline __attribute__((always_inline)) Vd Abs(Vd v) { return (Vd)((Vm)v & (Vm{} + INT64_MAX)); }
+
+// Light directions and their products l lᵀ, one array per component.
 struct LightTable {
   explicit LightTable(const std::vector<Vec3>& d) {
     for (const Vec3& l : d) {
@@ -59,32 +66,87 @@ struct LightTable {
   std::vector<double> x, y, z, xx, xy, xz, yy, yz, zz;
 };
 
-// Least squares g over the samples with keep[i] set: M g = b with M = Σ l lᵀ, b = Σ l y. False
-// when fewer than 3 or singular (smallest eigenvalue of M ≤ 1e-12); *m is M. The sums run
-// branch-free (a kept sample adds its terms, another adds 0): which samples are kept is
-// data-dependent and would mispredict.
-bool SolveSubset(const LightTable& L, const double* y, const std::vector<char>& keep, Vec3* g,
-                 Eigen::Matrix3d* m) {
-  double m00 = 0, m01 = 0, m02 = 0, m11 = 0, m12 = 0, m22 = 0, b0 = 0, b1 = 0, b2 = 0;
-  int count = 0;
-  for (int i = 0; i < L.size(); ++i) {
-    const bool k = keep[i] != 0;
-    m00 += k ? L.xx[i] : 0.0, m01 += k ? L.xy[i] : 0.0, m02 += k ? L.xz[i] : 0.0;
-    m11 += k ? L.yy[i] : 0.0, m12 += k ? L.yz[i] : 0.0, m22 += k ? L.zz[i] : 0.0;
-    b0 += k ? L.x[i] * y[i] : 0.0, b1 += k ? L.y[i] * y[i] : 0.0, b2 += k ? L.z[i] * y[i] : 0.0;
-    count += k;
+// n lane vectors on 64-byte boundaries: the AVX clones align a Vd to its size, while
+// std::vector<Vd> would allocate with the baseline's alignment of 16.
+template <typename V>
+class LaneVector {
+ public:
+  explicit LaneVector(size_t n)
+      : p_(static_cast<V*>(std::aligned_alloc(64, (n * sizeof(V) + 63) / 64 * 64))) {
+    if (!p_) throw std::bad_alloc();
   }
-  if (count < 3) return false;
-  *m << m00, m01, m02, m01, m11, m12, m02, m12, m22;
+  V& operator[](size_t i) { return p_.get()[i]; }
+  const V& operator[](size_t i) const { return p_.get()[i]; }
+  V* data() { return p_.get(); }
+
+ private:
+  struct Free {
+    void operator()(V* p) const { std::free(p); }
+  };
+  std::unique_ptr<V, Free> p_;
+};
+
+// One block's samples, light-major ([i] holds the four texels) and its per-lane results.
+struct Block {
+  Block(int n, int channels)
+      : y(size_t(n)),
+        usable(size_t(n)),
+        samples(size_t(channels) * n),
+        e(size_t(n)),
+        keep(size_t(n)),
+        next(size_t(n)),
+        sel(size_t(n)) {}
+  // Inputs.
+  LaneVector<Vd> y;        // luminance / I (non-finite → 0)
+  LaneVector<Vm> usable;   // neither clipped nor non-finite
+  LaneVector<Vf> samples;  // [c · n + i] the channel samples (linear)
+  bool fit[kLanes] = {};   // lanes to fit (the texel's status is ok)
+  // Outputs per lane.
+  uint8_t status[kLanes] = {};
+  Vec3 normal[kLanes];
+  double albedo[kLanes][3] = {};
+  // Scratch.
+  LaneVector<Vd> e;  // |r_i|
+  LaneVector<Vm> keep, next;
+  std::vector<double> sel;
+};
+
+// Σ l lᵀ and Σ l y over each lane's kept samples, and their count. Branch-free: a kept sample
+// adds its terms, another adds 0 (which samples are kept is data-dependent).
+struct LaneSums {
+  Vd m00, m01, m02, m11, m12, m22, b0, b1, b2;
+  Vm count;
+};
+inline __attribute__((always_inline)) LaneSums SumSubset(const LightTable& L, const Vd* y,
+                                                         const Vm* keep) {
+  LaneSums s = {};
+  const Vd zero = {};
+  for (int i = 0; i < L.size(); ++i) {
+    const Vm k = keep[i];
+    const Vd x = zero + L.x[i], yy = zero + L.y[i], z = zero + L.z[i];
+    s.m00 += k ? zero + L.xx[i] : zero, s.m01 += k ? zero + L.xy[i] : zero;
+    s.m02 += k ? zero + L.xz[i] : zero, s.m11 += k ? zero + L.yy[i] : zero;
+    s.m12 += k ? zero + L.yz[i] : zero, s.m22 += k ? zero + L.zz[i] : zero;
+    s.b0 += k ? x * y[i] : zero, s.b1 += k ? yy * y[i] : zero, s.b2 += k ? z * y[i] : zero;
+    s.count -= k;
+  }
+  return s;
+}
+
+// Least squares g of lane j: M g = b. False when fewer than 3 samples or M is singular (smallest
+// eigenvalue ≤ 1e-12); *m is M.
+bool SolveLane(const LaneSums& s, int j, Vec3* g, Eigen::Matrix3d* m) {
+  if (s.count[j] < 3) return false;
+  *m << s.m00[j], s.m01[j], s.m02[j], s.m01[j], s.m11[j], s.m12[j], s.m02[j], s.m12[j], s.m22[j];
   // For a positive semi-definite 3×3, λ_min ≥ det / (λ_mid λ_max) ≥ 4 det / tr²: when that bound
   // is far above 1e-12 (its rounding is ~1e-15 tr²) the eigen-decomposition is not needed.
-  const double tr = m00 + m11 + m22, det = m->determinant();
+  const double tr = s.m00[j] + s.m11[j] + s.m22[j], det = m->determinant();
   if (!(4 * det >= 1e-6 * tr * tr)) {
     Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> eig;
     eig.computeDirect(*m, Eigen::EigenvaluesOnly);
     if (!(eig.eigenvalues()[0] > 1e-12)) return false;
   }
-  const Eigen::Vector3d x = m->ldlt().solve(Eigen::Vector3d(b0, b1, b2));
+  const Eigen::Vector3d x = m->ldlt().solve(Eigen::Vector3d(s.b0[j], s.b1[j], s.b2[j]));
   *g = {x.x(), x.y(), x.z()};
   return true;
 }
@@ -95,6 +157,152 @@ double Conditioning(const Eigen::Matrix3d& m) {
   eig.computeDirect(m, Eigen::EigenvaluesOnly);
   const auto ev = eig.eigenvalues();  // ascending
   return ev[2] > 0 ? ev[0] / ev[2] : 0;
+}
+
+// Per lane, the index of the key (value, index) of rank r in (value, index) order, given v, the
+// value of rank r in value order: the (r − #{y < v})-th sample, in index order, of those equal
+// to v. Selecting plain values and resolving ties here is about twice as fast as selecting keys.
+inline __attribute__((always_inline)) Vm IndexOfRank(const Vd* y, int n, Vd v, int r) {
+  Vm below = {};
+  for (int i = 0; i < n; ++i) below -= y[i] < v;
+  Vm want = r - below, index = Vm{} + n, open = ~Vm{};
+  for (int i = 0; i < n; ++i) {
+    const Vm eq = y[i] == v, hit = eq & (want == 0) & open;
+    index = hit ? Vm{} + i : index;
+    open &= ~hit, want += eq;
+  }
+  return index;
+}
+
+// Fits the lanes of `b` marked `fit` (status, normal, albedo per lane).
+MATFIT_CLONES_V4 void FitBlock(const LightTable& L, const float* inv, int C, Block& b) {
+  const int n = L.size();
+  const Vd zero = {};
+  // Non-finite samples (NaN/Inf in any channel: dead pixels, decode holes) are never used; they
+  // rank as dark (y = 0), clipped ones keep their value.
+  Vm finite = {};  // per lane, the number of finite samples
+  for (int i = 0; i < n; ++i) {
+    const Vm f = Abs(b.y[i]) <= std::numeric_limits<double>::max();
+    finite -= f;
+    b.usable[i] &= f;
+    b.y[i] = f ? b.y[i] : zero;
+  }
+  Vm lanes = {};  // lanes to fit
+  for (int j = 0; j < kLanes; ++j) {
+    b.status[j] = finite[j] < 3 ? kTexelNonFinite : kTexelOk;
+    if (b.fit[j] && finite[j] >= 3) lanes[j] = -1;
+  }
+  for (int i = 0; i < n; ++i) b.usable[i] &= lanes;
+  if (!AnyLane(lanes)) return;
+
+  // 1. Rank trimming (keep at least 3 of the middle ranks): the samples ranked [lo, hi) are those
+  // between the rank-lo and rank-hi keys (selections, no sort). Ties (shadow zeros, 8-bit codes)
+  // break by index, so the kept set is deterministic.
+  int lo = int(std::floor(kTrimDark * n)), hi = int(std::ceil((1 - kTrimBright) * n));
+  if (hi - lo < 3) lo = std::max(0, std::min(lo, n - 3)), hi = std::min(n, lo + 3);
+  Vd v_lo = {}, v_hi = {};
+  for (int j = 0; j < kLanes; ++j) {
+    if (!lanes[j]) continue;
+    for (int i = 0; i < n; ++i) b.sel[i] = b.y[i][j];
+    double a = 0, c = 0;
+    if (hi < n)
+      SelectTwo(b.sel.data(), n, lo, hi, std::less<double>(), &a, &c);
+    else
+      a = SelectKth(b.sel.data(), n, lo);
+    v_lo[j] = a, v_hi[j] = c;
+  }
+  const Vm first = IndexOfRank(b.y.data(), n, v_lo, lo);
+  const Vm end = hi < n ? IndexOfRank(b.y.data(), n, v_hi, hi) : Vm{} + n;
+  for (int i = 0; i < n; ++i) {
+    const Vd y = b.y[i];
+    const Vm before_first = (y < v_lo) | ((y == v_lo) & (i < first));
+    const Vm before_end = hi == n ? ~Vm{} : (y < v_hi) | ((y == v_hi) & (i < end));
+    b.keep[i] = b.usable[i] & ~before_first & before_end;
+  }
+  Vec3 g[kLanes];
+  Eigen::Matrix3d m[kLanes];
+  bool solved[kLanes] = {};
+  Vm active = {};  // lanes still reweighting
+  {
+    const LaneSums s = SumSubset(L, b.y.data(), b.keep.data());
+    for (int j = 0; j < kLanes; ++j)
+      if (lanes[j] && (solved[j] = SolveLane(s, j, &g[j], &m[j]))) active[j] = -1;
+  }
+
+  // 2. Reweighting rounds.
+  for (int round = 0; round < kRounds && AnyLane(active); ++round) {
+    Vd gx = {}, gy = {}, gz = {}, nx = {}, ny = {}, nz = {}, limit = {};
+    for (int j = 0; j < kLanes; ++j) {
+      if (!active[j]) continue;
+      const Vec3 nn = Normalize(g[j]);
+      gx[j] = g[j].x, gy[j] = g[j].y, gz[j] = g[j].z, nx[j] = nn.x, ny[j] = nn.y, nz[j] = nn.z;
+    }
+    for (int i = 0; i < n; ++i) {
+      Vd d = gx * L.x[i] + gy * L.y[i] + gz * L.z[i];  // ŷ_i = max(0, g·l_i)
+      d = 0.0 < d ? d : zero;
+      b.e[i] = Abs(b.y[i] - d);  // |r_i|
+    }
+    for (int j = 0; j < kLanes; ++j) {
+      if (!active[j]) continue;
+      int count = 0;  // the inliers' |r|, compacted branch-free
+      for (int i = 0; i < n; ++i) b.sel[count] = b.e[i][j], count += b.keep[i][j] != 0;
+      const double sigma =
+          1.4826 * SelectKth(b.sel.data(), count, count / 2) + 1e-3 * Length(g[j]) + 1e-6;
+      limit[j] = 3 * sigma;
+    }
+    Vm differ = {};
+    for (int i = 0; i < n; ++i) {
+      const Vd lit = nx * L.x[i] + ny * L.y[i] + nz * L.z[i];
+      b.next[i] = b.usable[i] & (lit > 0.05) & (b.e[i] <= limit) & active;
+      differ |= b.next[i] ^ b.keep[i];
+    }
+    active &= differ;  // a lane whose inliers did not change has converged
+    if (!AnyLane(active)) break;
+    const LaneSums s = SumSubset(L, b.y.data(), b.next.data());
+    for (int j = 0; j < kLanes; ++j) {
+      if (!active[j]) continue;
+      Vec3 g2;
+      Eigen::Matrix3d m2;
+      if (SolveLane(s, j, &g2, &m2))
+        g[j] = g2, m[j] = m2;
+      else
+        active[j] = 0;  // keep the last good subset
+    }
+    for (int i = 0; i < n; ++i) b.keep[i] = active ? b.next[i] : b.keep[i];
+  }
+
+  // 3. Checks, then albedo per channel over the final inliers.
+  Vd nx = {}, ny = {}, nz = {};
+  Vm ok = {}, inliers = {};
+  for (int i = 0; i < n; ++i) inliers -= b.keep[i];
+  for (int j = 0; j < kLanes; ++j) {
+    if (!lanes[j]) continue;
+    const double len = solved[j] ? Length(g[j]) : 0;
+    if (!solved[j] || inliers[j] < 3) {
+      b.status[j] = kTexelTooFewLights;
+    } else if (Conditioning(m[j]) < 1e-3) {
+      b.status[j] = kTexelIllConditioned;
+    } else if (!(len > 1e-6)) {
+      b.status[j] = kTexelNoSignal;
+    } else {
+      b.normal[j] = g[j] / len;
+      nx[j] = b.normal[j].x, ny[j] = b.normal[j].y, nz[j] = b.normal[j].z, ok[j] = -1;
+    }
+  }
+  Vd num[3] = {}, den = {};
+  for (int i = 0; i < n; ++i) {
+    const Vm k = b.keep[i] & ok;
+    Vd si = nx * L.x[i] + ny * L.y[i] + nz * L.z[i];
+    si = 0.0 < si ? si : zero;
+    den += k ? si * si : zero;
+    for (int c = 0; c < C; ++c) {
+      const Vd q = __builtin_convertvector(b.samples[size_t(c) * n + i] * inv[i * C + c], Vd);
+      num[c] += k ? q * si : zero;
+    }
+  }
+  for (int j = 0; j < kLanes; ++j)
+    for (int c = 0; c < 3; ++c)
+      b.albedo[j][c] = ok[j] && den[j] > 0 ? num[C == 1 ? 0 : c][j] / den[j] : 0;
 }
 
 }  // namespace
@@ -120,16 +328,11 @@ StatusOr<FitResult> FitLambertRobust(const LightStack& s, const FitOptions& o) {
   const bool ok = ForEachTile(s, o, [&](const Tile& t) {
     const int tw = t.width;
     // The row's samples (linear, [c][i][k]), luminance ([i][k]) and clipped flags ([i][k]),
-    // gathered image by image (contiguous rows); then, for a block of kBlock texels at a time,
-    // transposed to one contiguous run per texel (texel k's luminance of image i 4 KiB from
-    // image i + 1's would miss the cache on every sample).
-    constexpr int kBlock = 8;
+    // gathered image by image (contiguous rows), then handed to FitBlock four texels at a time.
     std::vector<float> vals(size_t(C) * n * tw);
-    std::vector<double> lum(size_t(n) * tw), ys(size_t(kBlock) * n), d(n), e(n), absr(n);
-    std::vector<char> clip(size_t(n) * tw), bad(size_t(kBlock) * n);
-    std::vector<double> vals_sel(n);
-    std::vector<char> keep(n), next(n);
-    Eigen::Matrix3d m, m2;
+    std::vector<double> lum(size_t(n) * tw);
+    std::vector<char> clip(size_t(n) * tw);
+    Block b(n, C);
     for (int row = t.y0; row < t.y0 + t.height; ++row) {
       const int64_t base = int64_t(row) * W + t.x0;
       for (int i = 0; i < n; ++i) {
@@ -148,97 +351,29 @@ StatusOr<FitResult> FitLambertRobust(const LightStack& s, const FitOptions& o) {
             for (int k = 0; k < tw; ++k) cl[k] |= char(v[k] >= kClipLevel);
         }
       }
-      for (int k0 = 0; k0 < tw; k0 += kBlock) {
-        const int kb = std::min(kBlock, tw - k0);
-        for (int i = 0; i < n; ++i)
-          for (int j = 0; j < kb; ++j) {
-            ys[size_t(j) * n + i] = lum[size_t(i) * tw + k0 + j];
-            bad[size_t(j) * n + i] = clip[size_t(i) * tw + k0 + j];
+      for (int k0 = 0; k0 < tw; k0 += kLanes) {
+        const int kb = std::min(kLanes, tw - k0);
+        for (int j = 0; j < kLanes; ++j) b.fit[j] = j < kb && r.status[base + k0 + j] == kTexelOk;
+        for (int i = 0; i < n; ++i) {
+          const size_t at = size_t(i) * tw + k0;
+          for (int j = 0; j < kLanes; ++j) {
+            b.y[i][j] = j < kb ? lum[at + j] : 0.0;
+            b.usable[i][j] = j < kb && !clip[at + j] ? -1 : 0;
           }
+          for (int c = 0; c < C; ++c) {
+            const float* v = vals.data() + (size_t(c) * n + i) * tw + k0;
+            for (int j = 0; j < kLanes; ++j) b.samples[size_t(c) * n + i][j] = j < kb ? v[j] : 0.f;
+          }
+        }
+        FitBlock(L, inv.data(), C, b);
         for (int j = 0; j < kb; ++j) {
-          const int k = k0 + j;
-          const int64_t p = base + k;
-          if (r.status[p] != kTexelOk) continue;
-          double* y = ys.data() + size_t(j) * n;
-          char* clipped = bad.data() + size_t(j) * n;
-          auto sample = [&](int i, int c) { return vals[(size_t(c) * n + i) * tw + k]; };
-          // Non-finite samples (NaN/Inf in any channel: dead pixels, decode holes) are never
-          // used either; they rank as dark (y = 0), clipped ones keep their value.
-          int finite = 0;
-          for (int i = 0; i < n; ++i) {
-            const bool f = std::isfinite(y[i]);
-            finite += f;
-            clipped[i] |= char(!f);
-            y[i] = f ? y[i] : 0.0;
-          }
-          if (finite < 3) {
-            r.status[p] = kTexelNonFinite;
-            continue;
-          }
-          // 1. Rank trimming (keep at least 3 of the middle ranks): the samples ranked [lo, hi)
-          // are those between the rank-lo and rank-hi keys (selections, no sort). Ties (shadow
-          // zeros, 8-bit codes) break by index, so the kept set is deterministic.
-          int lo = int(std::floor(kTrimDark * n)), hi = int(std::ceil((1 - kTrimBright) * n));
-          if (hi - lo < 3) lo = std::max(0, std::min(lo, n - 3)), hi = std::min(n, lo + 3);
-          std::copy_n(y, n, vals_sel.data());
-          double v_lo = 0, v_hi = 0;
-          if (hi < n)
-            SelectTwo(vals_sel.data(), n, lo, hi, std::less<double>(), &v_lo, &v_hi);
-          else
-            v_lo = SelectKth(vals_sel.data(), n, lo);
-          const RankKey first = KeyOfRank(y, n, v_lo, lo);
-          const RankKey end = hi < n ? KeyOfRank(y, n, v_hi, hi) : RankKey{0, n};
-          for (int i = 0; i < n; ++i) {
-            const RankKey key{y[i], i};
-            keep[i] = !clipped[i] && !ByValueThenIndex(key, first) &&
-                      (hi == n || ByValueThenIndex(key, end));
-          }
-          Vec3 g;
-          bool solved = SolveSubset(L, y, keep, &g, &m);
-          // 2. Reweighting rounds.
-          for (int round = 0; solved && round < kRounds; ++round) {
-            const Vec3 nn = Normalize(g);
-            for (int i = 0; i < n; ++i) {
-              d[i] = std::max(0.0, g.x * L.x[i] + g.y * L.y[i] + g.z * L.z[i]);  // ŷ_i
-              e[i] = std::abs(y[i] - d[i]);                                      // |r_i|
-            }
-            int count = 0;  // the inliers' |r|, compacted branch-free
-            for (int i = 0; i < n; ++i) absr[count] = e[i], count += keep[i];
-            const double sigma =
-                1.4826 * SelectKth(absr.data(), count, count / 2) + 1e-3 * Length(g) + 1e-6;
-            for (int i = 0; i < n; ++i)
-              next[i] = char(!clipped[i] & (nn.x * L.x[i] + nn.y * L.y[i] + nn.z * L.z[i] > 0.05) &
-                             (e[i] <= 3 * sigma));
-            if (next == keep) break;
-            Vec3 g2;
-            if (!SolveSubset(L, y, next, &g2, &m2)) break;  // keep the last good subset
-            keep.swap(next), g = g2, m = m2;
-          }
-          const int inliers = int(std::count(keep.begin(), keep.end(), 1));
-          if (!solved || inliers < 3) {
-            r.status[p] = kTexelTooFewLights;
-            continue;
-          }
-          if (Conditioning(m) < 1e-3) {
-            r.status[p] = kTexelIllConditioned;
-            continue;
-          }
-          const double len = Length(g);
-          if (!(len > 1e-6)) {
-            r.status[p] = kTexelNoSignal;
-            continue;
-          }
-          const Vec3 nn = g / len;
-          double num[3] = {0, 0, 0}, den = 0;
-          for (int i = 0; i < n; ++i) {
-            if (!keep[i]) continue;
-            const double si = std::max(0.0, Dot(nn, dirs[i]));
-            den += si * si;
-            for (int c = 0; c < C; ++c) num[c] += sample(i, c) * inv[i * C + c] * si;
-          }
+          const int64_t p = base + k0 + j;
+          if (!b.fit[j]) continue;
+          r.status[p] = b.status[j];
+          if (b.status[j] != kTexelOk) continue;
           for (int c = 0; c < 3; ++c) {
-            r.maps.normal.Plane(c)[p] = float(nn[c]);
-            r.maps.albedo.Plane(c)[p] = float(den > 0 ? num[C == 1 ? 0 : c] / den : 0);
+            r.maps.normal.Plane(c)[p] = float(b.normal[j][c]);
+            r.maps.albedo.Plane(c)[p] = float(b.albedo[j][c]);
           }
         }
       }
