@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <atomic>
 #include <cmath>
+#include <cstdint>
 #include <cstring>
 #include <limits>
 #include <map>
@@ -20,6 +21,11 @@ namespace {
 typedef double V8d __attribute__((vector_size(64)));
 typedef float V8f __attribute__((vector_size(32)));
 typedef int V8i __attribute__((vector_size(32)));
+typedef int64_t V8l __attribute__((vector_size(64)));
+
+// |v| by clearing the sign bits: a compare of 64-byte vectors is lowered to scalar code in the
+// AVX2 clone of a target_clones function (GCC 12).
+inline V8d Abs(V8d v) { return (V8d)((V8l)v & (V8l{} + INT64_MAX)); }
 
 constexpr int kMaxChannels = 3;  // stacks hold 1 or 3 channels
 
@@ -74,7 +80,7 @@ MATFIT_CLONES_V4 double ScoreLight(const LightChannels& l, float clip_level, con
         const V8i valid = (rf > -inf) & (rf < clip_level) & (ap < inf) & channel_ok[c];  // −1, 0
         const V8d q = __builtin_convertvector(valid ? rf : V8f{}, V8d) * scale[c];
         const V8d r = q - __builtin_convertvector(valid ? pf : V8f{}, V8d);
-        a += r * r, b += q < 0 ? -q : q;
+        a += r * r, b += Abs(q);
         kt -= valid, used |= valid & 1;
       }
       if constexpr (kReconstruction) {
