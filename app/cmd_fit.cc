@@ -88,6 +88,11 @@ int RunFit(FitArgs& a) {
   std::printf("method      %s (%s)\n", f.method.c_str(), ShadingModelName(f.maps.model));
   std::printf("texels      %d x %d, %lld flagged; %d images\n", f.maps.width, f.maps.height,
               (long long)f.flagged_texels, r->images);
+  if (f.refit_texels > 0)
+    std::printf(
+        "dropped     %lld clipped/non-finite samples; %lld texels fitted from their other "
+        "lights (maps/dropped.png)\n",
+        (long long)f.dropped_samples, (long long)f.refit_texels);
   if (a.job.report_only.empty()) std::printf("fit time    %.3f s\n", f.fit_seconds);
   for (const auto& [k, v] : f.parameters) std::printf("parameter   %s = %.6g\n", k.c_str(), v);
   std::printf("deviation   %.5f %%  by θl:%s\n", r->reconstruction.deviation_percent,

@@ -1,5 +1,6 @@
 #include "fit/fit_job.h"
 
+#include <algorithm>
 #include <atomic>
 #include <chrono>
 #include <fstream>
@@ -284,6 +285,15 @@ StatusOr<FitJobResult> RunFitJob(const FitJobOptions& o, const StageProgress& pr
                              "per-texel bound on the RMS relighting error (linear, per unit "
                              "light; +inf = flagged), docs/stability.md",
                              std::move(bound)});
+  if (!r.fit.dropped_lights.empty()) {
+    Image dropped(stack->width(), stack->height(), 1);
+    for (size_t p = 0; p < r.fit.dropped_lights.size(); ++p)
+      dropped.data()[p] = float(std::min<int>(r.fit.dropped_lights[p], 255)) / 255.0f;
+    info.extra_maps.push_back({"dropped", "dropped.png",
+                               "per texel, the lights whose clipped or non-finite samples the "
+                               "fit dropped (8-bit count, 255 = 255 or more)",
+                               std::move(dropped)});
+  }
   MATFIT_RETURN_IF_ERROR(
       WritePack(r.fit.maps, r.fit.status, info, {o.zip, o.overwrite, o.compact_maps}, o.out));
   stages.End();

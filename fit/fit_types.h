@@ -54,6 +54,11 @@ struct FitResult {
   double fit_seconds = 0;
   int64_t flagged_texels = 0;                // status not ok and not masked
   std::map<std::string, double> parameters;  // model-wide values (e.g. "exponent")
+  // Texels fitted again from their valid samples after their clipped or non-finite ones were
+  // dropped (fit/valid_refit.h): lights dropped per texel (empty when no texel was refitted),
+  // texels that got a fit that way, and the samples (lights) dropped in total.
+  std::vector<uint16_t> dropped_lights;
+  int64_t refit_texels = 0, dropped_samples = 0;
   std::vector<std::string> warnings;
 };
 

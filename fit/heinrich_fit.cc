@@ -8,6 +8,8 @@
 // a fit costs one pass over the planes. Accumulating the centred q'_c directly avoids the
 // cancellation against S, which is what lets the sums run in float (two-level, row_kernels.h)
 // and still agree with the double-precision reference to 1e-6.
+// A texel with a clipped or non-finite sample is fitted again from its valid lights V alone
+// (fit/valid_refit.h) with the reference's per-texel 6 × 6 normal equations over V.
 #include <Eigen/Dense>
 #include <algorithm>
 #include <chrono>
@@ -15,9 +17,11 @@
 #include <vector>
 
 #include "fit/fit_common.h"
+#include "fit/gauss_jordan.h"
 #include "fit/heinrich_specular.h"
 #include "fit/methods.h"
 #include "fit/row_kernels.h"
+#include "fit/valid_refit.h"
 
 namespace matfit::fit {
 
@@ -46,6 +50,50 @@ StatusOr<Eigen::Matrix3d> ScatterInverse(const LightStack& s, Vec3* sum) {
         "(such as the Bonn 81-light set) or the lambert model");
   *sum = {S.x(), S.y(), S.z()};
   return Eigen::Matrix3d(scatter.inverse());
+}
+
+// The seed's per-texel system (heinrich_reference.cc) over the valid lights V: t_c the mean
+// of p_c / I_c over V, rows (t_c l, e_c) · (n_raw, a) = p_ic / I_ic. V must spread in all three
+// axes around its mean (λ_min / λ_max of the scatter ≥ 1e-3), or n_z and the ambient mix.
+uint8_t HeinrichSubset(const TexelSamples& t, const std::vector<Vec3>& dirs, MaterialMaps* maps) {
+  const int C = t.channels, V = t.valid_count;
+  if (V < 4) return kTexelTooFewLights;
+  Eigen::Vector3d S = Eigen::Vector3d::Zero();
+  Eigen::Matrix3d M = Eigen::Matrix3d::Zero();
+  double tc[3] = {0, 0, 0};
+  for (int i = 0; i < t.n; ++i) {
+    if (!t.valid[i]) continue;
+    const Eigen::Vector3d l(dirs[i].x, dirs[i].y, dirs[i].z);
+    S += l, M += l * l.transpose();
+    for (int c = 0; c < C; ++c) tc[c] += t.obs[i * C + c] / V;
+  }
+  Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> eig;
+  eig.computeDirect(M - S * S.transpose() / V, Eigen::EigenvaluesOnly);
+  const auto ev = eig.eigenvalues();  // ascending
+  if (!(ev[2] > 0 && ev[0] >= 1e-3 * ev[2])) return kTexelIllConditioned;
+  if (!(tc[0] * tc[0] + tc[1] * tc[1] + tc[2] * tc[2] > 1e-12)) return kTexelNoSignal;
+  double ata[36] = {}, atb[6] = {};
+  for (int i = 0; i < t.n; ++i) {
+    if (!t.valid[i]) continue;
+    const Vec3& l = dirs[i];
+    for (int c = 0; c < C; ++c) {
+      double row[6] = {tc[c] * l.x, tc[c] * l.y, tc[c] * l.z, 0, 0, 0};
+      row[3 + c] = tc[c];
+      const double b = t.obs[i * C + c];
+      for (int j = 0; j < 6; ++j) {
+        atb[j] += row[j] * b;
+        for (int k = 0; k < 6; ++k) ata[j * 6 + k] += row[j] * row[k];
+      }
+    }
+  }
+  if (C == 1) ata[4 * 6 + 4] = ata[5 * 6 + 5] = 1;  // unused g, b ambients: identity rows
+  if (!GaussJordanInvert<6>(ata)) return kTexelIllConditioned;
+  double xs[6] = {};
+  for (int j = 0; j < 6; ++j)
+    for (int k = 0; k < 6; ++k) xs[j] += ata[j * 6 + k] * atb[k];
+  if (!std::isfinite(xs[0] + xs[1] + xs[2] + xs[3] + xs[4] + xs[5])) return kTexelNonFinite;
+  StoreHeinrichTexel(maps, t.p, C, tc, xs + 3, Vec3(xs[0], xs[1], xs[2]));
+  return kTexelOk;
 }
 
 }  // namespace
@@ -139,6 +187,11 @@ StatusOr<FitResult> FitHeinrich(const LightStack& s, const FitOptions& o) {
       scale[k] = float(len);
     }
   });
+  if (ok)
+    RefitFromValidSamples(
+        s, {},
+        [&](const TexelSamples& t, FitResult* out) { return HeinrichSubset(t, dirs, &out->maps); },
+        &r);
   if (ok && o.heinrich_specular) AddHeinrichSpecular(s, o, &r);
   return FinishFit(ok, t0, std::move(r));
 }

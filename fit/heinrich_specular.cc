@@ -1,6 +1,7 @@
 #include "fit/heinrich_specular.h"
 
 #include <cmath>
+#include <limits>
 #include <mutex>
 #include <vector>
 
@@ -30,6 +31,8 @@ double HeinrichSquaredError(const LightStack& s, const FitResult& r, int64_t* sa
   const Vec3f v(s.view_direction);
   std::vector<Vec3f> dirs(n);
   for (int i = 0; i < n; ++i) dirs[i] = Vec3f(s.lights()[i].direction);
+  const float clip_level =
+      StackMayBeClipped(s) ? kClipLevel : std::numeric_limits<float>::infinity();
   std::mutex mu;
   double total = 0;
   int64_t count = 0;
@@ -42,11 +45,13 @@ double HeinrichSquaredError(const LightStack& s, const FitResult& r, int64_t* sa
         if (r.status[p] != kTexelOk) continue;
         for (int i = 0; i < n; ++i)
           for (int c = 0; c < C; ++c) {
-            const double d =
-                s.Sample(i, c, p) * inv[i * C + c] - EvaluateTexel(r.maps, p, c, dirs[i], v);
+            // Clipped and non-finite samples (dropped by the fit, fit/valid_refit.h) do not count.
+            const float raw = s.Sample(i, c, p);
+            if (!(std::isfinite(raw) && raw < clip_level)) continue;
+            const double d = raw * inv[i * C + c] - EvaluateTexel(r.maps, p, c, dirs[i], v);
             local += d * d;
+            ++local_count;
           }
-        local_count += int64_t(n) * C;
       }
     std::lock_guard<std::mutex> lock(mu);
     total += local;
@@ -77,8 +82,11 @@ void AddHeinrichSpecular(const LightStack& s, const FitOptions& o, FitResult* r)
     if (r->status[p] != kTexelOk) continue;
     for (int c = 0; c < 3; ++c) {
       const int sc = C == 1 ? 0 : c;
+      // A non-finite sample #1 carries no specular information (a clipped one is a lower bound,
+      // kept).
+      const float raw = s.Sample(i1, sc, p);
       m.specular_color.Plane(c)[p] =
-          s.Sample(i1, sc, p) * inv[i1 * C + sc] - EvaluateTexel(m, p, c, l1, v);
+          std::isfinite(raw) ? raw * inv[i1 * C + sc] - EvaluateTexel(m, p, c, l1, v) : 0.0f;
     }
   }
   // One exponent per material: coarse search over powers of two, then golden section in log2 e.

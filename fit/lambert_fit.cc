@@ -4,6 +4,9 @@
 // the normal is n = g/|g| of the luminance g = Σ_c luma_c g_c (linear in g_c), and the albedo is
 // the least-squares ρ_c of p_c ≈ ρ_c L n for that n: ρ_c = nᵀ(Lᵀp_c) / nᵀMn = nᵀM g_c / nᵀMn
 // with M = LᵀL, so it needs no second pass over the data.
+// A texel with a clipped or non-finite sample is fitted again from its valid lights V alone
+// (fit/valid_refit.h): the same formulas with M_V = Σ_V l lᵀ and g_c = M_V⁻¹ Σ_V l p_c / I_c.
+#include <Eigen/Dense>
 #include <algorithm>
 #include <chrono>
 #include <cmath>
@@ -13,8 +16,51 @@
 #include "fit/light_matrix.h"
 #include "fit/methods.h"
 #include "fit/row_kernels.h"
+#include "fit/valid_refit.h"
 
 namespace matfit::fit {
+
+namespace {
+
+// The light set V of a refitted texel must determine a normal: at least 3 lights, and
+// λ_min / λ_max of M_V = Σ_V l lᵀ at least this (lambert-robust's bound).
+constexpr double kMinConditioning = 1e-3;
+
+uint8_t LambertSubset(const TexelSamples& t, const std::vector<Vec3>& dirs, FitResult* r) {
+  if (t.valid_count < 3) return kTexelTooFewLights;
+  const int C = t.channels;
+  Eigen::Matrix3d M = Eigen::Matrix3d::Zero();
+  Eigen::Vector3d b[3] = {Eigen::Vector3d::Zero(), Eigen::Vector3d::Zero(),
+                          Eigen::Vector3d::Zero()};
+  for (int i = 0; i < t.n; ++i) {
+    if (!t.valid[i]) continue;
+    const Eigen::Vector3d l(dirs[i].x, dirs[i].y, dirs[i].z);
+    M += l * l.transpose();
+    for (int c = 0; c < C; ++c) b[c] += l * t.obs[i * C + c];
+  }
+  Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> eig;
+  eig.computeDirect(M, Eigen::EigenvaluesOnly);
+  const auto ev = eig.eigenvalues();  // ascending
+  if (!(ev[2] > 0 && ev[0] >= kMinConditioning * ev[2])) return kTexelIllConditioned;
+  const auto ldlt = M.ldlt();
+  Eigen::Vector3d g[3], lum = Eigen::Vector3d::Zero();
+  for (int c = 0; c < C; ++c) {
+    g[c] = ldlt.solve(b[c]);
+    lum += g[c] * (C == 1 ? 1.0 : double(kLuma[c]));
+  }
+  const double len = lum.norm();
+  if (!std::isfinite(len)) return kTexelNonFinite;
+  if (!(len > 1e-6)) return kTexelNoSignal;
+  const Eigen::Vector3d u = lum / len, Mu = M * u;
+  const double inv_den = 1.0 / u.dot(Mu);
+  for (int c = 0; c < 3; ++c) {
+    r->maps.normal.Plane(c)[t.p] = float(u[c]);
+    r->maps.albedo.Plane(c)[t.p] = float(Mu.dot(g[C == 1 ? 0 : c]) * inv_den);
+  }
+  return kTexelOk;
+}
+
+}  // namespace
 
 StatusOr<FitResult> FitLambert(const LightStack& s, const FitOptions& o) {
   std::string why;
@@ -81,6 +127,13 @@ StatusOr<FitResult> FitLambert(const LightStack& s, const FitOptions& o) {
       }
     }
   });
+  if (ok) {
+    std::vector<Vec3> dirs(n);
+    for (int i = 0; i < n; ++i) dirs[i] = s.lights()[i].direction;
+    RefitFromValidSamples(
+        s, {}, [&](const TexelSamples& t, FitResult* out) { return LambertSubset(t, dirs, out); },
+        &r);
+  }
   return FinishFit(ok, t0, std::move(r));
 }
 

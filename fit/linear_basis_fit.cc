@@ -1,6 +1,8 @@
 // Relighting bases fitted like Lambert: `ptm` (6 polynomial terms) and `hsh2`/`hsh3`
 // (hemispherical harmonics, 4 / 9 terms). The N × k basis matrix B is the same for every texel,
 // so one pseudo-inverse (B⁺, k × N) serves all of them: coefficients = B⁺ · p per channel.
+// A texel with a clipped or non-finite sample is fitted again from its valid lights V alone
+// (fit/valid_refit.h): coefficients = (B_Vᵀ B_V)⁻¹ B_Vᵀ p_V, when B_V still has rank k.
 #include <Eigen/Dense>
 #include <algorithm>
 #include <chrono>
@@ -12,11 +14,43 @@
 #include "fit/fit_common.h"
 #include "fit/methods.h"
 #include "fit/row_kernels.h"
+#include "fit/valid_refit.h"
 
 namespace matfit::fit {
 namespace {
 
 using BasisFn = std::function<void(const Vec3&, double*)>;
+
+// Coefficients of one texel from its valid lights: normal equations G = B_Vᵀ B_V (k × k),
+// refused when λ_min(G) / λ_max(G) ≤ 1e-12 (σ_min / σ_max of B_V ≤ 1e-6, the whole-set test).
+uint8_t SubsetFit(const TexelSamples& t, const Eigen::MatrixXd& B, const double* front,
+                  FitResult* r) {
+  const int K = int(B.cols()), C = t.channels;
+  if (t.valid_count < K) return kTexelTooFewLights;
+  Eigen::MatrixXd G = Eigen::MatrixXd::Zero(K, K), rhs = Eigen::MatrixXd::Zero(K, C);
+  for (int i = 0; i < t.n; ++i) {
+    if (!t.valid[i]) continue;
+    const auto b = B.row(i).transpose();
+    G.selfadjointView<Eigen::Lower>().rankUpdate(b);
+    for (int c = 0; c < C; ++c) rhs.col(c) += b * t.obs[i * C + c];
+  }
+  G = G.selfadjointView<Eigen::Lower>();
+  Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> eig(G);
+  const auto& ev = eig.eigenvalues();  // ascending
+  if (!(ev[K - 1] > 0 && ev[0] > 1e-12 * ev[K - 1])) return kTexelIllConditioned;
+  const Eigen::MatrixXd X = eig.eigenvectors() * (eig.eigenvalues().cwiseInverse().asDiagonal() *
+                                                  (eig.eigenvectors().transpose() * rhs));  // K × C
+  if (!X.allFinite()) return kTexelNonFinite;
+  for (int c = 0; c < C; ++c)
+    for (int j = 0; j < K; ++j) r->maps.coefficients.Plane(c * K + j)[t.p] = float(X(j, c));
+  for (int c = 0; c < 3; ++c) {
+    double v = 0;
+    for (int j = 0; j < K; ++j) v += front[j] * X(j, C == 1 ? 0 : c);
+    r->maps.albedo.Plane(c)[t.p] = float(v);
+  }
+  r->maps.normal.Plane(2)[t.p] = 1.0f;
+  return kTexelOk;
+}
 
 StatusOr<FitResult> FitLinearBasis(const LightStack& s, const FitOptions& o,
                                    const std::string& name, std::string_view model, int K,
@@ -117,6 +151,10 @@ StatusOr<FitResult> FitLinearBasis(const LightStack& s, const FitOptions& o,
         if (fitted[k]) albedo[k] = v[k], nz[k] = 1.0f;
     }
   });
+  if (ok)
+    RefitFromValidSamples(
+        s, {}, [&](const TexelSamples& t, FitResult* out) { return SubsetFit(t, B, front, out); },
+        &r);
   return FinishFit(ok, t0, std::move(r));
 }
 

@@ -1,4 +1,6 @@
-// `mean`: per-texel mean colour over all images (the seed's "diffuse texture" t_c).
+// `mean`: per-texel mean colour over all images (the seed's "diffuse texture" t_c). A texel
+// with a non-finite sample gets the mean of its finite ones (fit/valid_refit.h); clipped samples
+// are kept (a clipped code still bounds the mean from below).
 #include <algorithm>
 #include <chrono>
 #include <cmath>
@@ -7,6 +9,7 @@
 #include "fit/fit_common.h"
 #include "fit/methods.h"
 #include "fit/row_kernels.h"
+#include "fit/valid_refit.h"
 
 namespace matfit::fit {
 
@@ -48,6 +51,24 @@ StatusOr<FitResult> FitMean(const LightStack& s, const FitOptions& o) {
       r.maps.normal.Plane(2)[p] = 1.0f;
     }
   });
+  if (ok) {
+    RefitOptions refit;
+    refit.drop_clipped = false;
+    RefitFromValidSamples(
+        s, refit,
+        [&](const TexelSamples& t, FitResult* out) {
+          if (t.valid_count < 1) return uint8_t(kTexelNonFinite);
+          for (int c = 0; c < 3; ++c) {
+            const int cc = C == 1 ? 0 : c;
+            double sum = 0;
+            for (int i = 0; i < t.n; ++i) sum += t.obs[i * C + cc];  // invalid lights hold 0
+            out->maps.albedo.Plane(c)[t.p] = float(sum / t.valid_count);
+          }
+          out->maps.normal.Plane(2)[t.p] = 1.0f;
+          return uint8_t(kTexelOk);
+        },
+        &r);
+  }
   return FinishFit(ok, t0, std::move(r));
 }
 

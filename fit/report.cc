@@ -43,6 +43,8 @@ std::string MakeReportJson(const FitReportInputs& in) {
       {"rmse", in.reconstruction.rmse},
       {"psnr_db", Finite(in.reconstruction.psnr_db)},
       {"flagged_texels", r.flagged_texels},
+      {"refit_texels", r.refit_texels},
+      {"dropped_samples", r.dropped_samples},
       {"status_counts", counts},
       {"parameters", params},
       {"warnings", r.warnings},

@@ -4,7 +4,7 @@
 // by the fixed-size Levenberg–Marquardt of tiny_lm.h, initialised from lambert-robust.
 // Parameters: (p, q) with n = normalize(p, q, 1), ρ_r, ρ_g, ρ_b, then the lobe's amplitudes
 // and shape parameters. Samples that look cast-shadowed (observed < 0.5 × the initial diffuse
-// prediction) are left out.
+// prediction), clipped or non-finite samples are left out.
 //
 // By default the lobe shape is one value per material, as in the seed method: stage 1 fits
 // every parameter per texel; each shape parameter is then the median over texels with a clear
@@ -15,6 +15,7 @@
 #include <array>
 #include <chrono>
 #include <cmath>
+#include <limits>
 #include <type_traits>
 #include <vector>
 
@@ -47,22 +48,27 @@ StatusOr<FitResult> FitLobe(const LightStack& s, const FitOptions& o, const std:
     dirs[i] = s.lights()[i].direction, halves[i] = Normalize(dirs[i] + s.view_direction);
   std::vector<int> iterations(size_t(s.plane_size()), 0);
 
+  const float clip_level =
+      StackMayBeClipped(s) ? kClipLevel : std::numeric_limits<float>::infinity();
   auto gather = [&](int64_t p, std::vector<double>& obs, std::vector<char>& use) {
     const Vec3 n0(init->maps.normal.Plane(0)[p], init->maps.normal.Plane(1)[p],
                   init->maps.normal.Plane(2)[p]);
     int used = 0;
     for (int i = 0; i < n; ++i) {
       double lum = 0, pred = 0;
-      bool finite = true;  // a NaN/Inf sample (dead pixel, decode hole) is dropped
+      // A NaN/Inf sample (dead pixel, decode hole) or a clipped one (at the file's maximum
+      // code) is dropped.
+      bool valid = true;
       for (int c = 0; c < C; ++c) {
-        obs[i * C + c] = double(s.Sample(i, c, p)) * inv[i * C + c];
-        finite = finite && std::isfinite(obs[i * C + c]);
+        const float raw = s.Sample(i, c, p);
+        obs[i * C + c] = double(raw) * inv[i * C + c];
+        valid = valid && std::isfinite(obs[i * C + c]) && raw < clip_level;
         lum += obs[i * C + c];
         pred += init->maps.albedo.Plane(C == 1 ? 0 : c)[p] * std::max(0.0, Dot(n0, dirs[i]));
       }
-      if (!finite)
+      if (!valid)
         for (int c = 0; c < C; ++c) obs[i * C + c] = 0;
-      use[i] = finite && !(pred > 0.02 * C && lum < 0.5 * pred);
+      use[i] = valid && !(pred > 0.02 * C && lum < 0.5 * pred);
       used += use[i];
     }
     return used;

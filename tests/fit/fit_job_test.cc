@@ -3,6 +3,8 @@
 
 #include <unistd.h>
 
+#include <algorithm>
+#include <cmath>
 #include <filesystem>
 #include <fstream>
 #include <map>
@@ -11,9 +13,11 @@
 #include <vector>
 
 #include "core/dataset/dataset.h"
+#include "core/dataset/writer.h"
 #include "core/image_io.h"
 #include "fit/fit_job.h"
 #include "fit/methods.h"
+#include "tests/fit/synth_data.h"
 
 namespace matfit::fit {
 namespace {
@@ -84,6 +88,42 @@ TEST(FitJob, WritesAPackWhoseMapsEqualADirectFit) {
   for (const auto& m : material["maps"])
     has_normal |= m["name"] == "normal" && m["encoding"] == "png16";
   EXPECT_TRUE(has_normal);
+  // Nothing was dropped from this clean 16-bit set: no dropped map, zero counts.
+  EXPECT_FALSE(fs::exists(tmp / "pack/maps/dropped.png"));
+  EXPECT_EQ(report["refit_texels"], 0);
+  EXPECT_EQ(report["dropped_samples"], 0);
+}
+
+// An 8-bit set where one texel is at the maximum code under 3 lights and another under 1: the pack
+// says so per texel (maps/dropped.png) and in report.json, and both texels are fitted.
+TEST(FitJob, ClippedSamplesAreCountedPerTexelInThePack) {
+  PackDir tmp;
+  LightStack s = SynthData({"plaster", "bonn81", 16}).stack;
+  for (int i = 0; i < s.num_images(); ++i)
+    for (int c = 0; c < 3; ++c)
+      for (float& v : s.Plane(i, c)) v = std::min(v, 0.9f);  // nothing else at the top code
+  for (int i : {3, 10, 40})
+    for (int c = 0; c < 3; ++c) s.Plane(i, c)[5 * 16 + 7] = 1.0f;
+  s.Plane(20, 1)[9 * 16 + 2] = 1.0f;
+  fs::create_directories(tmp / "data");
+  const Status written = WriteDataset(s, {Layout::kLp, 8, "x"}, tmp / "data");
+  ASSERT_TRUE(written.ok()) << written.ToString();
+  FitJobOptions o;
+  o.input = tmp / "data";
+  o.model = "ptm";
+  o.out = tmp / "pack";
+  auto r = RunFitJob(o);
+  ASSERT_TRUE(r.ok()) << r.status().ToString();
+  const auto report = ReadJson(tmp / "pack/report.json");
+  EXPECT_EQ(report["refit_texels"], 2);
+  EXPECT_EQ(report["dropped_samples"], 4);
+  EXPECT_EQ(report["flagged_texels"], 0);
+  auto dropped = ReadImage(tmp / "pack/maps/dropped.png");
+  ASSERT_TRUE(dropped.ok()) << dropped.status().ToString();
+  for (int64_t p = 0; p < 16 * 16; ++p) {
+    const int want = p == 5 * 16 + 7 ? 3 : p == 9 * 16 + 2 ? 1 : 0;
+    EXPECT_EQ(int(std::lround(dropped->Plane(0)[p] * 255)), want) << p;
+  }
 }
 
 TEST(FitJob, ReportsLobeParameterErrorsAgainstTruth) {

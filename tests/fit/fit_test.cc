@@ -70,7 +70,8 @@ TEST(Lambert, DegenerateLightsAreRejectedWithAReason) {
   EXPECT_NE(q.status().message().find("at least 3"), std::string::npos);
 }
 
-TEST(Lambert, BlackAndNaNTexelsAreFlaggedNotGuessed) {
+// A black texel is flagged; a texel with a NaN sample is fitted from its other 11 lights.
+TEST(Lambert, BlackTexelsAreFlaggedAndNaNSamplesDropped) {
   auto data = Synth("plaster", "dome:12", 8);
   for (int i = 0; i < 12; ++i)
     for (int c = 0; c < 3; ++c) data.stack.Plane(i, c)[2 * data.stack.width() + 3] = 0.0f;
@@ -78,9 +79,12 @@ TEST(Lambert, BlackAndNaNTexelsAreFlaggedNotGuessed) {
   auto fit = FitLambert(data.stack, {});
   ASSERT_TRUE(fit.ok());
   EXPECT_EQ(fit->status[2 * 8 + 3], kTexelNoSignal);
-  EXPECT_EQ(fit->status[5 * 8 + 5], kTexelNonFinite);
-  EXPECT_EQ(fit->flagged_texels, 2);
+  EXPECT_EQ(fit->status[5 * 8 + 5], kTexelOk);
+  EXPECT_EQ(fit->dropped_lights[5 * 8 + 5], 1);
+  EXPECT_EQ(fit->flagged_texels, 1);
   ASSERT_FALSE(fit->warnings.empty());
+  const TruthMetrics t = CompareToTruth(fit->maps, data.truth, fit->status);
+  EXPECT_LT(t.normal_mae_deg, 1.0);  // plaster is Lambertian: the refitted texel too
 }
 
 TEST(Mean, IsThePerTexelAverage) {
