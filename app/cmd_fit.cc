@@ -8,6 +8,7 @@
 #include "app/commands.h"
 #include "core/parallel.h"
 #include "core/progress.h"
+#include "fit/diagnostics.h"
 #include "fit/fit_job.h"
 #include "fit/method.h"
 
@@ -93,7 +94,10 @@ int RunFit(FitArgs& a) {
         "dropped     %lld clipped/non-finite samples; %lld texels fitted from their other "
         "lights (maps/dropped.png)\n",
         (long long)f.dropped_samples, (long long)f.refit_texels);
-  if (a.job.report_only.empty()) std::printf("fit time    %.3f s\n", f.fit_seconds);
+  if (a.job.report_only.empty()) {
+    std::printf("fit time    %.3f s\n", f.fit_seconds);
+    std::printf("tone curve  %s\n", fit::DescribeToneCurve(r->assessment.diagnostics).c_str());
+  }
   for (const auto& [k, v] : f.parameters) std::printf("parameter   %s = %.6g\n", k.c_str(), v);
   std::printf("deviation   %.5f %%  by θl:%s\n", r->reconstruction.deviation_percent,
               ByTheta(r->reconstruction.deviation_percent_by_theta).c_str());

@@ -36,7 +36,10 @@ int RunInfo(const InfoArgs& a) {
   if (!stack.ok()) return Fail("info", stack.status().message().c_str());
   DatasetInfo info = ComputeDatasetInfo(*stack);
   // The γ check a fit makes (fit/diagnostics.h): info says it before anything is fitted.
-  for (auto& w : fit::DiagnoseStack(*stack).warnings) info.warnings.push_back(std::move(w));
+  fit::StackDiagnostics diag = fit::DiagnoseStack(*stack);
+  info.tone_curve = fit::DescribeToneCurve(diag);
+  info.tone_verdict = fit::ToneVerdictName(diag.verdict);
+  for (auto& w : diag.warnings) info.warnings.push_back(std::move(w));
   info.detection_reason = reason;
   const std::string text = a.json ? DatasetInfoJson(info) : FormatDatasetInfo(info);
   std::fputs(text.c_str(), stdout);

@@ -40,6 +40,9 @@ constexpr std::array kWarnings = {
                 "(8-bit sRGB, deeper linear), not known"},
     WarningSpec{W::kGammaEncoded, "gamma-encoded", "dataset",
                 "values grow like (n·l)^(1/γ): gamma-encoded images read as linear"},
+    WarningSpec{W::kLinearReadAsSrgb, "linear-read-as-srgb", "dataset",
+                "values become linear in n·l only after an sRGB encode: linear images decoded "
+                "as sRGB"},
     WarningSpec{W::kFlaggedTexels, "flagged-texels", "fit",
                 "texels the fit could not trust (status map); above 5 % the summary says so"},
     WarningSpec{W::kUnboundedError, "unbounded-error", "fit",

@@ -24,6 +24,7 @@ enum class WarningCode {
   kLightCountMismatch,
   kAlphaDropped,
   kGammaEncoded,
+  kLinearReadAsSrgb,
   kEncodingAssumed,
   // Fit.
   kFlaggedTexels,

@@ -1,6 +1,8 @@
 // Stack-level checks that no per-texel residual can reveal. Gamma-encoded images read as
-// linear (the classic gamma mistake) are fitted consistently by every model, yet every map is
-// wrong; the encoding shows in how the values grow with n·l.
+// linear (the classic gamma mistake), or linear ones decoded as sRGB, are fitted consistently by
+// every model, yet every map is wrong; the encoding shows in how the values grow with n·l
+// (radiometric self-calibration from photometric consistency, as in Shi et al., "Self-calibrating
+// photometric stereo", CVPR 2010, here with a one-parameter curve family; docs/stability.md).
 #pragma once
 
 #include <string>
@@ -10,15 +12,36 @@
 
 namespace matfit::fit {
 
+// What the stack says about its own tone curve, relative to how it was read.
+enum class ToneVerdict {
+  kUnknown,           // too few usable texels, or the search ended at its range
+  kAsRead,            // values grow like n·l: the read linearised them
+  kSrgbReadAsLinear,  // sRGB-encoded files read as linear (an sRGB decode fits as well as γ̂)
+  kLinearReadAsSrgb,  // linear files decoded as sRGB (an sRGB encode fits as well as γ̂)
+  kPower,             // a power curve: v^γ̂ is linear in n·l, neither sRGB form fits as well
+};
+const char* ToneVerdictName(ToneVerdict v);
+
 struct StackDiagnostics {
-  // γ̂ minimising the pooled relative residual of a per-texel Lambertian fit to p^γ (luminance,
-  // the middle 65 % of each texel's samples, so highlights and shadows do not decide).
+  // Radiometric self-calibration: γ̂ minimising the pooled relative residual of a per-texel
+  // Lambertian fit to p^γ over the darker middle ranks of each texel's luminance (highlights and
+  // cast shadows do not decide), γ ∈ [0.3, 3.3]; the read values v then satisfy v^γ̂ ∝ radiance.
   double encoding_exponent = 1;
   double residual_linear = 0, residual_best = 0;  // relative residual at γ = 1 and at γ̂
+  // The same residual with an sRGB decode / encode applied to each channel's value.
+  double residual_srgb_decoded = 0, residual_srgb_encoded = 0;
+  // residual_linear / residual_best: how much better γ̂ explains the data than the read (1 = no
+  // better; ≥ 2 is strong evidence, < 1.25 none).
+  double evidence = 1;
+  ToneVerdict verdict = ToneVerdict::kUnknown;
   int texels_used = 0;
   bool looks_gamma_encoded = false;  // γ̂ ∈ [1.6, 3] and residual_best < residual_linear / 2
+  bool looks_linear_read_as_srgb = false;  // verdict kLinearReadAsSrgb with evidence ≥ 1.25
   std::vector<std::string> warnings;
 };
+
+// One line for `matfit info` and the fit summary: "γ̂ 0.43 (evidence 1.6): linear files ...".
+std::string DescribeToneCurve(const StackDiagnostics& d);
 
 // Samples at most max_texels texels on a regular grid (pure computation).
 StackDiagnostics DiagnoseStack(const LightStack& stack, int max_texels = 2048);

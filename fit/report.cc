@@ -78,9 +78,14 @@ std::string MakeReportJson(const FitReportInputs& in) {
         {"unverifiable_texels", c.unverifiable}};
     const StackDiagnostics& d = in.assessment->diagnostics;
     j["diagnostics"] = {{"encoding_exponent", d.encoding_exponent},
+                        {"tone_verdict", ToneVerdictName(d.verdict)},
+                        {"tone_evidence", d.evidence},
                         {"looks_gamma_encoded", d.looks_gamma_encoded},
+                        {"looks_linear_read_as_srgb", d.looks_linear_read_as_srgb},
                         {"residual_linear", d.residual_linear},
-                        {"residual_best", d.residual_best}};
+                        {"residual_best", d.residual_best},
+                        {"residual_srgb_decoded", d.residual_srgb_decoded},
+                        {"residual_srgb_encoded", d.residual_srgb_encoded}};
   }
   if (in.timings) {
     json t = json::object();

@@ -280,6 +280,7 @@ std::string FormatDatasetInfo(const DatasetInfo& d) {
        (std::isfinite(d.condition_number) ? Fmt("%.3f", d.condition_number) : std::string("inf")) +
        "\n";
   o += "clipped      " + Fmt("%.3f", 100 * d.saturated_fraction) + "% of pixels\n";
+  if (!d.tone_curve.empty()) o += "tone curve   " + d.tone_curve + "\n";
   if (d.warnings.empty()) o += "warnings     none\n";
   for (const auto& w : d.warnings) o += "warning      " + w + "\n";
   return o;
@@ -314,6 +315,8 @@ std::string DatasetInfoJson(const DatasetInfo& d) {
        std::isfinite(d.condition_number) ? nlohmann::json(d.condition_number) : nlohmann::json()},
       {"saturated_fraction", d.saturated_fraction},
       {"nonfinite_samples", d.nonfinite_samples},
+      {"tone_curve", d.tone_curve.empty() ? nlohmann::json() : nlohmann::json(d.tone_curve)},
+      {"tone_verdict", d.tone_verdict.empty() ? nlohmann::json() : nlohmann::json(d.tone_verdict)},
       {"warnings", d.warnings}};
   return j.dump(2, ' ', false, nlohmann::json::error_handler_t::replace) + "\n";
 }

@@ -19,6 +19,9 @@ struct DatasetInfo {
   int images = 0, width = 0, height = 0, channels = 0;
   size_t memory_bytes = 0;  // LightStack::MemoryBytes (samples at their stored size)
   std::string sample_type;  // how the stack holds samples: "uint8", "uint16", "float32"
+  // The tone curve the stack itself suggests (fit/diagnostics.h DescribeToneCurve; filled by
+  // `matfit info`, empty when not estimated) and its verdict name.
+  std::string tone_curve, tone_verdict;
   double view_theta_deg = 0, view_phi_deg = 0;
   std::vector<ThetaGroup> theta_groups;  // light count per θ_l group
   double theta_min = 0, theta_max = 0, max_azimuth_gap_deg = 0;
