@@ -45,6 +45,9 @@ constexpr std::array kWarnings = {
                 "as sRGB"},
     WarningSpec{W::kFlaggedTexels, "flagged-texels", "fit",
                 "texels the fit could not trust (status map); above 5 % the summary says so"},
+    WarningSpec{W::kOverfitRisk, "overfit-risk", "fit",
+                "fewer than 2 lights per light-dependent coefficient, or a relighting basis the "
+                "lights barely determine (condition number > 1000); auto skips the model"},
     WarningSpec{W::kUnboundedError, "unbounded-error", "fit",
                 "texels whose error cannot be bounded from the lights"},
     WarningSpec{W::kNoSpecularLobe, "no-specular-lobe", "fit",

@@ -28,6 +28,7 @@ enum class WarningCode {
   kEncodingAssumed,
   // Fit.
   kFlaggedTexels,
+  kOverfitRisk,
   kUnboundedError,
   kNoSpecularLobe,
   kNoViewAlignedLight,

@@ -6,6 +6,7 @@
 
 #include "core/warnings.h"
 #include "fit/fit_common.h"
+#include "fit/light_cover.h"
 
 namespace matfit::fit {
 
@@ -26,6 +27,8 @@ FitAssessment AssessFit(const LightStack& stack, const FitMethod& method, FitRes
       }
   }
   for (const auto& w : a.diagnostics.warnings) r->warnings.push_back(w);
+  if (const std::string why = LightCoverShortfall(stack.lights(), method); !why.empty())
+    r->warnings.push_back(Warning(WarningCode::kOverfitRisk, why));
   if (a.confidence.unverifiable > 0) {
     char why[400];
     std::snprintf(why, sizeof why,

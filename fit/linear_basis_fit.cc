@@ -8,6 +8,7 @@
 #include <chrono>
 #include <cmath>
 #include <functional>
+#include <limits>
 #include <vector>
 
 #include "core/shading/relight_basis.h"
@@ -159,6 +160,31 @@ StatusOr<FitResult> FitLinearBasis(const LightStack& s, const FitOptions& o,
 }
 
 }  // namespace
+
+double RelightBasisCondition(const std::vector<LightSample>& lights, const std::string& method) {
+  int K = 0;
+  BasisFn basis;
+  if (method == "ptm") {
+    K = shading::kPtmTerms, basis = [](const Vec3& l, double* b) { shading::PtmBasis(l, b); };
+  } else if (method.size() == 4 && method.rfind("hsh", 0) == 0 && method[3] >= '1' &&
+             method[3] <= '4') {
+    const int order = method[3] - '0';
+    K = order * order;
+    basis = [order](const Vec3& l, double* b) { shading::HshBasis(order, l, b); };
+  } else {
+    return 0;
+  }
+  const int n = int(lights.size());
+  if (n < K) return std::numeric_limits<double>::infinity();
+  Eigen::MatrixXd B(n, K);
+  for (int i = 0; i < n; ++i) {
+    double b[shading::kMaxHshTerms];
+    basis(lights[size_t(i)].direction, b);
+    for (int j = 0; j < K; ++j) B(i, j) = b[j];
+  }
+  const auto sv = Eigen::JacobiSVD<Eigen::MatrixXd>(B).singularValues();
+  return sv[K - 1] > 0 ? sv[0] / sv[K - 1] : std::numeric_limits<double>::infinity();
+}
 
 StatusOr<FitResult> FitPtm(const LightStack& s, const FitOptions& o) {
   return FitLinearBasis(s, o, "ptm", "ptm", shading::kPtmTerms,

@@ -36,6 +36,10 @@ StatusOr<FitResult> FitPtm(const LightStack& stack, const FitOptions& options);
 // channel; the ladder has orders 2 and 3), one pseudo-inverse for all texels.
 StatusOr<FitResult> FitHsh(const LightStack& stack, const FitOptions& options, int order);
 
+// σ_max / σ_min of the N × k basis matrix of the method's relighting basis over `lights`
+// ("ptm", "hsh1" … "hsh4"; +inf when rank-deficient); 0 for a method without such a basis.
+double RelightBasisCondition(const std::vector<LightSample>& lights, const std::string& method);
+
 // heinrich (METHODS.md §2), fast: exploits the shared structure of the 6 × 6 normal equations
 // (closed form: a_c = 1 − m·n, n = (Σ_i (l_i − m)(l_i − m)ᵀ)⁻¹ (Σ_c t_c q_c / Σ_c t_c² − Σ_i l_i),
 // q_c = Σ_i p_ci l_i), then the seed specular map and the exponent search.

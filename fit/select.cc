@@ -11,6 +11,7 @@
 #include "fit/assess.h"
 #include "fit/diagnostics.h"
 #include "fit/fit_common.h"
+#include "fit/light_cover.h"
 #include "fit/method.h"
 #include "fit/metrics.h"
 
@@ -295,6 +296,13 @@ StatusOr<Selection> SelectModel(const LightStack& stack, const SceneSpec& scene,
     Candidate& c = table[idx];
     if (chosen >= 0) {
       c.note = "not evaluated: a smaller candidate met the budget";
+      sel.candidates.push_back(c);
+      continue;
+    }
+    // A model the lights cannot support (fit/light_cover.h) is never chosen.
+    if (std::string cover = LightCoverShortfall(fine->lights(), *cands[idx].first);
+        !cover.empty()) {
+      c.note = "overfit risk: " + cover;
       sel.candidates.push_back(c);
       continue;
     }

@@ -1,0 +1,38 @@
+#include "fit/light_cover.h"
+
+#include <cmath>
+#include <cstdio>
+
+#include "fit/method.h"
+#include "fit/methods.h"
+
+namespace matfit::fit {
+
+std::string LightCoverShortfall(const std::vector<LightSample>& lights, const FitMethod& method) {
+  int lit = 0;  // lights above the surface plane: the others add nothing to a texel facing +z
+  for (const LightSample& l : lights) lit += l.direction.z > 0 ? 1 : 0;
+  const int k = method.light_parameters();
+  char why[400];
+  if (lit < kMinLightsPerCoefficient * k) {
+    std::snprintf(why, sizeof why,
+                  "%s fits %d light-dependent coefficients per texel from %d lights (fewer than "
+                  "%.0f per coefficient): it can match these images and still predict other "
+                  "light directions badly; use a model with at most %d "
+                  "such coefficients, or capture more lights",
+                  method.name().c_str(), k, lit, kMinLightsPerCoefficient,
+                  int(lit / kMinLightsPerCoefficient));
+    return why;
+  }
+  const double condition = RelightBasisCondition(lights, method.name());
+  if (!(condition <= kMaxBasisCondition)) {
+    std::snprintf(why, sizeof why,
+                  "the lights barely determine %s's basis (condition number %.3g > %.0f: they "
+                  "cover too little of the hemisphere for its terms); predictions for other "
+                  "light directions are unreliable; use a lower-order model or spread the lights",
+                  method.name().c_str(), condition, kMaxBasisCondition);
+    return why;
+  }
+  return {};
+}
+
+}  // namespace matfit::fit
