@@ -28,7 +28,7 @@ MaterialMaps RandomPtm(int size) {
 }
 
 TEST(Ptm, ReconstructsDataFromItsOwnBasisExactly) {
-  for (const char* lights : {"bonn81", "dome:30"}) {
+  for (const char* lights : {"bonn81", "dome:30", "dome:240"}) {
     const MaterialMaps truth = RandomPtm(16);
     const LightStack s = synth::RenderStack(truth, *synth::MakeLightSet(lights, 1), {});
     auto fit = FitPtm(s, {});
@@ -37,7 +37,9 @@ TEST(Ptm, ReconstructsDataFromItsOwnBasisExactly) {
     for (size_t k = 0; k < truth.coefficients.data().size(); ++k)
       worst = std::max(
           worst, double(std::abs(fit->maps.coefficients.data()[k] - truth.coefficients.data()[k])));
-    EXPECT_LT(worst, 2e-4) << lights;
+    // Issue 19: a PTM-exact stack (240 dome lights included) gives back its coefficients to 1e-6
+    // (measured worst: 2.4e-7 bonn81 and dome:30, 4.1e-7 dome:240; float samples and sums).
+    EXPECT_LT(worst, 1e-6) << lights;
     const ReconstructionMetrics rec = Reconstruction(s, fit->maps, fit->status);
     EXPECT_LT(rec.rmse, 1e-5) << lights;
   }
