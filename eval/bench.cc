@@ -102,7 +102,9 @@ BenchPoint RunPoint(const fit::FitMethod& method, const std::string& dataset, co
   // --quick scores synthetic cases by their truth only (held-out lights cost k more fits).
   if (o.holdout >= 2 && !(o.quick && data.truth)) {
     auto h = fit::HeldOut(method, data.stack, o.holdout, {});
-    if (h.ok()) pt.heldout_rmse = h->rmse, pt.heldout_deviation_percent = h->deviation_percent;
+    if (h.ok())
+      pt.heldout_rmse = h->rmse_common, pt.heldout_rmse_fitted = h->rmse,
+      pt.heldout_deviation_percent = h->deviation_percent;
   }
   if (data.truth) {
     const auto t = fit::CompareToTruth(fit->maps, *data.truth, fitted);
@@ -260,6 +262,7 @@ std::string BenchJson(const BenchResult& r) {
                       {"deviation_percent", num(p.deviation_percent)},
                       {"deviation_percent_by_theta", by},
                       {"heldout_rmse", num(p.heldout_rmse)},
+                      {"heldout_rmse_fitted_texels", num(p.heldout_rmse_fitted)},
                       {"heldout_deviation_percent", num(p.heldout_deviation_percent)},
                       {"normal_mae_deg", opt(p.normal_mae_deg)},
                       {"albedo_rmse", opt(p.albedo_rmse)},

@@ -48,7 +48,10 @@ struct BenchPoint {
   double render_ns_per_pixel = 0;  // CPU shading function, one light, 3 channels (median)
   double deviation_percent = 0;    // reconstruction at the fitted lights (METHODS.md §2)
   std::map<int, double> deviation_percent_by_theta;
-  double heldout_rmse = NAN, heldout_deviation_percent = NAN;
+  // Held-out RMSE over the common texel set (every unmasked texel, flagged ones with their stored
+  // values: fit/metrics.h), which the charts and rankings use; and over the texels the fold fits
+  // kept (the figure before 2026-12-04).
+  double heldout_rmse = NAN, heldout_rmse_fitted = NAN, heldout_deviation_percent = NAN;
   std::optional<double> normal_mae_deg, albedo_rmse;
   std::optional<double> relight_rmse;  // vs truth over a 48-light dome (synthetic only)
   int64_t flagged_texels = 0;

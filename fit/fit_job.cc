@@ -144,6 +144,10 @@ StatusOr<FitJobResult> RunFitJob(const FitJobOptions& o, const StageProgress& pr
     for (uint8_t st : r.fit.status) r.fit.flagged_texels += st != 0 && st != 1;
     if (!stages.Begin("reconstruction")) return Cancelled();
     r.reconstruction = Reconstruction(*stack, r.fit.maps, r.fit.status, stages.Callback());
+    r.reconstruction_common =
+        AnyFlagged(r.fit.status)
+            ? Reconstruction(*stack, r.fit.maps, CommonTexelStatus(r.fit.status))
+            : r.reconstruction;
     stages.End();
     const std::string truth_dir = synth::FindTruthFolder(o.input);
     if (!truth_dir.empty()) {
@@ -158,6 +162,7 @@ StatusOr<FitJobResult> RunFitJob(const FitJobOptions& o, const StageProgress& pr
     ri.result = &r.fit;
     ri.images = r.images;
     ri.reconstruction = r.reconstruction;
+    ri.reconstruction_common = r.reconstruction_common;
     ri.truth = r.truth;
     ri.source = o.source_label.empty() ? o.input : o.source_label;
     ri.timings = &r.timings;
@@ -215,6 +220,11 @@ StatusOr<FitJobResult> RunFitJob(const FitJobOptions& o, const StageProgress& pr
   if (!stages.Begin("reconstruction")) return Cancelled();
   StackScore score = ScoreStack(*stack, fit->maps, fit->status, stages.Callback());
   r.reconstruction = score.reconstruction;
+  // The common texel set costs a second pass only when the fit flagged texels.
+  r.reconstruction_common =
+      AnyFlagged(fit->status)
+          ? Reconstruction(*stack, fit->maps, CommonTexelStatus(fit->status), stages.Callback())
+          : r.reconstruction;
   stages.End();
   const std::vector<uint8_t> fitted_status = fit->status;  // metrics describe what was fitted
   if (!stages.Begin("confidence")) return Cancelled();
@@ -257,6 +267,7 @@ StatusOr<FitJobResult> RunFitJob(const FitJobOptions& o, const StageProgress& pr
   ri.bytes_per_texel = method->bytes_per_texel();
   ri.images = r.images;
   ri.reconstruction = r.reconstruction;
+  ri.reconstruction_common = r.reconstruction_common;
   ri.heldout = r.heldout;
   ri.truth = r.truth;
   ri.assessment = &r.assessment;

@@ -43,6 +43,7 @@ struct FitJobResult {
   FitResult fit;
   int images = 0;
   ReconstructionMetrics reconstruction;
+  ReconstructionMetrics reconstruction_common;  // every unmasked texel, as the pack stores it
   std::optional<HeldOutMetrics> heldout;
   std::optional<TruthMetrics> truth;
   FitAssessment assessment;            // diagnostics + per-texel error bound (not report_only)

@@ -14,7 +14,7 @@ StatusOr<HeldOutMetrics> HeldOut(const FitMethod& method, const LightStack& s, i
                            std::to_string(n) + "), got " + std::to_string(folds));
   HeldOutMetrics h;
   h.folds = folds;
-  double total = 0;
+  double total = 0, total_common = 0;
   std::map<int, std::pair<double, int64_t>> groups;
   FitOptions o = options;
   bool cancelled = false;
@@ -38,6 +38,11 @@ StatusOr<HeldOutMetrics> HeldOut(const FitMethod& method, const LightStack& s, i
     const ReconstructionMetrics m = Reconstruction(s, test, fit->maps, fit->status);
     total += m.deviation_percent / 100 * double(m.samples);
     h.samples += m.samples;
+    const ReconstructionMetrics mc =
+        AnyFlagged(fit->status) ? Reconstruction(s, test, fit->maps, CommonTexelStatus(fit->status))
+                                : m;
+    total_common += mc.deviation_percent / 100 * double(mc.samples);
+    h.samples_common += mc.samples;
     // Every held-out image contributes the same number of samples (one status plane).
     for (const auto& [t, d] : m.deviation_percent_by_theta) {
       int64_t count = 0;
@@ -56,6 +61,9 @@ StatusOr<HeldOutMetrics> HeldOut(const FitMethod& method, const LightStack& s, i
   h.rmse = std::sqrt(mse);
   h.deviation_percent = 100 * mse;
   h.psnr_db = mse > 0 ? 10 * std::log10(1 / mse) : INFINITY;
+  const double mse_common = h.samples_common ? total_common / double(h.samples_common) : 0;
+  h.rmse_common = std::sqrt(mse_common);
+  h.psnr_db_common = mse_common > 0 ? 10 * std::log10(1 / mse_common) : INFINITY;
   for (auto& [t, g] : groups)
     h.deviation_percent_by_theta[t] = g.second ? 100 * g.first / g.second : 0;
   return h;

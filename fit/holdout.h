@@ -15,6 +15,10 @@ struct HeldOutMetrics {
   std::map<int, double> deviation_percent_by_theta;
   int failed_folds = 0;  // folds whose fit failed (e.g. too few lights left): not scored
   int64_t samples = 0;
+  // The same over the common texel set (fit/metrics.h CommonTexelStatus): every unmasked texel,
+  // flagged ones with their stored values — comparable across models.
+  double rmse_common = 0, psnr_db_common = 0;
+  int64_t samples_common = 0;
 };
 
 // folds ≥ 2 and ≤ number of images; a fold that leaves the method without enough lights is

@@ -9,6 +9,7 @@
 
 #include "core/model/model.h"
 #include "core/parallel.h"
+#include "fit/fit_types.h"
 #include "fit/score.h"
 
 namespace matfit::fit {
@@ -146,6 +147,19 @@ TruthMetrics CompareToTruth(const MaterialMaps& f, const MaterialMaps& t,
           median_error(f.specular, t.specular, false);
   }
   return m;
+}
+
+std::vector<uint8_t> CommonTexelStatus(const std::vector<uint8_t>& status) {
+  std::vector<uint8_t> out(status.size());
+  for (size_t p = 0; p < status.size(); ++p)
+    out[p] = status[p] == kTexelMasked ? uint8_t(kTexelMasked) : uint8_t(kTexelOk);
+  return out;
+}
+
+bool AnyFlagged(const std::vector<uint8_t>& status) {
+  for (uint8_t st : status)
+    if (st != kTexelOk && st != kTexelMasked) return true;
+  return false;
 }
 
 }  // namespace matfit::fit

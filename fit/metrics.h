@@ -35,6 +35,13 @@ ReconstructionMetrics Reconstruction(const LightStack& stack, const std::vector<
                                      const MaterialMaps& maps, const std::vector<uint8_t>& status,
                                      const ProgressFn& progress = {});
 
+// The common texel set (issue 19): every texel of the mask, whatever its status, scored with the
+// maps as stored (a flagged texel with its stored value, 0 for the linear models), so that every
+// model's figures cover the same texels. CommonTexelStatus keeps kTexelMasked and makes every
+// other status ok; AnyFlagged says whether that differs from `status` at all.
+std::vector<uint8_t> CommonTexelStatus(const std::vector<uint8_t>& status);
+bool AnyFlagged(const std::vector<uint8_t>& status);
+
 struct TruthMetrics {
   // A model without a fitted normal (mean, ptm, hsh) or whose albedo map is not a diffuse albedo
   // (mean, heinrich's mean texture, ptm/hsh frontal value) is not scored on it.

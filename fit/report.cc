@@ -42,6 +42,8 @@ std::string MakeReportJson(const FitReportInputs& in) {
       {"deviation_percent_by_theta", ByTheta(in.reconstruction.deviation_percent_by_theta)},
       {"rmse", in.reconstruction.rmse},
       {"psnr_db", Finite(in.reconstruction.psnr_db)},
+      {"rmse_common", in.reconstruction_common.rmse},
+      {"psnr_db_common", Finite(in.reconstruction_common.psnr_db)},
       {"flagged_texels", r.flagged_texels},
       {"refit_texels", r.refit_texels},
       {"dropped_samples", r.dropped_samples},
@@ -57,6 +59,8 @@ std::string MakeReportJson(const FitReportInputs& in) {
                     {"deviation_percent", h.deviation_percent},
                     {"deviation_percent_by_theta", ByTheta(h.deviation_percent_by_theta)},
                     {"psnr_db", Finite(h.psnr_db)},
+                    {"rmse_common", h.rmse_common},
+                    {"psnr_db_common", Finite(h.psnr_db_common)},
                     {"failed_folds", h.failed_folds}};
   }
   if (in.assessment) {

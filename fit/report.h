@@ -25,6 +25,7 @@ struct FitReportInputs {
   int parameters_per_texel = 0, bytes_per_texel = 0;
   int images = 0;
   ReconstructionMetrics reconstruction;
+  ReconstructionMetrics reconstruction_common;  // over the common texel set (fit/metrics.h)
   std::optional<HeldOutMetrics> heldout;
   std::optional<TruthMetrics> truth;
   const FitAssessment* assessment = nullptr;  // optional

@@ -119,6 +119,7 @@ TEST(Bench, QuickSuiteScoresEveryMethodOnEveryCase) {
                                                          "deviation_percent",
                                                          "deviation_percent_by_theta",
                                                          "heldout_rmse",
+                                                         "heldout_rmse_fitted_texels",
                                                          "heldout_deviation_percent",
                                                          "normal_mae_deg",
                                                          "albedo_rmse",

@@ -2,6 +2,8 @@
 
 #include <cmath>
 
+#include "fit/fit_types.h"
+#include "fit/holdout.h"
 #include "fit/method.h"
 #include "fit/methods.h"
 #include "fit/metrics.h"
@@ -85,6 +87,30 @@ TEST(Lambert, BlackTexelsAreFlaggedAndNaNSamplesDropped) {
   ASSERT_FALSE(fit->warnings.empty());
   const TruthMetrics t = CompareToTruth(fit->maps, data.truth, fit->status);
   EXPECT_LT(t.normal_mae_deg, 1.0);  // plaster is Lambertian: the refitted texel too
+}
+
+// Issue 19: held-out and reconstruction figures over the common texel set cover every unmasked
+// texel, flagged ones with the values the fit stored (0 here), so models that flag different
+// texels are compared on the same ones.
+TEST(Metrics, CommonTexelSetCoversFlaggedTexelsWithTheirStoredValues) {
+  auto data = Synth("plaster", "dome:12", 8);
+  for (int i = 0; i < 12; ++i)
+    for (int c = 0; c < 3; ++c) data.stack.Plane(i, c)[2 * data.stack.width() + 3] = 0.0f;
+  auto method = MakeMethod("lambert");
+  auto fit = method->Fit(data.stack, {});
+  ASSERT_TRUE(fit.ok());
+  ASSERT_EQ(fit->status[2 * 8 + 3], kTexelNoSignal);
+  EXPECT_TRUE(AnyFlagged(fit->status));
+  const std::vector<uint8_t> common = CommonTexelStatus(fit->status);
+  for (uint8_t st : common) EXPECT_EQ(st, kTexelOk);
+  const ReconstructionMetrics ok = Reconstruction(data.stack, fit->maps, fit->status);
+  const ReconstructionMetrics all = Reconstruction(data.stack, fit->maps, common);
+  EXPECT_EQ(all.samples, ok.samples + 12 * 3);  // the black texel, predicted 0 under 12 lights
+  auto h = HeldOut(*method, data.stack, 4, {});
+  ASSERT_TRUE(h.ok());
+  EXPECT_EQ(h->samples_common, h->samples + 12 * 3);
+  // It is black and predicted black: the same squared error over more samples.
+  EXPECT_NEAR(h->rmse_common, h->rmse * std::sqrt(double(h->samples) / h->samples_common), 1e-9);
 }
 
 TEST(Mean, IsThePerTexelAverage) {
