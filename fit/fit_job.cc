@@ -220,11 +220,11 @@ StatusOr<FitJobResult> RunFitJob(const FitJobOptions& o, const StageProgress& pr
   if (!stages.Begin("reconstruction")) return Cancelled();
   StackScore score = ScoreStack(*stack, fit->maps, fit->status, stages.Callback());
   r.reconstruction = score.reconstruction;
-  // The common texel set costs a second pass only when the fit flagged texels.
-  r.reconstruction_common =
-      AnyFlagged(fit->status)
-          ? Reconstruction(*stack, fit->maps, CommonTexelStatus(fit->status), stages.Callback())
-          : r.reconstruction;
+  // The common texel set costs a second pass only when the fit flagged texels (no progress of
+  // its own: the stage's bar has reached its end once).
+  r.reconstruction_common = AnyFlagged(fit->status)
+                                ? Reconstruction(*stack, fit->maps, CommonTexelStatus(fit->status))
+                                : r.reconstruction;
   stages.End();
   const std::vector<uint8_t> fitted_status = fit->status;  // metrics describe what was fitted
   if (!stages.Begin("confidence")) return Cancelled();

@@ -22,10 +22,21 @@ namespace {
 
 using BasisFn = std::function<void(const Vec3&, double*)>;
 
+// B(i, j) = basis_j(l_i): the N × k basis matrix over the lights.
+Eigen::MatrixXd BasisMatrix(const std::vector<LightSample>& lights, int K, const BasisFn& basis) {
+  Eigen::MatrixXd B(int(lights.size()), K);
+  for (size_t i = 0; i < lights.size(); ++i) {
+    double b[shading::kMaxHshTerms];
+    basis(lights[i].direction, b);
+    for (int j = 0; j < K; ++j) B(int(i), j) = b[j];
+  }
+  return B;
+}
+
 // Coefficients of one texel from its valid lights: normal equations G = B_Vᵀ B_V (k × k),
 // refused when λ_min(G) / λ_max(G) ≤ 1e-12 (σ_min / σ_max of B_V ≤ 1e-6, the whole-set test).
-uint8_t SubsetFit(const TexelSamples& t, const Eigen::MatrixXd& B, const double* front,
-                  FitResult* r) {
+uint8_t BasisSubsetFit(const TexelSamples& t, const Eigen::MatrixXd& B, const double* front,
+                       FitResult* r) {
   const int K = int(B.cols()), C = t.channels;
   if (t.valid_count < K) return kTexelTooFewLights;
   Eigen::MatrixXd G = Eigen::MatrixXd::Zero(K, K), rhs = Eigen::MatrixXd::Zero(K, C);
@@ -63,12 +74,7 @@ StatusOr<FitResult> FitLinearBasis(const LightStack& s, const FitOptions& o,
     return InvalidArgument(name + ": " + std::to_string(n) + " light(s) for " + std::to_string(K) +
                            " coefficients per channel; capture at least " + std::to_string(K) +
                            " light directions or use a smaller basis");
-  Eigen::MatrixXd B(n, K);
-  for (int i = 0; i < n; ++i) {
-    double b[shading::kMaxHshTerms];
-    basis(s.lights()[i].direction, b);
-    for (int j = 0; j < K; ++j) B(i, j) = b[j];
-  }
+  const Eigen::MatrixXd B = BasisMatrix(s.lights(), K, basis);
   Eigen::JacobiSVD<Eigen::MatrixXd> svd(B, Eigen::ComputeThinU | Eigen::ComputeThinV);
   const auto sv = svd.singularValues();
   if (!(sv[K - 1] > 1e-6 * sv[0]))
@@ -154,7 +160,8 @@ StatusOr<FitResult> FitLinearBasis(const LightStack& s, const FitOptions& o,
   });
   if (ok)
     RefitFromValidSamples(
-        s, {}, [&](const TexelSamples& t, FitResult* out) { return SubsetFit(t, B, front, out); },
+        s, {},
+        [&](const TexelSamples& t, FitResult* out) { return BasisSubsetFit(t, B, front, out); },
         &r);
   return FinishFit(ok, t0, std::move(r));
 }
@@ -176,13 +183,7 @@ double RelightBasisCondition(const std::vector<LightSample>& lights, const std::
   }
   const int n = int(lights.size());
   if (n < K) return std::numeric_limits<double>::infinity();
-  Eigen::MatrixXd B(n, K);
-  for (int i = 0; i < n; ++i) {
-    double b[shading::kMaxHshTerms];
-    basis(lights[size_t(i)].direction, b);
-    for (int j = 0; j < K; ++j) B(i, j) = b[j];
-  }
-  const auto sv = Eigen::JacobiSVD<Eigen::MatrixXd>(B).singularValues();
+  const auto sv = Eigen::JacobiSVD<Eigen::MatrixXd>(BasisMatrix(lights, K, basis)).singularValues();
   return sv[K - 1] > 0 ? sv[0] / sv[K - 1] : std::numeric_limits<double>::infinity();
 }
 
