@@ -263,12 +263,20 @@ StackDiagnostics DiagnoseStack(const LightStack& s, int max_texels) {
   // The verdict: no better than the read → as read; else the sRGB form on γ̂'s side when its
   // residual is within 2× of γ̂'s (one fixed curve against a fitted exponent; the sRGB toe can fit
   // better than any power), else a power when γ̂ is interior to the search range.
+  // A mistake must be one the reader can have made: values read as they are stored (linear)
+  // cannot have been "decoded as sRGB", nor decoded ones "read as linear" (a stack without
+  // recorded encodings, e.g. rendered in memory, may be either).
+  bool read_linear = !s.encodings.empty(), read_decoded = !s.encodings.empty();
+  for (const ColorEncoding& e : s.encodings) {
+    const bool linear = e.transfer == TransferFunction::kLinear;
+    read_linear = read_linear && linear, read_decoded = read_decoded && !linear;
+  }
   const bool interior = best > 0.31 && best < 3.2;
   if (d.evidence < 1.25 || std::abs(best - 1) <= 0.1)
     d.verdict = ToneVerdict::kAsRead;
-  else if (best > 1 && d.residual_srgb_decoded <= 2 * best_r)
+  else if (best > 1 && !read_decoded && d.residual_srgb_decoded <= 2 * best_r)
     d.verdict = ToneVerdict::kSrgbReadAsLinear;
-  else if (best < 1 && d.residual_srgb_encoded <= 2 * best_r)
+  else if (best < 1 && !read_linear && d.residual_srgb_encoded <= 2 * best_r)
     d.verdict = ToneVerdict::kLinearReadAsSrgb;
   else if (interior)
     d.verdict = ToneVerdict::kPower;
@@ -285,7 +293,8 @@ StackDiagnostics DiagnoseStack(const LightStack& s, int max_texels) {
     d.warnings.push_back(Warning(WarningCode::kLinearReadAsSrgb, msg));
   }
   // Only an interior minimum is evidence (at the ends of [0.3, 3.3] the search is inconclusive).
-  d.looks_gamma_encoded = best >= 1.6 && best <= 3.0 && best_r < 0.5 * d.residual_linear;
+  d.looks_gamma_encoded =
+      !read_decoded && best >= 1.6 && best <= 3.0 && best_r < 0.5 * d.residual_linear;
   if (d.looks_gamma_encoded) {
     char msg[320];
     std::snprintf(

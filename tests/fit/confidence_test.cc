@@ -68,6 +68,21 @@ TEST(Confidence, PooledSigmaIsTheNoiseAndNoTexelExceedsItsBound) {
   EXPECT_GT(o.median_ratio, 1.0 / 30);
 }
 
+TEST(Confidence, BoundToActualRatioIsOverOkTexelsWithAnError) {
+  // Ratios 2, 4, 1, 8, 3 on the ok texels with a finite bound and an error > 0; the rest skipped:
+  // a flagged texel, an infinite bound, a zero error, a NaN error.
+  const std::vector<float> bound = {2, 8, 1, 16, 6, 5, INFINITY, 4, 4};
+  const std::vector<float> actual = {1, 2, 1, 2, 2, 1, 1, 0, NAN};
+  std::vector<uint8_t> status(9, kTexelOk);
+  status[5] = kTexelSaturated;
+  const BoundRatio r = BoundToActualRatio(bound, actual, status);
+  EXPECT_EQ(r.texels, 5);
+  EXPECT_DOUBLE_EQ(r.median, 3);  // sorted 1 2 3 4 8: element 2
+  EXPECT_DOUBLE_EQ(r.p90, 8);     // element min(4, ⌊0.9 · 5⌋) = 4
+  EXPECT_EQ(BoundToActualRatio({}, {}, {}).texels, 0);
+  EXPECT_TRUE(std::isnan(BoundToActualRatio({}, {}, {}).median));
+}
+
 TEST(Confidence, ModelMisfitWidensTheBound) {
   // Lambert on glossy plastic: highlights are misfit, the residual shows it.
   const auto data = SynthData({.material = "plastic", .size = 48});
@@ -155,6 +170,23 @@ TEST(Diagnostics, ToneCurveIsRecoveredFromTheStack) {
     EXPECT_NE(wrong.warnings[0].find("--color-space linear"), std::string::npos);
     EXPECT_FALSE(wrong.looks_gamma_encoded) << material;
   }
+}
+
+// A mistake the reader cannot have made is not reported: a glossy set under one ring of lights,
+// read as linear as its files say, bends like an sRGB encode of linear values (γ̂ 0.38), but
+// linear files read as they are stored were not "decoded as sRGB".
+TEST(Diagnostics, AToneMistakeMustBeOneTheReaderCouldMake) {
+  auto s = ReadDataset(std::string(MATFIT_SOURCE_DIR) + "/fixtures/plastic-ring12");
+  ASSERT_TRUE(s.ok()) << s.status().ToString();
+  ASSERT_EQ(s->encodings[0].transfer, TransferFunction::kLinear);
+  const StackDiagnostics d = DiagnoseStack(*s);
+  EXPECT_LT(d.encoding_exponent, 0.5);
+  EXPECT_NE(d.verdict, ToneVerdict::kLinearReadAsSrgb) << DescribeToneCurve(d);
+  EXPECT_FALSE(d.looks_linear_read_as_srgb);
+  EXPECT_TRUE(d.warnings.empty()) << d.warnings[0];
+  // The same values marked as decoded from sRGB: now the mistake is possible, and reported.
+  for (ColorEncoding& e : s->encodings) e.transfer = TransferFunction::kSrgb;
+  EXPECT_EQ(DiagnoseStack(*s).verdict, ToneVerdict::kLinearReadAsSrgb);
 }
 
 // The real psm sets carry no colour metadata and are read as sRGB (the 8-bit convention). The
