@@ -28,8 +28,9 @@ namespace fs = std::filesystem;
 struct BenchArgs {
   eval::BenchOptions bench;
   eval::StabilityOptions stability;
-  std::string out, shared_data = "../shared/data", methods;
-  bool no_stability = false, stability_only = false, no_png = false, overwrite = false;
+  std::string out, shared_data = "../shared/data", methods, cases;
+  bool no_loo = false, no_stability = false, stability_only = false, no_png = false,
+       overwrite = false;
   bool quiet = false, stability_size_given = false;
   int threads = 0;
 };
@@ -75,17 +76,23 @@ ProgressFn Bar(bool quiet, const char* stage, std::unique_ptr<ProgressReporter>*
 }
 
 void PrintBench(const eval::BenchResult& r) {
-  std::printf("\n%-14s %-15s %9s %10s %6s %9s %9s %9s %8s\n", "dataset", "method", "fit s",
-              "texels/s", "B/tx", "render ns", "dev %", "held-out", "normal°");
+  std::printf("\n%-14s %-15s %9s %10s %6s %9s %9s %9s %8s %8s %8s\n", "dataset", "method", "fit s",
+              "texels/s", "B/tx", "render ns", "dev %", "held-out", "LOO", "LOO sRGB", "normal°");
+  const auto opt = [](double v, const char* format) {
+    char b[32] = "-";
+    if (std::isfinite(v)) std::snprintf(b, sizeof b, format, v);
+    return std::string(b);
+  };
   for (const auto& p : r.points) {
     if (!p.ok) {
       std::printf("%-14s %-15s refused: %s\n", p.dataset.c_str(), p.method.c_str(),
                   p.error.c_str());
       continue;
     }
-    std::printf("%-14s %-15s %9.3f %10.3g %6d %9.1f %9.4f %9.4f %8s\n", p.dataset.c_str(),
+    std::printf("%-14s %-15s %9.3f %10.3g %6d %9.1f %9.4f %9s %8s %8s %8s\n", p.dataset.c_str(),
                 p.method.c_str(), p.fit_seconds, p.texels_per_second, p.bytes_per_texel,
-                p.render_ns_per_pixel, p.deviation_percent, p.heldout_rmse,
+                p.render_ns_per_pixel, p.deviation_percent, opt(p.heldout_rmse, "%.4f").c_str(),
+                opt(p.loo_rmse, "%.4f").c_str(), opt(p.loo_psnr_srgb8_db, "%.2f dB").c_str(),
                 p.normal_mae_deg ? std::to_string(*p.normal_mae_deg).substr(0, 6).c_str() : "-");
   }
   for (const auto& s : r.skipped) std::printf("skipped: %s\n", s.c_str());
@@ -114,6 +121,8 @@ int RunBench(BenchArgs& a) {
     return Fail("bench", "--no-stability and --stability-only exclude each other");
   SetNumThreads(a.threads);
   a.bench.shared_data = a.shared_data;
+  a.bench.cases = SplitComma(a.cases);
+  a.bench.loo = !a.no_loo;
   a.stability.methods = SplitComma(a.methods);
   for (const auto& m : a.stability.methods)  // leaf-hl2 is a stability row only
     if (m != "leaf-hl2") a.bench.methods.push_back(m);
@@ -187,6 +196,9 @@ void RegisterBench(CLI::App& app, int* exit_code) {
   sub->add_option("--methods", args->methods, "comma-separated subset of the ladder");
   sub->add_option("--repeats", args->bench.repeats, "fit timings per point (median)");
   sub->add_option("--holdout", args->bench.holdout, "held-out-light folds")->capture_default_str();
+  sub->add_option("--cases", args->cases,
+                  "comma-separated subset of the suite (e.g. psm-gray,psm-cat)");
+  sub->add_flag("--no-loo", args->no_loo, "real cases: skip the leave-one-out held-out lights");
   sub->add_option("--stability-size", args->stability.size,
                   "texels per side of stability cases (default 32, --quick 20)")
       ->each([args](const std::string&) { args->stability_size_given = true; });

@@ -104,9 +104,16 @@ int RunFit(FitArgs& a) {
   std::printf("rmse        %.5f  (PSNR %.1f dB)\n", r->reconstruction.rmse,
               r->reconstruction.psnr_db);
   if (r->heldout)
-    std::printf("held-out    rmse %.5f, deviation %.5f %% over %d folds (%d failed)\n",
-                r->heldout->rmse, r->heldout->deviation_percent, r->heldout->folds,
-                r->heldout->failed_folds);
+    std::printf(
+        "held-out    rmse %.5f, deviation %.5f %%, sRGB 8-bit PSNR %.2f dB over %d folds (%d "
+        "failed)\n",
+        r->heldout->rmse, r->heldout->deviation_percent, r->heldout->psnr_srgb8_db,
+        r->heldout->folds, r->heldout->failed_folds);
+  for (const auto& [what, ratio] : {std::pair{"held-out lights", r->bound_ratio_heldout},
+                                    std::pair{"truth", r->bound_ratio_truth}})
+    if (ratio && ratio->texels > 0)
+      std::printf("bound       %.2f× the %s error (median over %lld texels; p90 %.2f×)\n",
+                  ratio->median, what, (long long)ratio->texels, ratio->p90);
   if (r->truth && r->truth->has_normal)
     std::printf("vs truth    normal MAE %.3f°, p95 %.3f°\n", r->truth->normal_mae_deg,
                 r->truth->normal_p95_deg);
@@ -143,7 +150,9 @@ void RegisterFit(CLI::App& app, int* exit_code) {
                 "smaller map files, slower to write (PNG zlib level 6 and PIZ-compressed EXR "
                 "instead of level 1 and uncompressed EXR; lossless either way)");
   sub->add_flag("--force", j.overwrite, kForceHelp);
-  sub->add_option("--holdout", j.holdout, "k-fold held-out-light error (0 = off)")
+  sub->add_option("--holdout", j.holdout,
+                  "k-fold held-out-light error: K folds, loo (leave-one-out) or 0 (off)")
+      ->transform(CLI::Transformer(std::map<std::string, int>{{"loo", fit::kLeaveOneOut}}))
       ->capture_default_str();
   sub->add_option("--view", args->view, "BTF view THETA,PHI in degrees (default: most frontal)");
   sub->add_option("--layout", args->layout, "auto, bonn, utia, lp, diligent, lights-txt")

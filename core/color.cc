@@ -4,6 +4,7 @@
 #include <array>
 #include <cmath>
 #include <cstdio>
+#include <cstring>
 
 namespace matfit {
 
@@ -29,6 +30,34 @@ const float* Srgb8ToLinearTable() {
 uint8_t LinearToSrgb8(float linear) {
   const float e = LinearToSrgb(std::clamp(linear, 0.0f, 1.0f));
   return uint8_t(std::lround(std::clamp(e * 255.0f, 0.0f, 255.0f)));
+}
+
+uint8_t LinearToSrgb8Fast(float linear) {
+  // bounds[k] (k ≥ 1): the smallest non-negative float v with LinearToSrgb8(v) ≥ k, found by
+  // bisection over the bit patterns of [0, 1] (non-negative floats order as their bits).
+  static const std::array<float, 256> bounds = [] {
+    std::array<float, 256> b{};
+    const auto code = [](uint32_t bits) {
+      float v;
+      std::memcpy(&v, &bits, sizeof v);
+      return LinearToSrgb8(v);
+    };
+    uint32_t one;
+    const float f1 = 1.0f;
+    std::memcpy(&one, &f1, sizeof one);
+    for (int k = 1; k < 256; ++k) {
+      uint32_t lo = 0, hi = one;  // code(lo) < k ≤ code(hi)
+      while (hi - lo > 1) {
+        const uint32_t mid = lo + (hi - lo) / 2;
+        (code(mid) >= k ? hi : lo) = mid;
+      }
+      std::memcpy(&b[size_t(k)], &hi, sizeof hi);
+    }
+    return b;
+  }();
+  int k = 0;
+  for (int step = 128; step >= 1; step /= 2) k += bounds[size_t(k + step)] <= linear ? step : 0;
+  return uint8_t(k);
 }
 
 float DecodeToLinear(float stored, const ColorEncoding& enc) {

@@ -14,6 +14,9 @@ float LinearToSrgb(float linear);
 const float* Srgb8ToLinearTable();
 // Nearest 8-bit code of an sRGB-encoded linear value, clamped to [0, 255].
 uint8_t LinearToSrgb8(float linear);
+// The same code without a pow: a binary search (8 compares) over the 255 code boundaries, each the
+// smallest float that LinearToSrgb8 maps to that code or above. NaN maps to 0.
+uint8_t LinearToSrgb8Fast(float linear);
 
 // How the stored values of an image relate to linear light.
 enum class TransferFunction {

@@ -16,6 +16,8 @@
 #include "fit/method.h"
 #include "fit/metrics.h"
 #include "leaf/hl2_error.h"
+#include "leaf/scan.h"
+#include "leaf/sheet.h"
 #include "leaf/synthetic_leaf.h"
 
 namespace matfit::eval {
@@ -53,7 +55,29 @@ StatusOr<Loaded> LoadCase(const BenchCase& c) {
     l.truth = std::move(r->truth);
     return l;
   }
-  auto s = ReadDataset(c.path);
+  StatusOr<LightStack> s = Status(StatusCode::kInternal, "not read");
+  if (c.leaf_sheet) {
+    auto scan = leaf::ReadLeafScan(c.path);
+    if (!scan.ok()) return scan.status();
+    auto sheet = leaf::AnalyzeSheet(&*scan, leaf::SheetOptions{});
+    if (!sheet.ok()) return sheet.status();
+    // Only the leaves: not the twigs, markers, specks or the bare sheet.
+    int max_label = 0;
+    for (const auto& comp : sheet->segmentation.components)
+      max_label = std::max(max_label, comp.label);
+    std::vector<uint8_t> leaf_label(size_t(max_label) + 1, 0);
+    for (const auto& comp : sheet->segmentation.components)
+      if (comp.kind == leaf::ComponentKind::kLeaf) leaf_label[size_t(comp.label)] = 1;
+    LightStack top = std::move(sheet->top);
+    top.mask.assign(size_t(top.plane_size()), 0);
+    for (size_t p = 0; p < top.mask.size(); ++p) {
+      const int32_t lab = sheet->segmentation.labels[p];
+      top.mask[p] = lab > 0 && lab <= max_label ? leaf_label[size_t(lab)] : 0;
+    }
+    s = std::move(top);
+  } else {
+    s = ReadDataset(c.path);
+  }
   if (!s.ok()) return s.status();
   int x, y, w, h;
   MaskBounds(*s, 2, &x, &y, &w, &h);
@@ -64,6 +88,9 @@ StatusOr<Loaded> LoadCase(const BenchCase& c) {
   l.stack = std::move(*small);
   return l;
 }
+
+// Leave-one-out costs one fit per image: real cases only, and sets of at most this many images.
+constexpr int kMaxLooImages = 64;
 
 BenchPoint RunPoint(const fit::FitMethod& method, const std::string& dataset, const Loaded& data,
                     const BenchOptions& o, int repeats) {
@@ -104,7 +131,18 @@ BenchPoint RunPoint(const fit::FitMethod& method, const std::string& dataset, co
     auto h = fit::HeldOut(method, data.stack, o.holdout, {});
     if (h.ok())
       pt.heldout_rmse = h->rmse_common, pt.heldout_rmse_fitted = h->rmse,
-      pt.heldout_deviation_percent = h->deviation_percent;
+      pt.heldout_deviation_percent = h->deviation_percent,
+      pt.heldout_psnr_srgb8_db = h->psnr_srgb8_db_common;
+  }
+  if (o.loo && !data.truth && data.stack.num_images() <= kMaxLooImages) {
+    auto h = fit::HeldOut(method, data.stack, fit::kLeaveOneOut, {});
+    if (h.ok()) {
+      pt.loo_rmse = h->rmse_common, pt.loo_psnr_db = h->psnr_db_common;
+      pt.loo_psnr_srgb8_db = h->psnr_srgb8_db_common;
+      const fit::BoundRatio ratio =
+          fit::BoundToActualRatio(a.confidence.bound, h->texel_rmse, fit->status);
+      pt.loo_bound_ratio_median = ratio.median, pt.loo_bound_ratio_p90 = ratio.p90;
+    }
   }
   if (data.truth) {
     const auto t = fit::CompareToTruth(fit->maps, *data.truth, fitted);
@@ -165,6 +203,13 @@ bool BenchOptions::Check(std::string* why) const {
     *why = "--holdout must be 0 (off) or ≥ 2 folds, got " + std::to_string(holdout);
     return false;
   }
+  const std::vector<BenchCase> all = DefaultSuite(quick);
+  for (const auto& c : cases)
+    if (std::none_of(all.begin(), all.end(), [&](const BenchCase& b) { return b.name == c; })) {
+      *why = "--cases: '" + c + "' is not a case of the" + (quick ? " --quick" : "") +
+             " suite (e.g. psm-gray, psm-cat, leaf-sheet, plastic-64)";
+      return false;
+    }
   for (const auto& m : methods)
     if (!fit::MakeMethod(m)) {
       *why = "--methods: '" + m + "' is not a method (see matfit fit --model list)";
@@ -185,6 +230,12 @@ std::vector<BenchCase> DefaultSuite(bool quick) {
     c.downsample = quick ? 5 : 1;
     s.push_back(c);
   }
+  BenchCase sheet;
+  sheet.name = "leaf-sheet";
+  sheet.path = "leaf-sheet";
+  sheet.leaf_sheet = true;
+  sheet.downsample = quick ? 4 : 1;
+  s.push_back(sheet);
   return s;
 }
 
@@ -194,10 +245,14 @@ StatusOr<BenchResult> RunBench(const BenchOptions& o) {
   const auto t0 = Clock::now();
   BenchResult res;
   res.holdout = o.holdout;
+  res.loo = o.loo;
   res.threads = NumThreads();
   const std::vector<std::string> methods = o.methods.empty() ? fit::MethodNames() : o.methods;
   const int repeats = o.repeats ? o.repeats : (o.quick ? 1 : 3);
-  std::vector<BenchCase> suite = DefaultSuite(o.quick);
+  std::vector<BenchCase> suite;
+  for (const BenchCase& c : DefaultSuite(o.quick))
+    if (o.cases.empty() || std::find(o.cases.begin(), o.cases.end(), c.name) != o.cases.end())
+      suite.push_back(c);
   const int64_t total = int64_t(suite.size() * methods.size()) + 1;
   int64_t done = 0;
   for (BenchCase c : suite) {
@@ -244,7 +299,8 @@ std::string BenchJson(const BenchResult& r) {
                      {"lights", c.material.empty() ? json() : json(c.lights)},
                      {"path", c.path.empty() ? json() : json(c.path)},
                      {"size", c.size},
-                     {"downsample", c.downsample}});
+                     {"downsample", c.downsample},
+                     {"leaf_sheet", c.leaf_sheet}});
   for (const auto& p : r.points) {
     json by = json::object();
     for (const auto& [t, d] : p.deviation_percent_by_theta) by[std::to_string(t)] = d;
@@ -264,6 +320,12 @@ std::string BenchJson(const BenchResult& r) {
                       {"heldout_rmse", num(p.heldout_rmse)},
                       {"heldout_rmse_fitted_texels", num(p.heldout_rmse_fitted)},
                       {"heldout_deviation_percent", num(p.heldout_deviation_percent)},
+                      {"heldout_psnr_srgb8_db", num(p.heldout_psnr_srgb8_db)},
+                      {"loo_rmse", num(p.loo_rmse)},
+                      {"loo_psnr_db", num(p.loo_psnr_db)},
+                      {"loo_psnr_srgb8_db", num(p.loo_psnr_srgb8_db)},
+                      {"loo_bound_ratio_median", num(p.loo_bound_ratio_median)},
+                      {"loo_bound_ratio_p90", num(p.loo_bound_ratio_p90)},
                       {"normal_mae_deg", opt(p.normal_mae_deg)},
                       {"albedo_rmse", opt(p.albedo_rmse)},
                       {"relight_rmse", opt(p.relight_rmse)},
@@ -277,7 +339,8 @@ std::string BenchJson(const BenchResult& r) {
                    {"precompute_seconds", h.precompute_seconds}});
   json j = {{"schema", "matfit.bench/1"}, {"cases", cases},         {"skipped", r.skipped},
             {"points", points},           {"hl2_leaf", r.hl2_leaf}, {"hl2", hl2},
-            {"holdout", r.holdout},       {"threads", r.threads},   {"seconds", r.seconds}};
+            {"holdout", r.holdout},       {"loo", r.loo},           {"threads", r.threads},
+            {"seconds", r.seconds}};
   return j.dump(2, ' ', false, json::error_handler_t::replace) + "\n";
 }
 

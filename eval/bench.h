@@ -24,6 +24,10 @@ struct BenchCase {
   int size = 64;
   std::string path;    // real dataset folder
   int downsample = 1;  // real data: box factor after cropping to the mask
+  // A leaf scan (top-lit + back-lit images): scored on its flat-fielded top-lit stack over the
+  // segmented leaves (leaf/sheet.h). Fits are per texel, so this equals every leaf's held-out
+  // error pooled by texel count.
+  bool leaf_sheet = false;
 };
 
 struct BenchOptions {
@@ -32,6 +36,8 @@ struct BenchOptions {
   std::vector<std::string> methods;  // empty: the whole ladder
   int repeats = 0;                   // fit timings per point (median); 0 = 1 quick, 3 full
   int holdout = 4;                   // k-fold held-out lights
+  bool loo = true;                   // real cases: also leave-one-out held-out lights
+  std::vector<std::string> cases;    // empty: the whole suite; else these case names only
   ProgressFn progress;               // points done / total
 
   bool Check(std::string* why) const;
@@ -52,6 +58,13 @@ struct BenchPoint {
   // values: fit/metrics.h), which the charts and rankings use; and over the texels the fold fits
   // kept (the figure before 2026-12-04).
   double heldout_rmse = NAN, heldout_rmse_fitted = NAN, heldout_deviation_percent = NAN;
+  double heldout_psnr_srgb8_db = NAN;  // the same folds, 8-bit sRGB PSNR (common texel set)
+  // Real cases (BenchOptions::loo): leave-one-out over the lights, common texel set; linear RMSE
+  // and PSNR, and 8-bit sRGB PSNR (fit/metrics.h).
+  double loo_rmse = NAN, loo_psnr_db = NAN, loo_psnr_srgb8_db = NAN;
+  // The bound's tightness against those held-out lights: median and p90 over texels of the
+  // per-texel bound / held-out RMS (fit/confidence.h BoundRatio).
+  double loo_bound_ratio_median = NAN, loo_bound_ratio_p90 = NAN;
   std::optional<double> normal_mae_deg, albedo_rmse;
   std::optional<double> relight_rmse;  // vs truth over a 48-light dome (synthetic only)
   int64_t flagged_texels = 0;
@@ -72,6 +85,7 @@ struct BenchResult {
   std::vector<Hl2Point> hl2;     // leaf HL2 precompute: error vs N_L
   std::string hl2_leaf;          // which leaf
   int holdout = 0, threads = 0;  // as run
+  bool loo = false;
   double seconds = 0;
 };
 

@@ -157,6 +157,8 @@ void ScoreFit(const std::string& method_name, const CaseData& d, StabilityCell* 
   cell->error_median = Quantile(errs, 0.5);
   cell->error_p95 = Quantile(errs, 0.95);
   cell->bound_median = Quantile(bounds, 0.5);
+  const fit::BoundRatio ratio = fit::BoundToActualRatio(a.confidence.bound, err, fit->status);
+  cell->bound_ratio_median = ratio.median, cell->bound_ratio_p90 = ratio.p90;
   if (!angles.empty()) {
     double s = 0;
     for (double x : angles) s += x;
@@ -185,7 +187,7 @@ void ScoreLeaf(const std::string& name, int size, StabilityCell* cell) {
   }
   const double bound = std::max(fast->kernel_error, o.kernel_tolerance);
   cell->warnings = int(fast->warnings.size());
-  std::vector<double> errs;
+  std::vector<double> errs, ratios;
   int64_t flagged = 0;
   for (size_t p = 0; p < s.mask.size(); ++p) {
     if (!s.mask[p]) continue;
@@ -198,8 +200,10 @@ void ScoreLeaf(const std::string& name, int size, StabilityCell* cell) {
     if (!(r > 0)) continue;
     const double e = std::abs(fast->response.data()[p] - r) / r;
     errs.push_back(e);
+    if (e > 0) ratios.push_back(bound / e);
     cell->silent += e > bound;
   }
+  cell->bound_ratio_median = Quantile(ratios, 0.5), cell->bound_ratio_p90 = Quantile(ratios, 0.9);
   cell->error_median = Quantile(errs, 0.5);
   cell->error_p95 = Quantile(errs, 0.95);
   cell->bound_median = bound;
@@ -321,7 +325,9 @@ std::string StabilityJson(const StabilityResult& r) {
                      {"warnings", c.warnings},
                      {"silent_texels", c.silent},
                      {"silent_fraction", c.silent_fraction},
-                     {"bound_median", num(c.bound_median)}});
+                     {"bound_median", num(c.bound_median)},
+                     {"bound_ratio_median", num(c.bound_ratio_median)},
+                     {"bound_ratio_p90", num(c.bound_ratio_p90)}});
   json j = {{"schema", "matfit.stability/1"}, {"size", r.size}, {"methods", r.methods},
             {"perturbations", cases},         {"cells", cells}, {"seconds", r.seconds}};
   return j.dump(2, ' ', false, json::error_handler_t::replace) + "\n";

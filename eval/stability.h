@@ -44,6 +44,8 @@ struct StabilityCell {
   int64_t silent = 0;          // ok texels with error > bound
   double silent_fraction = 0;  // silent / texels
   double bound_median = NAN;
+  // Tightness: bound / error per ok texel with an error > 0 (fit/confidence.h BoundRatio).
+  double bound_ratio_median = NAN, bound_ratio_p90 = NAN;
 };
 
 struct StabilityResult {

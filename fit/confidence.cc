@@ -154,4 +154,25 @@ Confidence ComputeConfidence(const LightStack& s, const MaterialMaps& maps, Mode
   return out;
 }
 
+BoundRatio BoundToActualRatio(const std::vector<float>& bound, const std::vector<float>& actual,
+                              const std::vector<uint8_t>& status) {
+  std::vector<double> r;
+  for (size_t p = 0; p < bound.size() && p < actual.size(); ++p) {
+    if (!status.empty() && status[p] != kTexelOk) continue;
+    if (!std::isfinite(bound[p]) || !std::isfinite(actual[p]) || actual[p] <= 0) continue;
+    r.push_back(double(bound[p]) / double(actual[p]));
+  }
+  BoundRatio out;
+  out.texels = int64_t(r.size());
+  if (r.empty()) return out;
+  const auto quantile = [&](double q) {
+    const size_t k = std::min(r.size() - 1, size_t(q * double(r.size())));
+    std::nth_element(r.begin(), r.begin() + k, r.end());
+    return r[k];
+  };
+  out.median = quantile(0.5);
+  out.p90 = quantile(0.9);
+  return out;
+}
+
 }  // namespace matfit::fit

@@ -22,6 +22,7 @@
 // Samples at the file's maximum code count only when the stack may be clipped (integer files).
 #pragma once
 
+#include <cmath>
 #include <cstdint>
 #include <string>
 #include <vector>
@@ -69,6 +70,16 @@ Confidence ComputeConfidence(const LightStack& stack, const MaterialMaps& maps, 
                              std::vector<uint8_t>* status, const ConfidenceOptions& options = {},
                              const ProgressFn& progress = {},
                              const TexelResiduals* residuals = nullptr);
+
+// How tight the bound is: the ratio b_x / e_x of each texel's bound to an actual error of the
+// same texel (its held-out RMS, or its relighting error against truth), over texels whose status
+// is ok with a finite bound and a finite e_x > 0.
+struct BoundRatio {
+  double median = NAN, p90 = NAN;
+  int64_t texels = 0;
+};
+BoundRatio BoundToActualRatio(const std::vector<float>& bound, const std::vector<float>& actual,
+                              const std::vector<uint8_t>& status);
 
 // The lights' mean direction (upper hemisphere; +z when there is none).
 Vec3 LightAxis(const std::vector<LightSample>& lights);

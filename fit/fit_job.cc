@@ -96,7 +96,9 @@ bool FitJobOptions::Check(std::string* why) const {
     for (const auto& n : MethodNames()) list += (list.empty() ? "" : ", ") + n;
     return fail("--model '" + model + "' is not a method; choose one of: " + list + " (or auto)");
   }
-  if (holdout == 1 || holdout < 0) return fail("--holdout must be 0 (off) or ≥ 2 folds");
+  if (holdout == 1 || (holdout < 0 && holdout != kLeaveOneOut))
+    return fail("--holdout must be 0 (off), ≥ 2 folds or loo (leave-one-out), got " +
+                std::to_string(holdout));
   return read.Check(why) && fit.Check(why);
 }
 
@@ -235,22 +237,34 @@ StatusOr<FitJobResult> RunFitJob(const FitJobOptions& o, const StageProgress& pr
     for (const auto& w : selection->warnings) fit->warnings.push_back(w);  // coded already
     r.selection = selection;
   }
-  if (o.holdout >= 2) {
-    if (!stages.Begin("heldout", o.holdout)) return Cancelled();
+  if (o.holdout >= 2 || o.holdout == kLeaveOneOut) {
+    if (!stages.Begin("heldout", o.holdout == kLeaveOneOut ? stack->num_images() : o.holdout))
+      return Cancelled();
     FitOptions ho = o.fit;
     ho.progress = stages.Callback();
     auto h = HeldOut(*method, *stack, o.holdout, ho);
     if (!h.ok()) return h.status();
-    r.heldout = *h;
+    r.bound_ratio_heldout =
+        BoundToActualRatio(r.assessment.confidence.bound, h->texel_rmse, fit->status);
+    r.heldout = std::move(*h);
+    r.heldout->texel_rmse = {};  // not kept: the ratio is what the report needs
     stages.End();
   }
   const std::string truth_dir = synth::FindTruthFolder(o.input);
   if (!truth_dir.empty()) {
     if (!stages.Begin("truth")) return Cancelled();
     auto truth = synth::ReadTruth(truth_dir, o.read.confine_to);
-    if (truth.ok() && truth->width == stack->width() && truth->height == stack->height())
+    if (truth.ok() && truth->width == stack->width() && truth->height == stack->height()) {
       r.truth = CompareToTruth(fit->maps, *truth, fitted_status);
-    else
+      // The bound claims the supported cone: scored there, as the stability matrix does.
+      const Confidence& c = r.assessment.confidence;
+      r.bound_ratio_truth = BoundToActualRatio(
+          c.bound,
+          RelightingError(fit->maps, *truth,
+                          DomeDirections(48, c.supported_theta_deg, c.supported_axis),
+                          stack->view_direction),
+          fit->status);
+    } else
       fit->warnings.push_back(
           Warning(WarningCode::kTruthUnusable,
                   "truth folder '" + DatasetRelative(truth_dir, o.read.confine_to) +
@@ -271,6 +285,8 @@ StatusOr<FitJobResult> RunFitJob(const FitJobOptions& o, const StageProgress& pr
   ri.heldout = r.heldout;
   ri.truth = r.truth;
   ri.assessment = &r.assessment;
+  ri.bound_ratio_heldout = r.bound_ratio_heldout;
+  ri.bound_ratio_truth = r.bound_ratio_truth;
   if (selection) ri.selection_json = SelectionJson(*selection, scene);
   ri.source = o.source_label.empty() ? o.input : o.source_label;
   r.report_json = MakeReportJson(ri);  // for material.json's summary; timed again below

@@ -24,7 +24,7 @@ struct FitJobOptions {
   double budget = 0;              // auto: error budget overriding the scene's (0 = keep)
   ReadOptions read;               // layout, view, colour space
   FitOptions fit;                 // tile, method options
-  int holdout = 0;                // k-fold held-out-light error; 0 = off, else ≥ 2
+  int holdout = 0;                // k-fold held-out-light error; 0 = off, ≥ 2, or kLeaveOneOut
   std::string out;                // pack folder (or .zip with zip); report file with report_only
   std::string report_only;        // score this existing pack against the dataset (no fitting)
   bool zip = false, overwrite = false;
@@ -46,8 +46,9 @@ struct FitJobResult {
   ReconstructionMetrics reconstruction_common;  // every unmasked texel, as the pack stores it
   std::optional<HeldOutMetrics> heldout;
   std::optional<TruthMetrics> truth;
-  FitAssessment assessment;            // diagnostics + per-texel error bound (not report_only)
-  std::optional<Selection> selection;  // with model "auto"
+  FitAssessment assessment;  // diagnostics + per-texel error bound (not report_only)
+  std::optional<BoundRatio> bound_ratio_heldout, bound_ratio_truth;  // the bound's tightness
+  std::optional<Selection> selection;                                // with model "auto"
   std::string report_json;
   int width = 0, height = 0, channels = 0;  // of the stack as read
   // Wall seconds per stage and in total. report.json holds them as of composing it (its write

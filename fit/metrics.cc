@@ -30,7 +30,8 @@ ReconstructionMetrics Reconstruction(const LightStack& s, const MaterialMaps& ma
 ReconstructionMetrics Reconstruction(const LightStack& s, const std::vector<int>& images,
                                      const MaterialMaps& maps, const std::vector<uint8_t>& status,
                                      const ProgressFn& progress) {
-  return ScoreStack(s, images, maps, status, progress, {.reconstruction = true, .residuals = false})
+  return ScoreStack(s, images, maps, status, progress,
+                    {.reconstruction = true, .residuals = false, .srgb8 = true})
       .reconstruction;
 }
 

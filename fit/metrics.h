@@ -2,6 +2,7 @@
 // and, on synthetic data, errors against the ground-truth maps.
 #pragma once
 
+#include <cmath>
 #include <cstdint>
 #include <map>
 #include <string>
@@ -20,6 +21,10 @@ struct ReconstructionMetrics {
   double rmse = 0;
   double psnr_db = 0;  // 10 log10(1 / MSE)
   int64_t samples = 0;
+  // Only where asked for (the images overload below, i.e. held-out folds): the RMS difference of
+  // the 8-bit sRGB codes of sample and prediction (each clamped to [0, 1], encoded, rounded), and
+  // PSNR = 10 log10(255² / MSE) over those codes — the figure RTI tools print for 8-bit images.
+  double rmse_srgb8 = NAN, psnr_srgb8_db = NAN;
 };
 
 // Compares the stack with the maps' forward evaluation at the stack's own lights, over texels
@@ -30,7 +35,7 @@ ReconstructionMetrics Reconstruction(const LightStack& stack, const MaterialMaps
                                      const std::vector<uint8_t>& status,
                                      const ProgressFn& progress = {});
 // The same over images `images` of the stack only (held-out folds score their test images in
-// place instead of copying them).
+// place instead of copying them), with the 8-bit sRGB figures.
 ReconstructionMetrics Reconstruction(const LightStack& stack, const std::vector<int>& images,
                                      const MaterialMaps& maps, const std::vector<uint8_t>& status,
                                      const ProgressFn& progress = {});

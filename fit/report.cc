@@ -61,6 +61,10 @@ std::string MakeReportJson(const FitReportInputs& in) {
                     {"psnr_db", Finite(h.psnr_db)},
                     {"rmse_common", h.rmse_common},
                     {"psnr_db_common", Finite(h.psnr_db_common)},
+                    {"rmse_srgb8", Finite(h.rmse_srgb8)},
+                    {"psnr_srgb8_db", Finite(h.psnr_srgb8_db)},
+                    {"rmse_srgb8_common", Finite(h.rmse_srgb8_common)},
+                    {"psnr_srgb8_db_common", Finite(h.psnr_srgb8_db_common)},
                     {"failed_folds", h.failed_folds}};
   }
   if (in.assessment) {
@@ -80,6 +84,14 @@ std::string MakeReportJson(const FitReportInputs& in) {
         {"supported_axis", {c.supported_axis.x, c.supported_axis.y, c.supported_axis.z}},
         {"bound_median", Finite(median)},
         {"unverifiable_texels", c.unverifiable}};
+    const auto ratio = [](const std::optional<BoundRatio>& tight) {
+      return tight ? json{{"median", Finite(tight->median)},
+                          {"p90", Finite(tight->p90)},
+                          {"texels", tight->texels}}
+                   : json();
+    };
+    j["confidence"]["bound_ratio"] = {{"heldout", ratio(in.bound_ratio_heldout)},
+                                      {"truth", ratio(in.bound_ratio_truth)}};
     const StackDiagnostics& d = in.assessment->diagnostics;
     j["diagnostics"] = {{"encoding_exponent", d.encoding_exponent},
                         {"tone_verdict", ToneVerdictName(d.verdict)},

@@ -29,7 +29,10 @@ struct FitReportInputs {
   std::optional<HeldOutMetrics> heldout;
   std::optional<TruthMetrics> truth;
   const FitAssessment* assessment = nullptr;  // optional
-  std::string selection_json;                 // optional: SelectionJson (model auto)
+  // The bound's tightness (fit/confidence.h BoundToActualRatio) against held-out lights and
+  // against truth, when those ran.
+  std::optional<BoundRatio> bound_ratio_heldout, bound_ratio_truth;
+  std::string selection_json;  // optional: SelectionJson (model auto)
   std::string source;
   const StageTimings* timings = nullptr;  // optional: report.json "timings"
 };

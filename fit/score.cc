@@ -9,6 +9,7 @@
 #include <map>
 #include <mutex>
 
+#include "core/color.h"
 #include "core/model/model.h"
 #include "core/parallel.h"
 #include "core/simd_clones.h"
@@ -129,13 +130,30 @@ double ScoreLightParts(bool residuals, bool reconstruction, const LightChannels&
   return ScoreLight<C, false, true>(l, clip_level, ok, n, acc, sum, k, m);
 }
 
+// Σ over scored texels and channels of (code(raw) − code(I · pred))², codes by LinearToSrgb8Fast:
+// an integer, so the sum is exact in any order.
+int64_t Srgb8SquaredError(const LightChannels& l, int channels, const float* ok, int n) {
+  int64_t sum = 0;
+  for (int c = 0; c < channels; ++c)
+    for (int t = 0; t < n; ++t) {
+      if (ok[t] == 0) continue;
+      const int d = int(LinearToSrgb8Fast(l.raw[c][t])) -
+                    int(LinearToSrgb8Fast(l.intensity[c] * l.pred[c][t]));
+      sum += d * d;
+    }
+  return sum;
+}
+
 ReconstructionMetrics ReduceReconstruction(const LightStack& s, const std::vector<int>& images,
                                            const std::vector<double>& run_sum,
-                                           const std::vector<int64_t>& run_count, int64_t runs) {
+                                           const std::vector<int64_t>& run_count,
+                                           const std::vector<int64_t>& run_srgb8, int64_t runs) {
   const int n = int(images.size());
   ReconstructionMetrics m;
   std::map<int, std::pair<double, int64_t>> groups;
   double total = 0;
+  int64_t total8 = 0;
+  for (int64_t v : run_srgb8) total8 += v;
   for (int i = 0; i < n; ++i) {
     double sum = 0;
     int64_t count = 0;
@@ -152,6 +170,11 @@ ReconstructionMetrics ReduceReconstruction(const LightStack& s, const std::vecto
   m.psnr_db = mse > 0 ? 10 * std::log10(1.0 / mse) : INFINITY;
   for (auto& [t, g] : groups)
     m.deviation_percent_by_theta[t] = g.second ? 100 * g.first / g.second : 0;
+  if (!run_srgb8.empty() && m.samples) {
+    const double mse8 = double(total8) / double(m.samples);
+    m.rmse_srgb8 = std::sqrt(mse8);
+    m.psnr_srgb8_db = mse8 > 0 ? 10 * std::log10(255.0 * 255.0 / mse8) : INFINITY;
+  }
   return m;
 }
 
@@ -179,6 +202,8 @@ StackScore ScoreStack(const LightStack& s, const std::vector<int>& images, const
   // Reconstruction: Σ d² and the sample count per run and light, reduced in run order.
   std::vector<double> run_sum(reconstruction ? size_t(runs * n) : 0, 0.0);
   std::vector<int64_t> run_count(reconstruction ? size_t(runs * n) : 0, 0);
+  const bool srgb8 = reconstruction && parts.srgb8;
+  std::vector<int64_t> run_srgb8(srgb8 ? size_t(runs * n) : 0, 0);
   std::atomic<int64_t> done{0};
   std::mutex progress_mutex;
   ParallelFor(
@@ -223,6 +248,7 @@ StackScore ScoreStack(const LightStack& s, const std::vector<int>& images, const
               run_sum[size_t(r * n + j)] = d2;
               run_count[size_t(r * n + j)] = int64_t(ok_count) * C;
             }
+            if (srgb8) run_srgb8[size_t(r * n + j)] = Srgb8SquaredError(l, C, ok, len);
           }
           for (int t = 0; t < len && residuals; ++t) {
             if (ok[t] == 0) continue;
@@ -240,7 +266,7 @@ StackScore ScoreStack(const LightStack& s, const std::vector<int>& images, const
       },
       4);
   if (reconstruction)
-    out.reconstruction = ReduceReconstruction(s, images, run_sum, run_count, runs);
+    out.reconstruction = ReduceReconstruction(s, images, run_sum, run_count, run_srgb8, runs);
   return out;
 }
 

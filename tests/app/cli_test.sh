@@ -65,6 +65,17 @@ for model in mean lambert heinrich ptm; do
   [ -f "$tmp/pack-$model/material.json" ] && ok || bad "fit $model wrote no material.json"
 done
 expect_contains "fit truth" "$("$bin" fit "$src/fixtures/plaster-bonn81" --model lambert --out "$tmp/p2" --quiet)" "vs truth    normal MAE"
+# Leave-one-out: one fold per image (plastic-ring12: 12), scored in linear and sRGB 8-bit, with
+# the bound's tightness against those lights and against truth/.
+out=$("$bin" fit "$src/fixtures/plastic-ring12" --model lambert --holdout loo --out "$tmp/ploo" --quiet 2>&1) \
+  && ok || bad "fit --holdout loo: $out"
+expect_contains "loo folds" "$out" "over 12 folds"
+expect_contains "loo sRGB" "$out" "sRGB 8-bit PSNR"
+expect_contains "bound vs held-out" "$out" "the held-out lights error"
+expect_contains "bound vs truth" "$out" "the truth error"
+msg=$("$bin" fit "$src/fixtures/plastic-ring12" --model lambert --holdout -3 --out "$tmp/pneg" 2>&1); rc=$?
+[ $rc -ne 0 ] && ok || bad "--holdout -3 should fail"
+expect_contains "negative holdout" "$msg" "or loo (leave-one-out)"
 expect_contains "model list" "$("$bin" fit --model list)" "heinrich"
 msg=$("$bin" fit "$src/fixtures/plaster-bonn81" --model velvet --out "$tmp/pv" 2>&1); rc=$?
 [ $rc -ne 0 ] && ok || bad "unknown model should fail"
@@ -75,7 +86,7 @@ expect_contains "heinrich ring" "$msg" "inseparable"
 msg=$("$bin" fit "$src/fixtures/plastic-ring12" --model blinn-phong --robust-scale -1 --out "$tmp/ps" 2>&1); rc=$?
 [ $rc -ne 0 ] && ok || bad "negative --robust-scale should fail"
 expect_contains "robust scale" "$msg" "--robust-scale must be in [0, 10]"
-[ ! -e "$tmp/pv" ] && [ ! -e "$tmp/pr" ] && [ ! -e "$tmp/ps" ] && ok || bad "failed fit left output"
+[ ! -e "$tmp/pv" ] && [ ! -e "$tmp/pr" ] && [ ! -e "$tmp/ps" ] && [ ! -e "$tmp/pneg" ] && ok || bad "failed fit left output"
 
 # Preview renderer.
 out=$("$bin" render "$tmp/pack-ptm" --light 40,30 --scene sphere --size 64 --out "$tmp/bp.png" 2>&1) \

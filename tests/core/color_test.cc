@@ -1,5 +1,7 @@
 #include <gtest/gtest.h>
 #include <cmath>
+#include <cstdint>
+#include <cstring>
 
 #include "core/color.h"
 
@@ -9,6 +11,30 @@ namespace {
 TEST(Srgb, EveryEightBitCodeRoundTrips) {
   const float* table = Srgb8ToLinearTable();
   for (int code = 0; code < 256; ++code) EXPECT_EQ(LinearToSrgb8(table[code]), code) << code;
+}
+
+TEST(Srgb, FastEightBitEncodeEqualsThePowForm) {
+  // Every 61st float of [0, 1] (16 M values), every code boundary's neighbours, and out of range.
+  const float one = 1.0f;
+  uint32_t end;
+  std::memcpy(&end, &one, sizeof end);
+  int64_t mismatches = 0;
+  for (uint32_t bits = 0; bits <= end; bits += 61) {
+    float v;
+    std::memcpy(&v, &bits, sizeof v);
+    mismatches += LinearToSrgb8Fast(v) != LinearToSrgb8(v);
+  }
+  EXPECT_EQ(mismatches, 0);
+  const float* table = Srgb8ToLinearTable();
+  for (int code = 1; code < 256; ++code) {
+    const float mid = 0.5f * (table[code - 1] + table[code]);
+    for (float v : {std::nextafter(mid, 0.0f), mid, std::nextafter(mid, 1.0f), table[code]})
+      EXPECT_EQ(LinearToSrgb8Fast(v), LinearToSrgb8(v)) << v;
+  }
+  EXPECT_EQ(LinearToSrgb8Fast(-0.5f), 0);
+  EXPECT_EQ(LinearToSrgb8Fast(2.0f), 255);
+  EXPECT_EQ(LinearToSrgb8Fast(INFINITY), 255);
+  EXPECT_EQ(LinearToSrgb8Fast(NAN), 0);
 }
 
 TEST(Srgb, KnownValues) {

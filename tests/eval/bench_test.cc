@@ -1,6 +1,7 @@
 // matfit bench and the stability matrix: real properties of their results and stable schemas.
 #include <gtest/gtest.h>
 
+#include <cmath>
 #include <filesystem>
 #include <nlohmann/json.hpp>
 #include <set>
@@ -64,7 +65,8 @@ TEST(Stability, NoSilentFailureOnAnyDegenerateCase) {
       Keys(j["cells"][0]),
       (std::set<std::string>{"method", "perturbation", "applicable", "refused", "error", "texels",
                              "error_median", "error_p95", "normal_mae_deg", "flagged_fraction",
-                             "warnings", "silent_texels", "silent_fraction", "bound_median"}));
+                             "warnings", "silent_texels", "silent_fraction", "bound_median",
+                             "bound_ratio_median", "bound_ratio_p90"}));
   const auto charts = StabilityCharts(*r);
   EXPECT_EQ(charts.size(), 2u);
   for (const auto& [name, svg] : charts) EXPECT_NE(svg.find("</svg>"), std::string::npos) << name;
@@ -77,10 +79,11 @@ TEST(Bench, QuickSuiteScoresEveryMethodOnEveryCase) {
   o.shared_data = MATFIT_SHARED_DATA;
   auto r = RunBench(o);
   ASSERT_TRUE(r.ok()) << r.status().ToString();
-  const bool real = std::filesystem::exists(std::string(MATFIT_SHARED_DATA) + "/psm/cat");
+  const bool real = std::filesystem::exists(std::string(MATFIT_SHARED_DATA) + "/psm/cat") &&
+                    std::filesystem::exists(std::string(MATFIT_SHARED_DATA) + "/leaf-sheet");
   if (!real)
     std::printf("shared data absent: the real cases are skipped (%zu)\n", r->skipped.size());
-  EXPECT_EQ(r->cases.size(), real ? 8u : 6u);
+  EXPECT_EQ(r->cases.size(), real ? 9u : 6u);
   ASSERT_EQ(r->points.size(), r->cases.size() * 2);
   for (size_t i = 0; i < r->points.size(); i += 2) {
     const BenchPoint& mean = r->points[i];
@@ -94,8 +97,17 @@ TEST(Bench, QuickSuiteScoresEveryMethodOnEveryCase) {
     if (lam.relight_rmse) {
       EXPECT_LT(*lam.relight_rmse, *mean.relight_rmse) << lam.dataset;
       EXPECT_TRUE(lam.normal_mae_deg.has_value());
+      EXPECT_TRUE(std::isnan(lam.loo_rmse)) << "leave-one-out is for the real cases";
     } else {
       EXPECT_LT(lam.heldout_rmse, mean.heldout_rmse) << lam.dataset;
+      // Real cases: leave-one-out too, in linear RMSE and in 8-bit sRGB PSNR.
+      EXPECT_LT(lam.loo_rmse, mean.loo_rmse) << lam.dataset;
+      EXPECT_GT(lam.loo_psnr_srgb8_db, mean.loo_psnr_srgb8_db) << lam.dataset;
+      EXPECT_GT(lam.loo_psnr_srgb8_db, 20.0) << lam.dataset;
+      EXPECT_NEAR(lam.loo_psnr_db, -20 * std::log10(lam.loo_rmse), 1e-9) << lam.dataset;
+      EXPECT_GT(lam.heldout_psnr_srgb8_db, 20.0) << lam.dataset;
+      EXPECT_GT(lam.loo_bound_ratio_median, 1.0) << lam.dataset;  // a bound, not an estimate
+      EXPECT_GE(lam.loo_bound_ratio_p90, lam.loo_bound_ratio_median) << lam.dataset;
     }
   }
   ASSERT_FALSE(r->hl2.empty());
@@ -104,7 +116,7 @@ TEST(Bench, QuickSuiteScoresEveryMethodOnEveryCase) {
   const json j = json::parse(BenchJson(*r));
   EXPECT_EQ(j["schema"], "matfit.bench/1");
   EXPECT_EQ(Keys(j), (std::set<std::string>{"schema", "cases", "skipped", "points", "hl2_leaf",
-                                            "hl2", "holdout", "threads", "seconds"}));
+                                            "hl2", "holdout", "loo", "threads", "seconds"}));
   EXPECT_EQ(Keys(j["points"][0]), (std::set<std::string>{"method",
                                                          "dataset",
                                                          "ok",
@@ -121,6 +133,12 @@ TEST(Bench, QuickSuiteScoresEveryMethodOnEveryCase) {
                                                          "heldout_rmse",
                                                          "heldout_rmse_fitted_texels",
                                                          "heldout_deviation_percent",
+                                                         "heldout_psnr_srgb8_db",
+                                                         "loo_rmse",
+                                                         "loo_psnr_db",
+                                                         "loo_psnr_srgb8_db",
+                                                         "loo_bound_ratio_median",
+                                                         "loo_bound_ratio_p90",
                                                          "normal_mae_deg",
                                                          "albedo_rmse",
                                                          "relight_rmse",
@@ -132,6 +150,23 @@ TEST(Bench, QuickSuiteScoresEveryMethodOnEveryCase) {
     EXPECT_TRUE(charts.count("theta_" + c.name + ".svg")) << c.name;
   }
   EXPECT_TRUE(charts.count("hl2_directions.svg"));
+}
+
+TEST(Bench, CasesSelectsPartOfTheSuiteAndRejectsUnknownNames) {
+  BenchOptions o;
+  o.quick = true;
+  o.methods = {"lambert"};
+  o.cases = {"plaster-40"};
+  o.shared_data = MATFIT_SHARED_DATA;
+  auto r = RunBench(o);
+  ASSERT_TRUE(r.ok()) << r.status().ToString();
+  ASSERT_EQ(r->cases.size(), 1u);
+  EXPECT_EQ(r->cases[0].name, "plaster-40");
+  ASSERT_EQ(r->points.size(), 1u);
+  o.cases = {"psm-grey"};
+  std::string why;
+  EXPECT_FALSE(o.Check(&why));
+  EXPECT_NE(why.find("'psm-grey' is not a case"), std::string::npos) << why;
 }
 
 }  // namespace

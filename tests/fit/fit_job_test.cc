@@ -16,6 +16,7 @@
 #include "core/dataset/writer.h"
 #include "core/image_io.h"
 #include "fit/fit_job.h"
+#include "fit/method.h"
 #include "fit/methods.h"
 #include "tests/fit/synth_data.h"
 
@@ -153,6 +154,41 @@ TEST(FitJob, HeldOutErrorExceedsTheFittedError) {
   ASSERT_TRUE(r->heldout.has_value());
   EXPECT_EQ(r->heldout->failed_folds, 0);
   EXPECT_GT(r->heldout->rmse, r->reconstruction.rmse);
+}
+
+// Issue 19 item 3: how tight the bound is, against held-out lights (leave-one-out here) and
+// against the truth maps, is in the report; the held-out one is that of a direct HeldOut.
+TEST(FitJob, ReportsHowTightTheBoundIsAgainstHeldOutLightsAndTruth) {
+  PackDir tmp;
+  FitJobOptions o;
+  o.input = kFixture;  // plaster, 81 lights, truth/
+  o.model = "lambert";
+  o.holdout = kLeaveOneOut;
+  o.out = tmp / "pack";
+  auto r = RunFitJob(o);
+  ASSERT_TRUE(r.ok()) << r.status().ToString();
+  ASSERT_TRUE(r->heldout && r->bound_ratio_heldout && r->bound_ratio_truth);
+  EXPECT_EQ(r->heldout->folds, 81);
+  const auto report = ReadJson(tmp / "pack/report.json");
+  EXPECT_EQ(report["heldout"]["folds"], 81);
+  EXPECT_TRUE(report["heldout"]["psnr_srgb8_db"].is_number());
+  const auto& ratio = report["confidence"]["bound_ratio"];
+  for (const char* against : {"heldout", "truth"}) {
+    EXPECT_GT(ratio[against]["median"].get<double>(), 1.0) << against;  // it bounds
+    EXPECT_GE(ratio[against]["p90"].get<double>(), ratio[against]["median"].get<double>());
+    EXPECT_GT(ratio[against]["texels"].get<int64_t>(), 0);
+  }
+  auto stack = ReadDataset(kFixture);
+  ASSERT_TRUE(stack.ok());
+  auto direct = HeldOut(*MakeMethod("lambert"), *stack, kLeaveOneOut, {});
+  ASSERT_TRUE(direct.ok());
+  const BoundRatio want =
+      BoundToActualRatio(r->assessment.confidence.bound, direct->texel_rmse, r->fit.status);
+  EXPECT_EQ(r->bound_ratio_heldout->median, want.median);
+  EXPECT_EQ(r->bound_ratio_heldout->texels, want.texels);
+  std::printf("bound / actual on plaster-bonn81, lambert: held-out %.2f (p90 %.2f), truth %.2f\n",
+              r->bound_ratio_heldout->median, r->bound_ratio_heldout->p90,
+              r->bound_ratio_truth->median);
 }
 
 // Round trip: a pack read back and scored against its dataset gives the fit's own deviation.

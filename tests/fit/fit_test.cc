@@ -2,6 +2,8 @@
 
 #include <cmath>
 
+#include "core/color.h"
+#include "core/model/model.h"
 #include "fit/fit_types.h"
 #include "fit/holdout.h"
 #include "fit/method.h"
@@ -111,6 +113,55 @@ TEST(Metrics, CommonTexelSetCoversFlaggedTexelsWithTheirStoredValues) {
   EXPECT_EQ(h->samples_common, h->samples + 12 * 3);
   // It is black and predicted black: the same squared error over more samples.
   EXPECT_NEAR(h->rmse_common, h->rmse * std::sqrt(double(h->samples) / h->samples_common), 1e-9);
+}
+
+// Issue 19 item 6: leave-one-out predicts every image once from a fit on the others, and the
+// 8-bit sRGB figures are those of the encoded codes — recomputed here one sample at a time with
+// the pow form of the encoder.
+TEST(HeldOut, LeaveOneOutScoresEveryImageFromTheOthersAlsoInSrgbCodes) {
+  const auto data = Synth("plastic", "dome:12", 8);
+  const LightStack& s = data.stack;
+  auto method = MakeMethod("lambert");
+  auto h = HeldOut(*method, s, kLeaveOneOut, {});
+  ASSERT_TRUE(h.ok()) << h.status().ToString();
+  EXPECT_EQ(h->folds, 12);
+  EXPECT_EQ(h->failed_folds, 0);
+  int64_t sum8 = 0, count = 0;
+  double sum = 0;
+  for (int i = 0; i < 12; ++i) {
+    std::vector<int> train;
+    for (int j = 0; j < 12; ++j)
+      if (j != i) train.push_back(j);
+    auto fit = method->Fit(SelectImages(s, train), {});
+    ASSERT_TRUE(fit.ok());
+    const BatchEvaluator eval(fit->maps, {Vec3f(s.lights()[size_t(i)].direction)},
+                              Vec3f(s.view_direction));
+    const int n = int(s.plane_size());
+    std::vector<float> pred(size_t(3 * n)), raw(static_cast<size_t>(n));
+    eval.Evaluate(0, 0, n, 3, pred.data());
+    for (int c = 0; c < 3; ++c) {
+      const float* r = s.Texels(i, c, 0, n, raw.data());
+      const float intensity = float(s.lights()[size_t(i)].intensity[c]);
+      for (int t = 0; t < n; ++t) {
+        if (fit->status[size_t(t)] != kTexelOk) continue;
+        const float p = intensity * pred[size_t(c * n + t)];
+        const int d = int(LinearToSrgb8(r[t])) - int(LinearToSrgb8(p));
+        sum8 += d * d, sum += double(r[t] - p) * double(r[t] - p), ++count;
+      }
+    }
+  }
+  ASSERT_EQ(h->samples, count);
+  EXPECT_NEAR(h->rmse, std::sqrt(sum / double(count)), 1e-6);
+  EXPECT_NEAR(h->rmse_srgb8, std::sqrt(double(sum8) / double(count)), 1e-9);
+  EXPECT_NEAR(h->psnr_srgb8_db, 10 * std::log10(255.0 * 255.0 * double(count) / double(sum8)),
+              1e-9);
+  EXPECT_GT(h->rmse_srgb8, 0.5);  // a glossy material under held-out lights: not a trivial fit
+  // 12 folds over 12 images is the same partition.
+  auto k12 = HeldOut(*method, s, 12, {});
+  ASSERT_TRUE(k12.ok());
+  EXPECT_EQ(k12->rmse, h->rmse);
+  EXPECT_EQ(k12->psnr_srgb8_db, h->psnr_srgb8_db);
+  EXPECT_FALSE(HeldOut(*method, s, -2, {}).ok());
 }
 
 TEST(Mean, IsThePerTexelAverage) {
