@@ -127,6 +127,13 @@ size_t LightStack::MemoryBytes() const {
          lut_.size() * sizeof(float) + mask.size();
 }
 
+LightSample LightFromDirection(const Vec3& d) {
+  LightSample s;
+  s.direction = Normalize(d);
+  AnglesDegFromDirection(s.direction, &s.theta_deg, &s.phi_deg);
+  return s;
+}
+
 LightStack SelectImages(const LightStack& s, const std::vector<int>& idx) {
   LightStack out(s.width(), s.height(), s.channels(), int(idx.size()), s.sample_type(), s.lut());
   auto pick = [&](const auto& v, auto& dst) {

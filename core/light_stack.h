@@ -29,6 +29,9 @@ struct LightSample {
   double theta_deg = 0, phi_deg = 0;  // direction as parsed or derived (METHODS.md §0)
 };
 
+// A unit-intensity light along `direction` (normalised), its angles derived from it.
+LightSample LightFromDirection(const Vec3& direction);
+
 class LightStack {
  public:
   LightStack() = default;

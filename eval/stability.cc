@@ -3,11 +3,13 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <memory>
 #include <nlohmann/json.hpp>
 
 #include "core/color.h"
 #include "core/synth/light_sets.h"
 #include "core/synth/materials.h"
+#include "core/synth/micro_geometry.h"
 #include "core/synth/perturb.h"
 #include "core/synth/random.h"
 #include "core/synth/render_stack.h"
@@ -29,16 +31,12 @@ double Quantile(std::vector<double> v, double q) {
   return v[k];
 }
 
-LightSample FromDirection(const Vec3& d) {
-  LightSample l;
-  l.direction = Normalize(d);
-  AnglesDegFromDirection(l.direction, &l.theta_deg, &l.phi_deg);
-  return l;
-}
-
 struct CaseData {
   MaterialMaps truth;
   LightStack stack;
+  // Micro-geometry cases: the surface whose renders are the relighting truth
+  // (synth/micro_geometry.h).
+  std::shared_ptr<const synth::MicroSurface> micro;
 };
 
 // Builds the perturbed stack of case `name` at size² texels.
@@ -83,27 +81,37 @@ StatusOr<CaseData> MakeCase(const std::string& name, int size) {
   else if (name == "coplanar") {
     for (int i = 0; i < 12; ++i) {
       const double t = (-60.0 + 120.0 * i / 11) * M_PI / 180;
-      custom.push_back(FromDirection(Vec3(std::sin(t), 0, std::cos(t))));
+      custom.push_back(LightFromDirection(Vec3(std::sin(t), 0, std::cos(t))));
     }
   } else if (name == "grazing-only")
     lights = "ring:12:75";
   else if (name == "nan-pixels") {
   } else if (name == "leaf")
     material = "leaf";
+  else if (name == "micro-geometry")
+    material = "micro-stone";
   else
     return InvalidArgument("unknown stability case '" + name + "'");
-  auto maps = synth::MakeMaterial(material, size, 3);
-  if (!maps.ok()) return maps.status();
   if (custom.empty()) {
     auto set = synth::MakeLightSet(lights, 3);
     if (!set.ok()) return set.status();
     custom = std::move(*set);
   }
   CaseData d;
-  d.truth = std::move(*maps);
-  synth::RenderOptions ro;
-  ro.cast_shadows = shadows;
-  d.stack = synth::RenderStack(d.truth, custom, ro);
+  if (synth::FindMaterial(material)->micro_geometry) {
+    auto surface = synth::MakeMicroSurface(size, size, 3);
+    if (!surface.ok()) return surface.status();
+    d.truth = synth::MicroTruthMaps(*surface);
+    d.stack = synth::RenderMicroStack(*surface, custom);
+    d.micro = std::make_shared<const synth::MicroSurface>(std::move(*surface));
+  } else {
+    auto maps = synth::MakeMaterial(material, size, 3);
+    if (!maps.ok()) return maps.status();
+    d.truth = std::move(*maps);
+    synth::RenderOptions ro;
+    ro.cast_shadows = shadows;
+    d.stack = synth::RenderStack(d.truth, custom, ro);
+  }
   synth::ApplyPerturbations(p, &d.stack);
   float* v = d.stack.data();
   const int64_t n = int64_t(d.stack.num_images()) * d.stack.channels() * d.stack.plane_size();
@@ -127,10 +135,16 @@ void ScoreFit(const std::string& method_name, const CaseData& d, StabilityCell* 
   const auto a = fit::AssessFit(d.stack, *method, &*fit);
   cell->warnings = int(fit->warnings.size());
   // Scored over the directions the bound claims (fit/confidence.h: the supported cone).
-  const auto err = fit::RelightingError(
-      fit->maps, d.truth,
-      fit::DomeDirections(48, a.confidence.supported_theta_deg, a.confidence.supported_axis),
-      d.stack.view_direction);
+  const std::vector<Vec3> dome =
+      fit::DomeDirections(48, a.confidence.supported_theta_deg, a.confidence.supported_axis);
+  std::vector<float> err;
+  if (d.micro) {  // its appearance is the micro-geometry's, not its maps'
+    std::vector<LightSample> lights;
+    for (const Vec3& l : dome) lights.push_back(LightFromDirection(l));
+    err = fit::RelightingError(fit->maps, synth::RenderMicroStack(*d.micro, lights));
+  } else {
+    err = fit::RelightingError(fit->maps, d.truth, dome, d.stack.view_direction);
+  }
   std::vector<double> errs, bounds, angles;
   int64_t flagged = 0;
   const bool has_normal = fit::CompareToTruth(fit->maps, d.truth, {}).has_normal;
@@ -235,6 +249,10 @@ const std::vector<StabilityCase>& StabilityCases() {
       {"grazing-only", "12 lights at θ = 75°", true},
       {"nan-pixels", "1 % of the samples NaN", true},
       {"leaf", "synthetic leaf on a dark background (mask)", false},
+      {"micro-geometry",
+       "stone rendered from sub-texel micro-geometry (shadowing, masking, one bounce): no "
+       "fitted model's formula",
+       false},
       {"thin-leaf", "leaf thickness × 0.15 (0.03–0.075 mm): translucency precompute", true},
   };
   return cases;

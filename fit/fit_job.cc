@@ -256,14 +256,16 @@ StatusOr<FitJobResult> RunFitJob(const FitJobOptions& o, const StageProgress& pr
     auto truth = synth::ReadTruth(truth_dir, o.read.confine_to);
     if (truth.ok() && truth->width == stack->width() && truth->height == stack->height()) {
       r.truth = CompareToTruth(fit->maps, *truth, fitted_status);
-      // The bound claims the supported cone: scored there, as the stability matrix does.
+      // The bound claims the supported cone: scored there, as the stability matrix does. Only
+      // where relighting the truth maps gives the true appearance (not micro-geometry truth).
       const Confidence& c = r.assessment.confidence;
-      r.bound_ratio_truth = BoundToActualRatio(
-          c.bound,
-          RelightingError(fit->maps, *truth,
-                          DomeDirections(48, c.supported_theta_deg, c.supported_axis),
-                          stack->view_direction),
-          fit->status);
+      if (synth::TruthMapsAreTheAppearance(truth_dir, o.read.confine_to))
+        r.bound_ratio_truth = BoundToActualRatio(
+            c.bound,
+            RelightingError(fit->maps, *truth,
+                            DomeDirections(48, c.supported_theta_deg, c.supported_axis),
+                            stack->view_direction),
+            fit->status);
     } else
       fit->warnings.push_back(
           Warning(WarningCode::kTruthUnusable,

@@ -66,6 +66,40 @@ std::vector<float> RelightingError(const MaterialMaps& f, const MaterialMaps& t,
   return err;
 }
 
+std::vector<float> RelightingError(const MaterialMaps& f, const LightStack& t) {
+  const int64_t T = t.plane_size();
+  std::vector<float> err(size_t(T), NAN);
+  std::vector<Vec3f> dirs;
+  for (const LightSample& l : t.lights()) dirs.emplace_back(l.direction);
+  const BatchEvaluator fe(f, dirs, Vec3f(t.view_direction));
+  const int C = t.channels();
+  ParallelFor(0, Runs(T), [&](int64_t r0, int64_t r1) {
+    std::vector<float> a(size_t(3) * kEvalRun), scratch(kEvalRun);
+    std::vector<double> acc(kEvalRun);
+    for (int64_t r = r0; r < r1; ++r) {
+      const int64_t p0 = r * kEvalRun;
+      const int n = int(std::min<int64_t>(kEvalRun, T - p0));
+      std::fill_n(acc.begin(), n, 0.0);
+      for (int i = 0; i < int(dirs.size()); ++i) {
+        fe.Evaluate(i, p0, n, 3, a.data());
+        for (int c = 0; c < C; ++c) {
+          const float* b = t.Texels(i, c, p0, n, scratch.data());
+          const double inv = 1.0 / t.lights()[size_t(i)].intensity[C == 1 ? 0 : c];
+          for (int k = 0; k < n; ++k) {
+            const double d = double(a[size_t(c * n + k)]) - double(b[k]) * inv;
+            acc[size_t(k)] += d * d;
+          }
+        }
+      }
+      const double norm = double(C) * std::max<size_t>(1, dirs.size());
+      for (int k = 0; k < n; ++k)
+        if (!t.has_mask() || t.mask[size_t(p0 + k)] != 0)
+          err[size_t(p0 + k)] = float(std::sqrt(acc[size_t(k)] / norm));
+    }
+  });
+  return err;
+}
+
 double ShadingCostNs(const MaterialMaps& maps) {
   const int64_t T = int64_t(maps.width) * maps.height;
   if (T == 0) return 0;

@@ -64,6 +64,10 @@ struct TruthMetrics {
 // renderer would show, in linear radiance per unit light. NaN outside the truth mask.
 std::vector<float> RelightingError(const MaterialMaps& fitted, const MaterialMaps& truth,
                                    const std::vector<Vec3>& lights, const Vec3& view);
+// The same against truth images instead of truth maps (a material whose appearance is no model's,
+// e.g. synth::RenderMicroStack over the directions): per texel, RMS over the stack's lights and
+// channels of the fitted evaluation minus sample / intensity. NaN outside the stack's mask.
+std::vector<float> RelightingError(const MaterialMaps& fitted, const LightStack& truth);
 
 // Cost of the model's batched CPU evaluation on these maps (the renderer's and the metrics'
 // path): ns per texel × light (3 channels), median of 3 timed passes over 4 light directions.

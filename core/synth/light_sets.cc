@@ -17,13 +17,6 @@ LightSample FromAngles(double theta, double phi) {
   return s;
 }
 
-LightSample FromDirection(const Vec3& d) {
-  LightSample s;
-  s.direction = Normalize(d);
-  AnglesDegFromDirection(s.direction, &s.theta_deg, &s.phi_deg);
-  return s;
-}
-
 Status BadSpec(const std::string& spec) {
   return InvalidArgument("--lights '" + spec +
                          "' is not a light set; use bonn81, ring12, "
@@ -67,7 +60,7 @@ StatusOr<std::vector<LightSample>> MakeLightSet(const std::string& spec, uint64_
     for (int k = 0; k < n; ++k) {
       const double z = 1.0 - (1.0 - zmin) * (k + 0.5) / n;
       const double r = std::sqrt(std::max(0.0, 1.0 - z * z));
-      lights.push_back(FromDirection({r * std::cos(golden * k), r * std::sin(golden * k), z}));
+      lights.push_back(LightFromDirection({r * std::cos(golden * k), r * std::sin(golden * k), z}));
     }
     return lights;
   }
@@ -77,7 +70,7 @@ StatusOr<std::vector<LightSample>> MakeLightSet(const std::string& spec, uint64_
       const double z = zmin + (1.0 - zmin) * HashUniform(seed, 0x11ab, k, 1);
       const double phi = 2.0 * std::numbers::pi * HashUniform(seed, 0x11ab, k, 2);
       const double r = std::sqrt(std::max(0.0, 1.0 - z * z));
-      lights.push_back(FromDirection({r * std::cos(phi), r * std::sin(phi), z}));
+      lights.push_back(LightFromDirection({r * std::cos(phi), r * std::sin(phi), z}));
     }
     return lights;
   }

@@ -8,6 +8,7 @@
 #include "core/model/model.h"
 #include "core/parallel.h"
 #include "core/shading/shading.h"
+#include "core/synth/micro_geometry.h"
 #include "core/synth/random.h"
 
 namespace matfit::synth {
@@ -158,6 +159,9 @@ const std::vector<MaterialInfo> kMaterials = {
     {"corduroy", "corduroy-like ridged fabric with self-shadowing", true},
     {"granite", "speckled polished granite-like stone: Blinn-Phong e 128", false},
     {"leaf", "veined leaf with thickness and translucency maps: Cook-Torrance", false},
+    {"micro-stone",
+     "stone rendered from sub-texel micro-geometry: ray-traced shadowing, masking, one bounce",
+     false, true},
 };
 
 }  // namespace
@@ -191,6 +195,11 @@ StatusOr<MaterialMaps> MakeMaterial(const std::string& name, int size, uint64_t 
   }
   if (size < 4 || size > 8192)
     return InvalidArgument("--size must be in [4, 8192], got " + std::to_string(size));
+  if (FindMaterial(name)->micro_geometry) {
+    auto surface = MakeMicroSurface(size, size, seed);
+    if (!surface.ok()) return surface.status();
+    return MicroTruthMaps(*surface);
+  }
   TexelFn fn;
   MaterialMaps m;
   m.width = m.height = size;

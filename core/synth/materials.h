@@ -7,6 +7,8 @@
 //   granite     speckled cellular minerals, polished (Blinn–Phong e 128)
 //   leaf        veined leaf on a dark background: mask, thickness (mm), translucency,
 //               Cook–Torrance upper side (IOR 1.45, roughness 0.35)
+//   micro-stone rendered from explicit micro-geometry (micro_geometry.h), not from any fitted
+//               model's formula; its maps are the macro normal and albedo only
 // Patterns are defined over the unit square, so a size-64 material is a coarser sampling of
 // the size-256 one (same slopes, same look).
 #pragma once
@@ -23,6 +25,9 @@ namespace matfit::synth {
 struct MaterialInfo {
   std::string name, description;
   bool self_shadowing = false;  // cast shadows from the height field are part of the material
+  // Its appearance comes from micro-geometry (micro_geometry.h): the maps MakeMaterial gives are
+  // its macro normal and albedo, and relighting truth is RenderMicroStack, not the maps' model.
+  bool micro_geometry = false;
 };
 
 const std::vector<MaterialInfo>& Materials();

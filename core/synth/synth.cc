@@ -9,6 +9,7 @@
 #include "core/model/model.h"
 #include "core/synth/light_sets.h"
 #include "core/synth/materials.h"
+#include "core/synth/micro_geometry.h"
 #include "core/synth/render_stack.h"
 #include "core/version.h"
 
@@ -75,6 +76,21 @@ std::string ParamsJson(const SynthOptions& o, const SynthResult& r) {
   std::map<std::string, double> truth_params;
   truth_model.TruthParameters(r.truth, &truth_params);
   for (const auto& [k, v] : truth_params) j["model"][k] = float(v);
+  // "model-family": the images are the truth maps' model; "micro-geometry": they are not (the
+  // maps are the macro normal and albedo only, for normal and albedo comparisons).
+  j["appearance"] = info && info->micro_geometry ? "micro-geometry" : "model-family";
+  if (info && info->micro_geometry) {
+    const MicroGeometryOptions mo;
+    j["model"] = {{"name", "micro-geometry (no fitted model's formula)"},
+                  {"reflectance_units", "R = pi * L_out for a unit light; pixel = intensity * R"},
+                  {"facets_per_texel_side", mo.sub},
+                  {"bump_height_texels", mo.bump_height},
+                  {"relief_texels", mo.relief},
+                  {"facet_reflectance", "Lambertian base + Phong coat, Schlick Fresnel"},
+                  {"facet_ior", mo.ior},
+                  {"facet_lobe_exponent", mo.lobe_exponent},
+                  {"transport", "ray-traced self-shadowing and masking, one diffuse bounce"}};
+  }
   return j.dump(2) + "\n";
 }
 
@@ -147,14 +163,23 @@ StatusOr<SynthResult> Synthesize(const SynthOptions& o, const ProgressFn& progre
   if (!lights.ok()) return lights.status();
   // BTF layouts store the angles in the file names: quantise so names and pixels agree.
   if (o.layout == Layout::kBonn || o.layout == Layout::kUtia) QuantizeToIntegerDegrees(&*lights);
-  auto maps = MakeMaterial(o.material, o.size, o.rows(), o.seed);
-  if (!maps.ok()) return maps.status();
   SynthResult r;
-  r.truth = std::move(*maps);
-  r.cast_shadows = o.shadows || FindMaterial(o.material)->self_shadowing;
-  RenderOptions ro;
-  ro.cast_shadows = r.cast_shadows;
-  r.stack = RenderStack(r.truth, *lights, ro, progress);
+  if (const MaterialInfo* info = FindMaterial(o.material); info && info->micro_geometry) {
+    auto surface = MakeMicroSurface(o.size, o.rows(), o.seed);
+    if (!surface.ok()) return surface.status();
+    r.truth = MicroTruthMaps(*surface);
+    r.cast_shadows = true;  // part of its light transport
+    r.stack = RenderMicroStack(*surface, *lights, {0, 0, 1}, progress);
+    r.micro_surface = std::make_shared<const MicroSurface>(std::move(*surface));
+  } else {
+    auto maps = MakeMaterial(o.material, o.size, o.rows(), o.seed);
+    if (!maps.ok()) return maps.status();
+    r.truth = std::move(*maps);
+    r.cast_shadows = o.shadows || FindMaterial(o.material)->self_shadowing;
+    RenderOptions ro;
+    ro.cast_shadows = r.cast_shadows;
+    r.stack = RenderStack(r.truth, *lights, ro, progress);
+  }
   PerturbOptions po = o.perturb;
   po.seed = o.seed;
   r.perturb = ApplyPerturbations(po, &r.stack);

@@ -5,6 +5,7 @@
 #include "core/progress_fn.h"
 
 #include <cstdint>
+#include <memory>
 #include <string>
 
 #include "core/dataset/dataset.h"
@@ -30,8 +31,13 @@ struct SynthOptions {
   bool Check(std::string* why) const;
 };
 
+struct MicroSurface;  // micro_geometry.h
+
 struct SynthResult {
   MaterialMaps truth;
+  // Micro-geometry materials (MaterialInfo::micro_geometry): the surface the stack was rendered
+  // from, whose RenderMicroStack is the relighting truth (`truth` holds normal and albedo only).
+  std::shared_ptr<const MicroSurface> micro_surface;
   LightStack stack;       // perturbed, linear, as it will be written (before quantisation)
   PerturbRecord perturb;  // what the perturbations did
   bool cast_shadows = false;

@@ -63,4 +63,12 @@ StatusOr<MaterialMaps> ReadTruth(const std::string& dir, const std::string& conf
   return m;
 }
 
+bool TruthMapsAreTheAppearance(const std::string& dir, const std::string& confine_to) {
+  auto path = ResolveInDataset((fs::path(dir) / "params.json").string(), confine_to);
+  std::ifstream in(path.ok() ? *path : std::string());
+  const nlohmann::json params = nlohmann::json::parse(in, nullptr, false);
+  return !(params.is_object() && params.contains("appearance") &&
+           params["appearance"] == "micro-geometry");
+}
+
 }  // namespace matfit::synth

@@ -15,4 +15,8 @@ std::string FindTruthFolder(const std::string& source);
 // `confine_to` (the server's dataset folder) every file must resolve inside it.
 StatusOr<MaterialMaps> ReadTruth(const std::string& truth_dir, const std::string& confine_to = "");
 
+// Whether the truth maps' model renders the dataset's images (params.json "appearance" is not
+// "micro-geometry"): only then is relighting the maps a truth to compare relighting errors with.
+bool TruthMapsAreTheAppearance(const std::string& truth_dir, const std::string& confine_to = "");
+
 }  // namespace matfit::synth

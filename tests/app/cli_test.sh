@@ -24,7 +24,7 @@ for layout in bonn utia lp diligent lights-txt; do
 done
 
 # Every named material renders; bonn81 reports its groups.
-for m in plaster plastic plastic-ct wool corduroy granite leaf; do
+for m in plaster plastic plastic-ct wool corduroy granite leaf micro-stone; do
   "$bin" synth --material $m --lights bonn81 --size 8 --noise 0.01 --shadows --clip 0.9 --seed 3 \
     --layout bonn --bits 8 --out "$tmp/m-$m" >/dev/null && ok || bad "synth material $m"
 done
@@ -47,6 +47,12 @@ msg=$("$bin" synth --material velvet --out "$tmp/v" 2>&1); rc=$?
 [ $rc -ne 0 ] && ok || bad "unknown material should fail"
 expect_contains "unknown material" "$msg" "choose one of: plaster"
 [ ! -e "$tmp/v" ] && ok || bad "failed synth left output"
+# micro-stone: its truth is micro-geometry (params.json says so), and its size is capped.
+grep -q '"appearance": "micro-geometry"' "$tmp/m-micro-stone/truth/params.json" && ok || bad "micro-stone params"
+msg=$("$bin" synth --material micro-stone --size 600 --out "$tmp/big" 2>&1); rc=$?
+[ $rc -ne 0 ] && ok || bad "micro-stone 600² should fail"
+expect_contains "micro-stone size" "$msg" "at most 512 texels per side"
+[ ! -e "$tmp/big" ] && ok || bad "failed micro-stone synth left output"
 msg=$("$bin" synth --material plaster --out "$tmp/obj-lp" 2>&1); rc=$?
 [ $rc -ne 0 ] && ok || bad "existing output should fail without --force"
 expect_contains "existing output" "$msg" "--force"

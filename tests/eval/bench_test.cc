@@ -83,7 +83,7 @@ TEST(Bench, QuickSuiteScoresEveryMethodOnEveryCase) {
                     std::filesystem::exists(std::string(MATFIT_SHARED_DATA) + "/leaf-sheet");
   if (!real)
     std::printf("shared data absent: the real cases are skipped (%zu)\n", r->skipped.size());
-  EXPECT_EQ(r->cases.size(), real ? 9u : 6u);
+  EXPECT_EQ(r->cases.size(), real ? 10u : 7u);
   ASSERT_EQ(r->points.size(), r->cases.size() * 2);
   for (size_t i = 0; i < r->points.size(); i += 2) {
     const BenchPoint& mean = r->points[i];
