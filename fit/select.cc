@@ -5,6 +5,7 @@
 #include <cmath>
 #include <nlohmann/json.hpp>
 
+#include "core/color.h"
 #include "core/model/model.h"
 #include "core/stack_ops.h"
 #include "core/warnings.h"
@@ -26,6 +27,9 @@ struct HeldOutSums {
   std::vector<int64_t> count;   // per image: samples
   std::vector<double> env_err;  // per texel × channel: Σ_i w_i (pred − meas), w_i = max(0, l_z)
   std::vector<double> env_w;    // per texel × channel: Σ_i w_i over the images it was scored on
+  // sRGB metric, environment light: Σ_i w_i pred and Σ_i w_i meas apart (the codes of the
+  // averages are compared, not averaged code differences).
+  std::vector<double> env_pred, env_meas;
   int64_t flagged = 0, scored = 0;
   double fit_seconds = 0;
   MaterialMaps last_maps;
@@ -39,12 +43,15 @@ struct HeldOutSums {
 // fold's fit is assessed like a shipped fit (fit/assess.h): texels it cannot bound count as
 // flagged. Fine texels whose coarse parent lies outside the (coarser) mask are not scored.
 StatusOr<HeldOutSums> Score(const FitMethod& m, const LightStack& fine, const LightStack& coarse,
-                            int k, int folds, const FitOptions& options, bool environment) {
+                            int k, int folds, const FitOptions& options, bool environment,
+                            bool srgb8) {
   const int n = fine.num_images(), C = fine.channels();
   const int64_t T = fine.plane_size();
   HeldOutSums h;
   h.sse.assign(size_t(n), 0), h.count.assign(size_t(n), 0);
   if (environment) h.env_err.assign(size_t(T) * C, 0), h.env_w.assign(size_t(T) * C, 0);
+  if (environment && srgb8)
+    h.env_pred.assign(size_t(T) * C, 0), h.env_meas.assign(size_t(T) * C, 0);
   const std::vector<float> inv = InverseIntensities(fine);
   const bool clip = StackMayBeClipped(fine);
   const Vec3f v(fine.view_direction);
@@ -97,11 +104,19 @@ StatusOr<HeldOutSums> Score(const FitMethod& m, const LightStack& fine, const Li
               const float raw = row[x];
               if (!scored[size_t(x)] || !std::isfinite(raw) || (clip && raw >= kClipLevel))
                 continue;
-              const double d = pr[std::min(CW - 1, x >> k)] - raw * s;
+              const float predicted = pr[std::min(CW - 1, x >> k)];
+              // sRGB: the codes of the sample and of the prediction times the light's intensity
+              // (as fit/metrics.h scores held-out lights), in units of full scale.
+              const double d =
+                  srgb8 && !environment
+                      ? (int(LinearToSrgb8Fast(predicted / s)) - int(LinearToSrgb8Fast(raw))) /
+                            255.0
+                      : predicted - raw * s;
               h.sse[size_t(i)] += d * d, ++h.count[size_t(i)];
               if (environment) {
                 const size_t e = size_t(int64_t(y) * W + x) * C + c;
                 h.env_err[e] += w * d, h.env_w[e] += w;
+                if (srgb8) h.env_pred[e] += w * predicted, h.env_meas[e] += w * raw * s;
               }
             }
           }
@@ -144,8 +159,14 @@ double SceneError(const HeldOutSums& h, const std::vector<double>& w, const Scen
   if (scene.environment) {
     double e2 = 0;
     int64_t k = 0;
-    for (size_t j = 0; j < h.env_err.size(); ++j)
-      if (h.env_w[j] > 0) e2 += std::pow(h.env_err[j] / h.env_w[j], 2), ++k;
+    for (size_t j = 0; j < h.env_err.size(); ++j) {
+      if (!(h.env_w[j] > 0)) continue;
+      const double d = scene.srgb8 ? (int(LinearToSrgb8Fast(float(h.env_pred[j] / h.env_w[j]))) -
+                                      int(LinearToSrgb8Fast(float(h.env_meas[j] / h.env_w[j])))) /
+                                         255.0
+                                   : h.env_err[j] / h.env_w[j];
+      e2 += d * d, ++k;
+    }
     return k ? std::sqrt(e2 / k) : NAN;
   }
   double num = 0, den = 0;
@@ -164,7 +185,7 @@ bool SceneSpec::Check(std::string* why) const {
     return fail("texel_footprint_px must be > 0 (screen pixels per texel), got " +
                 std::to_string(texel_footprint_px));
   if (!(error_budget > 0) || !std::isfinite(error_budget))
-    return fail("error_budget must be > 0 (held-out RMSE, linear), got " +
+    return fail("error_budget must be > 0 (held-out RMSE in the error_metric's unit), got " +
                 std::to_string(error_budget));
   if (memory_budget_bytes < 0 || !std::isfinite(memory_budget_bytes))
     return fail("memory_budget_bytes must be ≥ 0 (0 = unlimited)");
@@ -191,14 +212,14 @@ StatusOr<SceneSpec> ParseScene(const std::string& text, const std::string& sourc
     return Status::Ok();
   };
   static const char* kKeys[] = {
-      "schema",      "texel_footprint_px",  "lighting",     "light",      "sun_theta_deg",
-      "sun_phi_deg", "memory_budget_bytes", "error_budget", "description"};
+      "schema",      "texel_footprint_px",  "lighting",     "light",        "sun_theta_deg",
+      "sun_phi_deg", "memory_budget_bytes", "error_budget", "error_metric", "description"};
   for (const auto& item : j.items()) {
     const std::string& k = item.key();  // lambdas cannot capture structured bindings (clang)
     if (std::none_of(std::begin(kKeys), std::end(kKeys), [&](const char* x) { return k == x; }))
       return InvalidArgument(source + ": unknown field '" + k +
                              "' (known: texel_footprint_px, lighting, light, sun_theta_deg, "
-                             "sun_phi_deg, memory_budget_bytes, error_budget)");
+                             "sun_phi_deg, memory_budget_bytes, error_budget, error_metric)");
   }
   if (j.contains("schema") && j["schema"] != "matfit.scene/1")
     return InvalidArgument(source + ": field 'schema' must be \"matfit.scene/1\"");
@@ -212,6 +233,12 @@ StatusOr<SceneSpec> ParseScene(const std::string& text, const std::string& sourc
     if (v != "dynamic" && v != "static")
       return InvalidArgument(source + ": field 'lighting' must be \"dynamic\" or \"static\"");
     s.static_light = v == "static";
+  }
+  if (j.contains("error_metric")) {
+    const auto& v = j["error_metric"];
+    if (v != "linear" && v != "srgb8")
+      return InvalidArgument(source + ": field 'error_metric' must be \"linear\" or \"srgb8\"");
+    s.srgb8 = v == "srgb8";
   }
   if (j.contains("light")) {
     const auto& v = j["light"];
@@ -317,7 +344,8 @@ StatusOr<Selection> SelectModel(const LightStack& stack, const SceneSpec& scene,
       sel.candidates.push_back(c);
       continue;
     }
-    auto h = Score(*cands[idx].first, *fine, *coarse[k], k, folds, fit_options, scene.environment);
+    auto h = Score(*cands[idx].first, *fine, *coarse[k], k, folds, fit_options, scene.environment,
+                   scene.srgb8);
     if (!h.ok()) return h.status();
     c.evaluated = true;
     c.fit_seconds = h->fit_seconds;
@@ -362,16 +390,17 @@ StatusOr<Selection> SelectModel(const LightStack& stack, const SceneSpec& scene,
   sel.method = c.method;
   sel.level = c.level, sel.width = c.width, sel.height = c.height;
   sel.error = c.error;
-  const char* weighting = scene.environment                       ? "environment-light"
-                          : (scene.static_light && !sun_fallback) ? "sun-weighted"
-                                                                  : "all-light";
+  const std::string weighting = std::string(scene.environment ? "environment-light"
+                                            : (scene.static_light && !sun_fallback) ? "sun-weighted"
+                                                                                    : "all-light") +
+                                (scene.srgb8 ? " 8-bit sRGB" : "");
   char buf[480];
   if (sel.budget_met)
     std::snprintf(buf, sizeof buf,
                   "%s at %dx%d (mip %d; the scene shows mip %d): held-out %s error %.4g meets the "
                   "budget %.4g with %lld bytes of maps; candidates are tried from the fewest bytes "
                   "up and this was the first to meet it (%d evaluated)",
-                  c.method.c_str(), c.width, c.height, c.level, level, weighting, c.error,
+                  c.method.c_str(), c.width, c.height, c.level, level, weighting.c_str(), c.error,
                   scene.error_budget, (long long)c.bytes, int(done));
   else
     std::snprintf(buf, sizeof buf,
@@ -379,7 +408,7 @@ StatusOr<Selection> SelectModel(const LightStack& stack, const SceneSpec& scene,
                   "%.4g; this is the most accurate of the %d evaluated, held-out %s error %.4g, "
                   "%lld bytes of maps",
                   c.method.c_str(), c.width, c.height, c.level, level, scene.error_budget,
-                  int(done), weighting, c.error, (long long)c.bytes);
+                  int(done), weighting.c_str(), c.error, (long long)c.bytes);
   sel.reason = buf;
   return sel;
 }
@@ -417,6 +446,7 @@ std::string SelectionJson(const Selection& s, const SceneSpec& scene) {
               {"sun_phi_deg", scene.sun_phi_deg},
               {"memory_budget_bytes", scene.memory_budget_bytes},
               {"error_budget", scene.error_budget},
+              {"error_metric", scene.srgb8 ? "srgb8" : "linear"},
               {"source", scene.source}}},
             {"candidates", cands}};
   return j.dump();

@@ -8,7 +8,10 @@
 //                       hemisphere, cosine-weighted)
 //   sun_theta_deg, sun_phi_deg   static directional: the sun's direction
 //   memory_budget_bytes          0 = unlimited
-//   error_budget                 held-out RMSE allowed (linear radiance), > 0
+//   error_budget                 held-out RMSE allowed, > 0, in the error metric's unit
+//   error_metric                 "linear" (RMSE of linear radiance, the default) or "srgb8":
+//                                RMS difference of the 8-bit sRGB codes of measurement and
+//                                prediction / 255 (what RTI users read as PSNR: 20 log10(1 / e))
 // Level L = max(0, floor(log2(1 / footprint))), clamped so ≥ 4 texels per side remain: the
 // stack is box-downsampled by 2^L (what the
 // renderer shows), and candidates are (model, map resolution 2^-(L+k), k = 0..2). Each is
@@ -38,6 +41,7 @@ struct SceneSpec {
   double sun_theta_deg = 0, sun_phi_deg = 0;
   double memory_budget_bytes = 0;
   double error_budget = 0.02;
+  bool srgb8 = false;  // error_metric "srgb8" (else linear)
   std::string source;  // file it came from (for messages)
 
   bool Check(std::string* why) const;

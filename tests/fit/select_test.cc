@@ -2,6 +2,8 @@
 // budget is loose, clear errors for bad scenes.
 #include <gtest/gtest.h>
 
+#include <cstdio>
+
 #include "core/stack_ops.h"
 #include "fit/holdout.h"
 #include "fit/method.h"
@@ -78,6 +80,56 @@ TEST(Select, NeverOverTheBudgetAndNoLargerThanTheTrueModelWhenLoose) {
       }
     }
   }
+}
+
+// Issue 19 item 5: auto can choose by the metric the scene asks for. With error_metric srgb8 a
+// candidate's error is the RMS difference of 8-bit sRGB codes / 255 — HeldOut's rmse_srgb8 —
+// and a dark material, where sRGB magnifies the errors, needs more model for the same budget.
+TEST(Select, TheSrgbMetricScoresCodesAndAsksMoreOfDarkMaterials) {
+  auto scene_json = ParseScene("{\"error_metric\": \"srgb8\", \"error_budget\": 0.02}", "s.json");
+  ASSERT_TRUE(scene_json.ok()) << scene_json.status().ToString();
+  EXPECT_TRUE(scene_json->srgb8);
+  EXPECT_NE(ParseScene("{\"error_metric\": \"psnr\"}", "s.json")
+                .status()
+                .message()
+                .find("'error_metric'"),
+            std::string::npos);
+  auto data = SynthData({.material = "plastic", .size = 32, .noise = 0.005});
+  // Darken: a quarter of the exposure.
+  for (int i = 0; i < data.stack.num_images(); ++i)
+    for (int c = 0; c < 3; ++c)
+      for (float& v : data.stack.Plane(i, c)) v *= 0.25f;
+  SelectOptions o;
+  o.max_coarser_levels = 0;
+  // Measured: lambert 0.0156 linear but 0.040 in sRGB codes; blinn-phong 0.0013 / 0.0063.
+  std::printf("dark plastic, budget 0.02:\n");
+  std::string chosen[2];
+  for (int srgb = 0; srgb < 2; ++srgb) {
+    SceneSpec scene;
+    scene.error_budget = 0.02;
+    scene.srgb8 = srgb == 1;
+    auto sel = SelectModel(data.stack, scene, o);
+    ASSERT_TRUE(sel.ok()) << sel.status().ToString();
+    chosen[srgb] = sel->method;
+    std::printf("  %s: %s\n", srgb ? "srgb8" : "linear", sel->reason.c_str());
+    if (srgb) {
+      auto h = HeldOut(*MakeMethod(sel->method), data.stack, o.folds, {});
+      ASSERT_TRUE(h.ok());
+      EXPECT_NEAR(sel->error, h->rmse_srgb8 / 255, 1e-6 + 0.02 * scene.error_budget);
+      EXPECT_NE(sel->reason.find("8-bit sRGB"), std::string::npos);
+    }
+  }
+  EXPECT_LT(MakeMethod(chosen[0])->bytes_per_texel(), MakeMethod(chosen[1])->bytes_per_texel())
+      << chosen[0] << " vs " << chosen[1];
+  EXPECT_EQ(chosen[0], "lambert");
+  // Under environment light the codes of the cosine-weighted averages are compared.
+  SceneSpec env;
+  env.static_light = env.environment = env.srgb8 = true;
+  env.error_budget = 0.02;
+  auto sel = SelectModel(data.stack, env, o);
+  ASSERT_TRUE(sel.ok()) << sel.status().ToString();
+  EXPECT_GT(sel->error, 0);
+  EXPECT_LE(sel->error, 0.02);
 }
 
 TEST(Select, GlossyMaterialNeedsASpecularModelUnderATightBudget) {
