@@ -112,8 +112,11 @@ int RunFit(FitArgs& a) {
   for (const auto& [what, ratio] : {std::pair{"held-out lights", r->bound_ratio_heldout},
                                     std::pair{"truth", r->bound_ratio_truth}})
     if (ratio && ratio->texels > 0)
-      std::printf("bound       %.2f× the %s error (median over %lld texels; p90 %.2f×)\n",
-                  ratio->median, what, (long long)ratio->texels, ratio->p90);
+      std::printf(
+          "bound       %.2f× the %s error (median over %lld texels; p90 %.2f×; exceeded on "
+          "%.2f %%)\n",
+          ratio->median, what, (long long)ratio->texels, ratio->p90,
+          100 * ratio->exceeded_fraction);
   if (r->truth && r->truth->has_normal)
     std::printf("vs truth    normal MAE %.3f°, p95 %.3f°\n", r->truth->normal_mae_deg,
                 r->truth->normal_p95_deg);

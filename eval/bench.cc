@@ -154,6 +154,7 @@ BenchPoint RunPoint(const fit::FitMethod& method, const std::string& dataset, co
       const fit::BoundRatio ratio =
           fit::BoundToActualRatio(a.confidence.bound, h->texel_rmse, fit->status);
       pt.loo_bound_ratio_median = ratio.median, pt.loo_bound_ratio_p90 = ratio.p90;
+      pt.loo_bound_exceeded_fraction = ratio.exceeded_fraction;
     }
   }
   if (data.truth) {
@@ -339,6 +340,7 @@ std::string BenchJson(const BenchResult& r) {
                       {"loo_psnr_srgb8_db", num(p.loo_psnr_srgb8_db)},
                       {"loo_bound_ratio_median", num(p.loo_bound_ratio_median)},
                       {"loo_bound_ratio_p90", num(p.loo_bound_ratio_p90)},
+                      {"loo_bound_exceeded_fraction", num(p.loo_bound_exceeded_fraction)},
                       {"normal_mae_deg", opt(p.normal_mae_deg)},
                       {"albedo_rmse", opt(p.albedo_rmse)},
                       {"relight_rmse", opt(p.relight_rmse)},

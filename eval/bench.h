@@ -65,6 +65,7 @@ struct BenchPoint {
   // The bound's tightness against those held-out lights: median and p90 over texels of the
   // per-texel bound / held-out RMS (fit/confidence.h BoundRatio).
   double loo_bound_ratio_median = NAN, loo_bound_ratio_p90 = NAN;
+  double loo_bound_exceeded_fraction = NAN;  // texels whose held-out error exceeds their bound
   std::optional<double> normal_mae_deg, albedo_rmse;
   std::optional<double> relight_rmse;  // vs truth over a 48-light dome (synthetic only)
   int64_t flagged_texels = 0;

@@ -170,6 +170,8 @@ BoundRatio BoundToActualRatio(const std::vector<float>& bound, const std::vector
     std::nth_element(r.begin(), r.begin() + k, r.end());
     return r[k];
   };
+  out.exceeded_fraction =
+      double(std::count_if(r.begin(), r.end(), [](double v) { return v < 1; })) / double(r.size());
   out.median = quantile(0.5);
   out.p90 = quantile(0.9);
   return out;

@@ -77,6 +77,7 @@ Confidence ComputeConfidence(const LightStack& stack, const MaterialMaps& maps, 
 struct BoundRatio {
   double median = NAN, p90 = NAN;
   int64_t texels = 0;
+  double exceeded_fraction = NAN;  // share of those texels whose error exceeds the bound
 };
 BoundRatio BoundToActualRatio(const std::vector<float>& bound, const std::vector<float>& actual,
                               const std::vector<uint8_t>& status);

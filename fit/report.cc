@@ -87,7 +87,8 @@ std::string MakeReportJson(const FitReportInputs& in) {
     const auto ratio = [](const std::optional<BoundRatio>& tight) {
       return tight ? json{{"median", Finite(tight->median)},
                           {"p90", Finite(tight->p90)},
-                          {"texels", tight->texels}}
+                          {"texels", tight->texels},
+                          {"exceeded_fraction", Finite(tight->exceeded_fraction)}}
                    : json();
     };
     j["confidence"]["bound_ratio"] = {{"heldout", ratio(in.bound_ratio_heldout)},

@@ -139,6 +139,7 @@ TEST(Bench, QuickSuiteScoresEveryMethodOnEveryCase) {
                                                          "loo_psnr_srgb8_db",
                                                          "loo_bound_ratio_median",
                                                          "loo_bound_ratio_p90",
+                                                         "loo_bound_exceeded_fraction",
                                                          "normal_mae_deg",
                                                          "albedo_rmse",
                                                          "relight_rmse",

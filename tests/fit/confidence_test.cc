@@ -77,8 +77,10 @@ TEST(Confidence, BoundToActualRatioIsOverOkTexelsWithAnError) {
   status[5] = kTexelSaturated;
   const BoundRatio r = BoundToActualRatio(bound, actual, status);
   EXPECT_EQ(r.texels, 5);
-  EXPECT_DOUBLE_EQ(r.median, 3);  // sorted 1 2 3 4 8: element 2
-  EXPECT_DOUBLE_EQ(r.p90, 8);     // element min(4, ⌊0.9 · 5⌋) = 4
+  EXPECT_DOUBLE_EQ(r.median, 3);             // sorted 1 2 3 4 8: element 2
+  EXPECT_DOUBLE_EQ(r.p90, 8);                // element min(4, ⌊0.9 · 5⌋) = 4
+  EXPECT_DOUBLE_EQ(r.exceeded_fraction, 0);  // every ratio ≥ 1
+  EXPECT_DOUBLE_EQ(BoundToActualRatio({1, 1, 3}, {2, 4, 1}, {}).exceeded_fraction, 2.0 / 3);
   EXPECT_EQ(BoundToActualRatio({}, {}, {}).texels, 0);
   EXPECT_TRUE(std::isnan(BoundToActualRatio({}, {}, {}).median));
 }

@@ -177,6 +177,7 @@ TEST(FitJob, ReportsHowTightTheBoundIsAgainstHeldOutLightsAndTruth) {
     EXPECT_GT(ratio[against]["median"].get<double>(), 1.0) << against;  // it bounds
     EXPECT_GE(ratio[against]["p90"].get<double>(), ratio[against]["median"].get<double>());
     EXPECT_GT(ratio[against]["texels"].get<int64_t>(), 0);
+    EXPECT_EQ(ratio[against]["exceeded_fraction"].get<double>(), 0.0) << against;  // no silent
   }
   auto stack = ReadDataset(kFixture);
   ASSERT_TRUE(stack.ok());

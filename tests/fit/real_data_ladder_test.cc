@@ -5,6 +5,8 @@
 #include <filesystem>
 
 #include "core/dataset/dataset.h"
+#include "fit/assess.h"
+#include "fit/confidence.h"
 #include "fit/fit_types.h"
 #include "fit/holdout.h"
 #include "fit/method.h"
@@ -61,6 +63,33 @@ TEST(RealHeldOut, RobustAndNonlinearModelsBeatPlainLambertOnTheCat) {
     ASSERT_TRUE(better.ok()) << name;
     EXPECT_LT(better->rmse, plain->rmse) << name;
     EXPECT_EQ(better->failed_folds, 0) << name;
+  }
+}
+
+// Issue 19: the per-texel bound (the pack's confidence map) against real held-out lights, leave-
+// one-out: no texel's held-out error exceeds it (no silent failure on real data), and the bound
+// is a bound, not a loose ceiling of 100×. Measured 2026-12-04: lambert 9.4× (gray) / 7.4× (cat)
+// median, 0 texels exceeded; the issue's ≤ 4 is not met (docs/stability.md says why).
+TEST(RealHeldOut, NoTexelExceedsItsBoundOnLeaveOneOutLights) {
+  for (const char* object : {"gray", "cat"}) {
+    const std::string dir = SharedDir() + "/psm/" + object;
+    if (!std::filesystem::exists(dir)) GTEST_SKIP() << "shared data 'psm' not found; skipping";
+    auto s = ReadDataset(dir);
+    ASSERT_TRUE(s.ok());
+    for (const char* name : {"lambert", "lambert-robust", "ptm"}) {
+      auto method = MakeMethod(name);
+      auto fit = method->Fit(*s, {});
+      ASSERT_TRUE(fit.ok()) << name;
+      const FitAssessment a = AssessFit(*s, *method, &*fit);
+      auto h = HeldOut(*method, *s, kLeaveOneOut, {});
+      ASSERT_TRUE(h.ok()) << name;
+      const BoundRatio r = BoundToActualRatio(a.confidence.bound, h->texel_rmse, fit->status);
+      SCOPED_TRACE(std::string(object) + " " + name);
+      EXPECT_GT(r.texels, s->MaskedTexels() * 9 / 10);
+      EXPECT_LE(r.exceeded_fraction, 0.001);
+      EXPECT_GT(r.median, 1.5);
+      EXPECT_LT(r.median, 15.0);
+    }
   }
 }
 
