@@ -35,69 +35,72 @@ ReconstructionMetrics Reconstruction(const LightStack& s, const std::vector<int>
       .reconstruction;
 }
 
-std::vector<float> RelightingError(const MaterialMaps& f, const MaterialMaps& t,
-                                   const std::vector<Vec3>& lights, const Vec3& view) {
-  const int64_t T = int64_t(t.width) * t.height;
+namespace {
+
+// Per texel: sqrt(Σ d² / (lights · channels)) over the differences `add(i, p0, n, scratch, acc)`
+// accumulates for light i into acc[k] (texel p0 + k); NaN where keep(p) is false. Runs of
+// kEvalRun texels in parallel; `scratch` holds 6 · kEvalRun floats per thread.
+template <typename Add, typename Keep>
+std::vector<float> PerTexelRms(int64_t T, int lights, int channels, const Add& add,
+                               const Keep& keep) {
   std::vector<float> err(size_t(T), NAN);
-  std::vector<Vec3f> dirs(lights.begin(), lights.end());
-  const BatchEvaluator fe(f, dirs, Vec3f(view)), te(t, dirs, Vec3f(view));
   ParallelFor(0, Runs(T), [&](int64_t r0, int64_t r1) {
-    std::vector<float> a(size_t(3) * kEvalRun), b(size_t(3) * kEvalRun);
+    std::vector<float> scratch(size_t(6) * kEvalRun);
     std::vector<double> acc(kEvalRun);
     for (int64_t r = r0; r < r1; ++r) {
       const int64_t p0 = r * kEvalRun;
       const int n = int(std::min<int64_t>(kEvalRun, T - p0));
       std::fill_n(acc.begin(), n, 0.0);
-      for (int i = 0; i < int(dirs.size()); ++i) {
-        fe.Evaluate(i, p0, n, 3, a.data());
-        te.Evaluate(i, p0, n, 3, b.data());
-        for (int c = 0; c < 3; ++c)
-          for (int k = 0; k < n; ++k) {
-            const double d = double(a[size_t(c * n + k)]) - double(b[size_t(c * n + k)]);
-            acc[size_t(k)] += d * d;
-          }
-      }
-      const double norm = 3.0 * std::max<size_t>(1, lights.size());
+      for (int i = 0; i < lights; ++i) add(i, p0, n, scratch.data(), acc.data());
+      const double norm = double(channels) * std::max(1, lights);
       for (int k = 0; k < n; ++k)
-        if (t.mask.empty() || t.mask.data()[size_t(p0 + k)] >= 0.5f)
-          err[size_t(p0 + k)] = float(std::sqrt(acc[size_t(k)] / norm));
+        if (keep(p0 + k)) err[size_t(p0 + k)] = float(std::sqrt(acc[size_t(k)] / norm));
     }
   });
   return err;
 }
 
+}  // namespace
+
+std::vector<float> RelightingError(const MaterialMaps& f, const MaterialMaps& t,
+                                   const std::vector<Vec3>& lights, const Vec3& view) {
+  std::vector<Vec3f> dirs(lights.begin(), lights.end());
+  const BatchEvaluator fe(f, dirs, Vec3f(view)), te(t, dirs, Vec3f(view));
+  return PerTexelRms(
+      int64_t(t.width) * t.height, int(dirs.size()), 3,
+      [&](int i, int64_t p0, int n, float* scratch, double* acc) {
+        float *a = scratch, *b = scratch + size_t(3) * kEvalRun;
+        fe.Evaluate(i, p0, n, 3, a);
+        te.Evaluate(i, p0, n, 3, b);
+        for (int c = 0; c < 3; ++c)
+          for (int k = 0; k < n; ++k) {
+            const double d = double(a[size_t(c * n + k)]) - double(b[size_t(c * n + k)]);
+            acc[k] += d * d;
+          }
+      },
+      [&](int64_t p) { return t.mask.empty() || t.mask.data()[size_t(p)] >= 0.5f; });
+}
+
 std::vector<float> RelightingError(const MaterialMaps& f, const LightStack& t) {
-  const int64_t T = t.plane_size();
-  std::vector<float> err(size_t(T), NAN);
   std::vector<Vec3f> dirs;
   for (const LightSample& l : t.lights()) dirs.emplace_back(l.direction);
   const BatchEvaluator fe(f, dirs, Vec3f(t.view_direction));
   const int C = t.channels();
-  ParallelFor(0, Runs(T), [&](int64_t r0, int64_t r1) {
-    std::vector<float> a(size_t(3) * kEvalRun), scratch(kEvalRun);
-    std::vector<double> acc(kEvalRun);
-    for (int64_t r = r0; r < r1; ++r) {
-      const int64_t p0 = r * kEvalRun;
-      const int n = int(std::min<int64_t>(kEvalRun, T - p0));
-      std::fill_n(acc.begin(), n, 0.0);
-      for (int i = 0; i < int(dirs.size()); ++i) {
-        fe.Evaluate(i, p0, n, 3, a.data());
+  return PerTexelRms(
+      t.plane_size(), int(dirs.size()), C,
+      [&](int i, int64_t p0, int n, float* scratch, double* acc) {
+        float* a = scratch;
+        fe.Evaluate(i, p0, n, 3, a);
         for (int c = 0; c < C; ++c) {
-          const float* b = t.Texels(i, c, p0, n, scratch.data());
+          const float* b = t.Texels(i, c, p0, n, scratch + size_t(3) * kEvalRun);
           const double inv = 1.0 / t.lights()[size_t(i)].intensity[C == 1 ? 0 : c];
           for (int k = 0; k < n; ++k) {
             const double d = double(a[size_t(c * n + k)]) - double(b[k]) * inv;
-            acc[size_t(k)] += d * d;
+            acc[k] += d * d;
           }
         }
-      }
-      const double norm = double(C) * std::max<size_t>(1, dirs.size());
-      for (int k = 0; k < n; ++k)
-        if (!t.has_mask() || t.mask[size_t(p0 + k)] != 0)
-          err[size_t(p0 + k)] = float(std::sqrt(acc[size_t(k)] / norm));
-    }
-  });
-  return err;
+      },
+      [&](int64_t p) { return !t.has_mask() || t.mask[size_t(p)] != 0; });
 }
 
 double ShadingCostNs(const MaterialMaps& maps) {
