@@ -1,5 +1,6 @@
 #include "fit/light_cover.h"
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 
@@ -22,6 +23,20 @@ std::string LightCoverShortfall(const std::vector<LightSample>& lights, const Fi
                   method.name().c_str(), k, lit, kMinLightsPerCoefficient,
                   int(lit / kMinLightsPerCoefficient));
     return why;
+  }
+  const std::string& name = method.name();
+  if (name == "blinn-phong" || name == "cook-torrance" || name.rfind("lafortune", 0) == 0) {
+    double lo = 90, hi = 0;
+    for (const LightSample& l : lights)
+      if (l.direction.z > 0) lo = std::min(lo, l.theta_deg), hi = std::max(hi, l.theta_deg);
+    if (lit > 0 && hi - lo < kMinLobeElevationSpanDeg) {
+      std::snprintf(why, sizeof why,
+                    "every light lies at θl %.1f°…%.1f°: one elevation cannot separate %s's "
+                    "specular lobe from its diffuse term, and its predictions for other "
+                    "elevations are unreliable; use lambert, or add lights at other elevations",
+                    lo, hi, name.c_str());
+      return why;
+    }
   }
   const double condition = RelightBasisCondition(lights, method.name());
   if (!(condition <= kMaxBasisCondition)) {

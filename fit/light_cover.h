@@ -1,8 +1,10 @@
 // Whether a light set can support a model (issue 19): a model with nearly as many light-dependent
 // coefficients as lights, or a relighting basis the lights barely determine, fits the samples
 // closely and predicts other light directions badly — hsh3 on the 12-light psm sets: held-out
-// RMSE 9× lambert's (gray 0.209 vs 0.023), basis condition number 2427. The fit warns
-// (overfit-risk) and `--model auto` does not consider such a model.
+// RMSE 9× lambert's (gray 0.209 vs 0.023), basis condition number 2427. Nor can lights at one
+// elevation determine a specular lobe (its strength and width against the diffuse term): on the
+// leaf sheet's 45° ring the lobe models' leave-one-out errors were 2.9–1600× lambert's. The fit
+// warns (overfit-risk), claims no error bound, and `--model auto` does not consider the model.
 #pragma once
 
 #include <string>
@@ -16,6 +18,9 @@ class FitMethod;
 
 inline constexpr double kMinLightsPerCoefficient = 2;  // lit lights per light parameter
 inline constexpr double kMaxBasisCondition = 1000;     // σ_max / σ_min of the relighting basis
+// Lobe models need lit lights spread over at least this many degrees of elevation (the dataset's
+// elevation-span warning uses the same span).
+inline constexpr double kMinLobeElevationSpanDeg = 5;
 
 // Empty when `lights` support `method`; else why not, naming the counts and the fix.
 std::string LightCoverShortfall(const std::vector<LightSample>& lights, const FitMethod& method);

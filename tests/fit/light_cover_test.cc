@@ -1,6 +1,7 @@
 // A model the lights cannot support warns and is never chosen by --model auto (issue 19).
 #include <gtest/gtest.h>
 
+#include <cmath>
 #include <string>
 #include <vector>
 
@@ -52,6 +53,30 @@ TEST(LightCover, CountsLightsPerCoefficientAndTheBasisConditioning) {
   const std::string q = LightCoverShortfall(Lights(quadrant), *MakeMethod("hsh3"));
   EXPECT_NE(q.find("condition number"), std::string::npos) << q;
   EXPECT_EQ(RelightBasisCondition(Lights(quadrant), "lambert"), 0.0);
+}
+
+// One elevation cannot determine a specular lobe: a ring of 12 at 45° supports lambert and
+// refuses every lobe model; a 5° spread of elevations is enough. The fit then claims no bound.
+TEST(LightCover, LobeModelsNeedMoreThanOneElevation) {
+  std::vector<std::pair<double, double>> ring, two;
+  for (int k = 0; k < 12; ++k)
+    ring.push_back({45, 30.0 * k}), two.push_back({40 + 5.0 * (k % 2), 30.0 * k});
+  for (const char* name : {"blinn-phong", "cook-torrance", "lafortune1", "lafortune2"}) {
+    const std::string why = LightCoverShortfall(Lights(ring), *MakeMethod(name));
+    EXPECT_NE(why.find("one elevation cannot separate"), std::string::npos) << name << ": " << why;
+    EXPECT_EQ(LightCoverShortfall(Lights(two), *MakeMethod(name)), "") << name;
+  }
+  EXPECT_EQ(LightCoverShortfall(Lights(ring), *MakeMethod("lambert")), "");
+  const auto data = SynthData({.material = "plastic", .lights = "ring12", .size = 12});
+  auto method = MakeMethod("blinn-phong");
+  auto fit = method->Fit(data.stack, {});
+  ASSERT_TRUE(fit.ok());
+  const FitAssessment a = AssessFit(data.stack, *method, &*fit);
+  EXPECT_TRUE(HasOverfitWarning(*fit));
+  for (size_t p = 0; p < fit->status.size(); ++p) {
+    EXPECT_EQ(fit->status[p], kTexelUnverifiable);
+    EXPECT_TRUE(std::isinf(a.confidence.bound[p]));
+  }
 }
 
 // The fit says so (summary and report.json warnings); a supported model does not.
