@@ -2,9 +2,10 @@
 // coefficients as lights, or a relighting basis the lights barely determine, fits the samples
 // closely and predicts other light directions badly — hsh3 on the 12-light psm sets: held-out
 // RMSE 9× lambert's (gray 0.209 vs 0.023), basis condition number 2427. Nor can lights at one
-// elevation determine a specular lobe (its strength and width against the diffuse term): on the
-// leaf sheet's 45° ring the lobe models' leave-one-out errors were 2.9–1600× lambert's. The fit
-// warns (overfit-risk), claims no error bound, and `--model auto` does not consider the model.
+// elevation check a specular lobe at any other: a noise-free Blinn–Phong ring (plastic-ring12)
+// is recovered exactly, but on the real leaf sheet's 45° ring the lobe models' leave-one-out
+// errors were 2.9–1600× lambert's and 2–4.5 % of texels exceeded their bounds. The fit warns
+// (overfit-risk), claims no error bound, and `--model auto` does not consider the model.
 #pragma once
 
 #include <string>
