@@ -5,6 +5,7 @@
 #include <cmath>
 #include <cstdio>
 #include <cstring>
+#include <limits>
 
 namespace matfit {
 
@@ -32,11 +33,18 @@ uint8_t LinearToSrgb8(float linear) {
   return uint8_t(std::lround(std::clamp(e * 255.0f, 0.0f, 255.0f)));
 }
 
-uint8_t LinearToSrgb8Fast(float linear) {
-  // bounds[k] (k ≥ 1): the smallest non-negative float v with LinearToSrgb8(v) ≥ k, found by
-  // bisection over the bit patterns of [0, 1] (non-negative floats order as their bits).
-  static const std::array<float, 256> bounds = [] {
-    std::array<float, 256> b{};
+namespace {
+
+// Exact 8-bit sRGB encoding without a pow. bounds[k] (1 ≤ k ≤ 255): the smallest non-negative
+// float v with LinearToSrgb8(v) ≥ k, found by bisection over the bit patterns of [0, 1]
+// (non-negative floats order as their bits); bounds[256] = +inf. base[i]: the code of i / kBins.
+// Codes are at least 3e-4 apart in linear (the narrowest, 1 → 2, near black), wider than a bin
+// (1 / 4096 = 2.4e-4), so a bin holds at most one boundary: code(v) = base[i] + (v ≥ next bound).
+constexpr int kBins = 4096;
+struct Srgb8Tables {
+  std::array<float, 257> bounds{};
+  std::array<uint8_t, kBins + 1> base{};
+  Srgb8Tables() {
     const auto code = [](uint32_t bits) {
       float v;
       std::memcpy(&v, &bits, sizeof v);
@@ -51,13 +59,21 @@ uint8_t LinearToSrgb8Fast(float linear) {
         const uint32_t mid = lo + (hi - lo) / 2;
         (code(mid) >= k ? hi : lo) = mid;
       }
-      std::memcpy(&b[size_t(k)], &hi, sizeof hi);
+      std::memcpy(&bounds[size_t(k)], &hi, sizeof hi);
     }
-    return b;
-  }();
-  int k = 0;
-  for (int step = 128; step >= 1; step /= 2) k += bounds[size_t(k + step)] <= linear ? step : 0;
-  return uint8_t(k);
+    bounds[256] = std::numeric_limits<float>::infinity();
+    for (int i = 0; i <= kBins; ++i) base[size_t(i)] = LinearToSrgb8(float(i) / kBins);
+  }
+};
+
+}  // namespace
+
+uint8_t LinearToSrgb8Fast(float linear) {
+  static const Srgb8Tables t;
+  if (!(linear > 0)) return 0;  // also NaN
+  if (linear >= 1) return 255;
+  const int k = t.base[size_t(linear * kBins)];
+  return uint8_t(k + (t.bounds[size_t(k + 1)] <= linear));
 }
 
 float DecodeToLinear(float stored, const ColorEncoding& enc) {

@@ -14,8 +14,8 @@ float LinearToSrgb(float linear);
 const float* Srgb8ToLinearTable();
 // Nearest 8-bit code of an sRGB-encoded linear value, clamped to [0, 255].
 uint8_t LinearToSrgb8(float linear);
-// The same code without a pow: a binary search (8 compares) over the 255 code boundaries, each the
-// smallest float that LinearToSrgb8 maps to that code or above. NaN maps to 0.
+// The same code without a pow: a 4096-bin table of codes plus one compare against the next code
+// boundary (exact: no bin holds two boundaries). NaN maps to 0.
 uint8_t LinearToSrgb8Fast(float linear);
 
 // How the stored values of an image relate to linear light.

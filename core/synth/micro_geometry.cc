@@ -1,7 +1,6 @@
 #include "core/synth/micro_geometry.h"
 
 #include <algorithm>
-#include <atomic>
 #include <cmath>
 #include <limits>
 
@@ -184,7 +183,7 @@ StatusOr<MicroSurface> MakeMicroSurface(int width, int height, uint64_t seed,
     return InvalidArgument(
         "micro-geometry materials are at most 512 texels per side (their "
         "micro-facet tables grow with the square), got " +
-        std::to_string(width) + "x" + std::to_string(height));
+        std::to_string(width) + "x" + std::to_string(height) + "; use --size 512 or less");
   MicroSurface s;
   s.width = width, s.height = height, s.options = options;
   s.mw = width * options.sub, s.mh = height * options.sub;
