@@ -8,11 +8,10 @@
 
 #include "core/color.h"
 #include "core/synth/light_sets.h"
-#include "core/synth/materials.h"
 #include "core/synth/micro_geometry.h"
 #include "core/synth/perturb.h"
 #include "core/synth/random.h"
-#include "core/synth/render_stack.h"
+#include "core/synth/synth.h"
 #include "fit/assess.h"
 #include "fit/method.h"
 #include "fit/metrics.h"
@@ -97,21 +96,12 @@ StatusOr<CaseData> MakeCase(const std::string& name, int size) {
     if (!set.ok()) return set.status();
     custom = std::move(*set);
   }
+  auto rendered = synth::RenderMaterial(material, size, size, 3, custom, shadows);
+  if (!rendered.ok()) return rendered.status();
   CaseData d;
-  if (synth::FindMaterial(material)->micro_geometry) {
-    auto surface = synth::MakeMicroSurface(size, size, 3);
-    if (!surface.ok()) return surface.status();
-    d.truth = synth::MicroTruthMaps(*surface);
-    d.stack = synth::RenderMicroStack(*surface, custom);
-    d.micro = std::make_shared<const synth::MicroSurface>(std::move(*surface));
-  } else {
-    auto maps = synth::MakeMaterial(material, size, 3);
-    if (!maps.ok()) return maps.status();
-    d.truth = std::move(*maps);
-    synth::RenderOptions ro;
-    ro.cast_shadows = shadows;
-    d.stack = synth::RenderStack(d.truth, custom, ro);
-  }
+  d.truth = std::move(rendered->truth);
+  d.stack = std::move(rendered->stack);
+  d.micro = std::move(rendered->micro_surface);
   synth::ApplyPerturbations(p, &d.stack);
   float* v = d.stack.data();
   const int64_t n = int64_t(d.stack.num_images()) * d.stack.channels() * d.stack.plane_size();

@@ -156,6 +156,30 @@ bool SynthOptions::Check(std::string* why) const {
   return perturb.Check(why);
 }
 
+StatusOr<RenderedMaterial> RenderMaterial(const std::string& material, int width, int height,
+                                          uint64_t seed, const std::vector<LightSample>& lights,
+                                          bool shadows, const ProgressFn& progress) {
+  const MaterialInfo* info = FindMaterial(material);
+  RenderedMaterial r;
+  if (info && info->micro_geometry) {
+    auto surface = MakeMicroSurface(width, height, seed);
+    if (!surface.ok()) return surface.status();
+    r.truth = MicroTruthMaps(*surface);
+    r.cast_shadows = true;  // part of its light transport
+    r.stack = RenderMicroStack(*surface, lights, {0, 0, 1}, progress);
+    r.micro_surface = std::make_shared<const MicroSurface>(std::move(*surface));
+    return r;
+  }
+  auto maps = MakeMaterial(material, width, height, seed);  // names the known materials if unknown
+  if (!maps.ok()) return maps.status();
+  r.truth = std::move(*maps);
+  r.cast_shadows = shadows || info->self_shadowing;
+  RenderOptions ro;
+  ro.cast_shadows = r.cast_shadows;
+  r.stack = RenderStack(r.truth, lights, ro, progress);
+  return r;
+}
+
 StatusOr<SynthResult> Synthesize(const SynthOptions& o, const ProgressFn& progress) {
   std::string why;
   if (!o.Check(&why)) return InvalidArgument(why);
@@ -163,23 +187,14 @@ StatusOr<SynthResult> Synthesize(const SynthOptions& o, const ProgressFn& progre
   if (!lights.ok()) return lights.status();
   // BTF layouts store the angles in the file names: quantise so names and pixels agree.
   if (o.layout == Layout::kBonn || o.layout == Layout::kUtia) QuantizeToIntegerDegrees(&*lights);
+  auto rendered =
+      RenderMaterial(o.material, o.size, o.rows(), o.seed, *lights, o.shadows, progress);
+  if (!rendered.ok()) return rendered.status();
   SynthResult r;
-  if (const MaterialInfo* info = FindMaterial(o.material); info && info->micro_geometry) {
-    auto surface = MakeMicroSurface(o.size, o.rows(), o.seed);
-    if (!surface.ok()) return surface.status();
-    r.truth = MicroTruthMaps(*surface);
-    r.cast_shadows = true;  // part of its light transport
-    r.stack = RenderMicroStack(*surface, *lights, {0, 0, 1}, progress);
-    r.micro_surface = std::make_shared<const MicroSurface>(std::move(*surface));
-  } else {
-    auto maps = MakeMaterial(o.material, o.size, o.rows(), o.seed);
-    if (!maps.ok()) return maps.status();
-    r.truth = std::move(*maps);
-    r.cast_shadows = o.shadows || FindMaterial(o.material)->self_shadowing;
-    RenderOptions ro;
-    ro.cast_shadows = r.cast_shadows;
-    r.stack = RenderStack(r.truth, *lights, ro, progress);
-  }
+  r.truth = std::move(rendered->truth);
+  r.stack = std::move(rendered->stack);
+  r.micro_surface = std::move(rendered->micro_surface);
+  r.cast_shadows = rendered->cast_shadows;
   PerturbOptions po = o.perturb;
   po.seed = o.seed;
   r.perturb = ApplyPerturbations(po, &r.stack);

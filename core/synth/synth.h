@@ -7,6 +7,7 @@
 #include <cstdint>
 #include <memory>
 #include <string>
+#include <vector>
 
 #include "core/dataset/dataset.h"
 #include "core/material_maps.h"
@@ -43,6 +44,19 @@ struct SynthResult {
   bool cast_shadows = false;
   std::string params_json;  // truth/params.json contents
 };
+
+// `material` (Materials()) at width × height texels under `lights`, noise-free: its truth maps
+// and stack, with cast shadows when `shadows` or the material shadows itself; micro-geometry
+// materials through their surface (kept in micro_surface). Pure computation.
+struct RenderedMaterial {
+  MaterialMaps truth;
+  LightStack stack;
+  std::shared_ptr<const MicroSurface> micro_surface;
+  bool cast_shadows = false;
+};
+StatusOr<RenderedMaterial> RenderMaterial(const std::string& material, int width, int height,
+                                          uint64_t seed, const std::vector<LightSample>& lights,
+                                          bool shadows, const ProgressFn& progress = {});
 
 // Pure computation (no I/O).
 // `progress` (optional, display only): images rendered.
