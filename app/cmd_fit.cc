@@ -96,6 +96,7 @@ int RunFit(FitArgs& a) {
         (long long)f.dropped_samples, (long long)f.refit_texels);
   if (a.job.report_only.empty()) {
     std::printf("fit time    %.3f s\n", f.fit_seconds);
+    std::printf("read as     %s\n", r->read_encoding.c_str());
     std::printf("tone curve  %s\n", fit::DescribeToneCurve(r->assessment.diagnostics).c_str());
   }
   for (const auto& [k, v] : f.parameters) std::printf("parameter   %s = %.6g\n", k.c_str(), v);

@@ -34,9 +34,11 @@ int RunInfo(const InfoArgs& a) {
   ro.progress = progress.Callback();
   auto stack = ReadDataset(a.path, ro);
   if (!stack.ok()) return Fail("info", stack.status().message().c_str());
-  DatasetInfo info = ComputeDatasetInfo(*stack);
-  // The γ check a fit makes (fit/diagnostics.h): info says it before anything is fitted.
+  // The γ check a fit makes (fit/diagnostics.h): info says it before anything is fitted, and
+  // with --color-space auto reads the stack as the fit would.
   fit::StackDiagnostics diag = fit::DiagnoseStack(*stack);
+  if (ro.color_space == ColorSpaceChoice::kAuto) (void)fit::ResolveToneCurve(&*stack, &diag);
+  DatasetInfo info = ComputeDatasetInfo(*stack);
   info.tone_curve = fit::DescribeToneCurve(diag);
   info.tone_verdict = fit::ToneVerdictName(diag.verdict);
   for (auto& w : diag.warnings) info.warnings.push_back(std::move(w));

@@ -122,6 +122,13 @@ int64_t LightStack::MaskedTexels() const {
   return std::count_if(mask.begin(), mask.end(), [](uint8_t m) { return m != 0; });
 }
 
+void LightStack::Relinearise(const ColorEncoding& enc, const std::string& reason) {
+  MATFIT_CHECK(!is_float(), "LightStack::Relinearise: a float stack has no codes to re-decode");
+  lut_ = LinearDecodeTable(enc, type_ == SampleType::kUint8 ? 8 : 16);
+  encodings.assign(size_t(num_images_), enc);
+  encoding_reasons.assign(size_t(num_images_), reason);
+}
+
 size_t LightStack::MemoryBytes() const {
   return f32_.size() * sizeof(float) + u8_.size() + u16_.size() * sizeof(uint16_t) +
          lut_.size() * sizeof(float) + mask.size();

@@ -126,6 +126,9 @@ class LightStack {
   }
   // The same stack as float32 (a copy; metadata kept). Costs 4 bytes per sample.
   LightStack ToFloat() const;
+  // Integer stacks only: linearises the stored codes with `enc` from now on (a new code table,
+  // no sample touched), recorded for every image with `reason`.
+  void Relinearise(const ColorEncoding& enc, const std::string& reason);
 
   std::vector<LightSample>& lights() { return lights_; }
   const std::vector<LightSample>& lights() const { return lights_; }

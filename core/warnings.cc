@@ -38,6 +38,9 @@ constexpr std::array kWarnings = {
     WarningSpec{W::kEncodingAssumed, "encoding-assumed", "dataset",
                 "images carry no colour metadata: their encoding is the bit-depth convention "
                 "(8-bit sRGB, deeper linear), not known"},
+    WarningSpec{W::kToneCorrected, "tone-corrected", "dataset",
+                "--color-space auto re-linearised the images with the tone curve the stack "
+                "itself shows, not the one their metadata or bit depth suggested"},
     WarningSpec{W::kGammaEncoded, "gamma-encoded", "dataset",
                 "values grow like (n·l)^(1/γ): gamma-encoded images read as linear"},
     WarningSpec{W::kLinearReadAsSrgb, "linear-read-as-srgb", "dataset",

@@ -26,6 +26,7 @@ enum class WarningCode {
   kGammaEncoded,
   kLinearReadAsSrgb,
   kEncodingAssumed,
+  kToneCorrected,
   // Fit.
   kFlaggedTexels,
   kOverfitRisk,

@@ -89,6 +89,11 @@ StatusOr<Loaded> LoadCase(const BenchCase& c) {
     s = std::move(top);
   } else {
     s = ReadDataset(c.path);
+    // Read as `matfit fit` reads it (--color-space auto acts on the tone-curve estimate).
+    if (s.ok()) {
+      fit::StackDiagnostics d = fit::DiagnoseStack(*s);
+      (void)fit::ResolveToneCurve(&*s, &d);
+    }
   }
   if (!s.ok()) return s.status();
   int x, y, w, h;

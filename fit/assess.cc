@@ -12,9 +12,9 @@ namespace matfit::fit {
 
 FitAssessment AssessFit(const LightStack& stack, const FitMethod& method, FitResult* r,
                         const ConfidenceOptions& options, const ProgressFn& progress,
-                        const TexelResiduals* residuals) {
+                        const TexelResiduals* residuals, const StackDiagnostics* diagnostics) {
   FitAssessment a;
-  a.diagnostics = DiagnoseStack(stack);
+  a.diagnostics = diagnostics ? *diagnostics : DiagnoseStack(stack);
   a.confidence = ComputeConfidence(
       stack, r->maps,
       {method.parameters_per_texel(), method.parameters_per_channel(), method.light_parameters()},

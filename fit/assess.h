@@ -19,8 +19,10 @@ struct FitAssessment {
 // texel kTexelSuspectData (bound +inf); appends the warnings; recounts flagged_texels.
 // `progress` follows the per-texel bound (the part that reads the stack).
 // `residuals`: ScoreStack's sums for this fit (fit/score.h), when a fused pass made them.
+// `diagnostics`: DiagnoseStack(stack), when the caller has it (the fit job's read made it).
 FitAssessment AssessFit(const LightStack& stack, const FitMethod& method, FitResult* result,
                         const ConfidenceOptions& options = {}, const ProgressFn& progress = {},
-                        const TexelResiduals* residuals = nullptr);
+                        const TexelResiduals* residuals = nullptr,
+                        const StackDiagnostics* diagnostics = nullptr);
 
 }  // namespace matfit::fit

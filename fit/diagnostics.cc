@@ -308,6 +308,67 @@ StackDiagnostics DiagnoseStack(const LightStack& s, int max_texels) {
   return d;
 }
 
+ToneResolution ResolveToneCurve(LightStack* s, StackDiagnostics* diag) {
+  ToneResolution r;
+  r.before = *diag;
+  if (s->is_float() || s->encodings.empty() || s->num_images() == 0) return r;
+  r.from = s->encodings[0];
+  r.from_reason = s->encoding_reasons.empty() ? "" : s->encoding_reasons[0];
+  for (size_t i = 0; i < s->encodings.size(); ++i)
+    if (s->encodings[i].transfer != r.from.transfer || s->encodings[i].gamma != r.from.gamma ||
+        (i < s->encoding_reasons.size() && s->encoding_reasons[i] == "user override"))
+      return r;
+  double lo = 90, hi = 0;
+  for (const LightSample& l : s->lights())
+    if (l.direction.z > 0) lo = std::min(lo, l.theta_deg), hi = std::max(hi, l.theta_deg);
+  if (hi - lo < kMinToneElevationSpanDeg || diag->evidence < kToneActEvidence) return r;
+  const bool linear = r.from.transfer == TransferFunction::kLinear;
+  const double g = diag->encoding_exponent;
+  // The curve chosen must itself explain the same samples better than the read: its residual
+  // against the read's, both on the first diagnosis's samples.
+  double residual_to = 0;
+  if (diag->verdict == ToneVerdict::kSrgbReadAsLinear && linear)
+    r.to = {TransferFunction::kSrgb, 1.0f}, residual_to = diag->residual_srgb_decoded;
+  else if (diag->verdict == ToneVerdict::kLinearReadAsSrgb && !linear)
+    r.to = {}, residual_to = diag->residual_srgb_encoded;
+  else if (diag->verdict == ToneVerdict::kPower && linear && diag->looks_gamma_encoded)
+    r.to = {TransferFunction::kGamma, float(std::round(g * 100) / 100)},
+    residual_to = diag->residual_best;
+  else
+    return r;
+  if (!(residual_to * kToneSwitchGain <= diag->residual_linear)) return r;
+  const std::vector<ColorEncoding> encodings = s->encodings;
+  const std::vector<std::string> reasons = s->encoding_reasons;
+  char why[200];
+  std::snprintf(why, sizeof why, "tone-curve estimate (gamma %.2f, evidence %.2f; was %s: %s)", g,
+                diag->evidence, r.from.ToString().c_str(), r.from_reason.c_str());
+  s->Relinearise(r.to, why);
+  StackDiagnostics after = DiagnoseStack(*s);
+  // The re-read must not show a mistake of its own (the estimate then did not settle).
+  if (!after.warnings.empty() || after.verdict == ToneVerdict::kSrgbReadAsLinear ||
+      after.verdict == ToneVerdict::kLinearReadAsSrgb) {
+    s->Relinearise(r.from, r.from_reason);
+    s->encodings = encodings, s->encoding_reasons = reasons;
+    r.to = r.from;
+    return r;
+  }
+  r.corrected = true;
+  const char* keep = linear ? "pass --color-space linear to keep the first reading"
+                     : r.from.transfer == TransferFunction::kSrgb
+                         ? "pass --color-space srgb to keep the first reading"
+                         : "pass --color-space srgb or --color-space linear to choose yourself";
+  char msg[440];
+  std::snprintf(msg, sizeof msg,
+                "the images were read as %s (%s), but their values grow like (n·l)^(1/%.2f); "
+                "read as %s instead, they are linear in n·l (Lambertian residual %.2g → %.2g on "
+                "the same samples; gamma now %.2f); %s",
+                r.from.ToString().c_str(), r.from_reason.c_str(), g, r.to.ToString().c_str(),
+                diag->residual_linear, residual_to, after.encoding_exponent, keep);
+  after.warnings.insert(after.warnings.begin(), Warning(WarningCode::kToneCorrected, msg));
+  *diag = std::move(after);
+  return r;
+}
+
 const char* ToneVerdictName(ToneVerdict v) {
   switch (v) {
     case ToneVerdict::kAsRead: return "as-read";

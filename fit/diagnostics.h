@@ -46,4 +46,27 @@ std::string DescribeToneCurve(const StackDiagnostics& d);
 // Samples at most max_texels texels on a regular grid (pure computation).
 StackDiagnostics DiagnoseStack(const LightStack& stack, int max_texels = 2048);
 
+// --color-space auto acting on the estimate. When an integer stack's codes were linearised by a
+// rule rather than by the user (file metadata, the bit-depth convention, a layout default) and
+// the stack shows a mistake that rule can make — sRGB or a power curve read as linear, linear
+// decoded as sRGB — with evidence ≥ kToneActEvidence, over lit lights spanning at least
+// kMinToneElevationSpanDeg of elevation (one ring bends values like a curve: a glossy Blinn–Phong
+// ring read as linear gives γ̂ 0.38, evidence 1.29), the code table is rebuilt with the curve the
+// stack shows, when that curve's Lambertian residual on the diagnosed samples is at least
+// kToneSwitchGain times smaller than the read's (a standard curve can explain less than the
+// fitted γ̂: psm gray, γ̂ gain 1.55, linear gain 1.3). The re-read stack is diagnosed again; if it
+// shows a mistake of its own the change is undone. No file is re-read and no sample rewritten
+// (LightStack::Relinearise).
+inline constexpr double kToneActEvidence = 1.4, kToneSwitchGain = 1.2;
+inline constexpr double kMinToneElevationSpanDeg = 5;
+struct ToneResolution {
+  bool corrected = false;
+  ColorEncoding from, to;
+  std::string from_reason;
+  StackDiagnostics before;  // the diagnosis of the stack as first read
+};
+// Call only for --color-space auto. *diag: in, the diagnosis of *stack as read (DiagnoseStack);
+// out, that of the stack as it now stands, with a tone-corrected warning when corrected.
+ToneResolution ResolveToneCurve(LightStack* stack, StackDiagnostics* diag);
+
 }  // namespace matfit::fit

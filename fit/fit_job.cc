@@ -113,6 +113,19 @@ StatusOr<FitJobResult> RunFitJob(const FitJobOptions& o, const StageProgress& pr
   ro.progress = stages.Callback();
   auto stack = ReadDataset(o.input, ro);
   if (!stack.ok()) return stack.status();
+  FitJobResult r;
+  // --color-space auto: the tone curve the stack shows overrides a rule's guess (docs/formats.md).
+  // The diagnosis is the assessment's too, while the stack stays as read (it does, but for auto).
+  // (--decode-only times the decode alone.)
+  std::optional<StackDiagnostics> diagnosis;
+  if (!o.decode_only) diagnosis = DiagnoseStack(*stack);
+  std::vector<std::string> tone_warnings;
+  if (diagnosis && o.read.color_space == ColorSpaceChoice::kAuto) {
+    r.tone = ResolveToneCurve(&*stack, &*diagnosis);
+    if (r.tone->corrected) tone_warnings.push_back(diagnosis->warnings.front());
+    // The assessment appends the diagnosis's warnings; this one is the dataset's (above).
+    if (r.tone->corrected) diagnosis->warnings.erase(diagnosis->warnings.begin());
+  }
   std::optional<PackContents> pack;
   if (!o.report_only.empty()) {
     auto p = ReadPack(o.report_only);
@@ -120,8 +133,8 @@ StatusOr<FitJobResult> RunFitJob(const FitJobOptions& o, const StageProgress& pr
     pack = std::move(*p);
   }
   stages.End();
-  FitJobResult r;
   r.images = stack->num_images();
+  r.read_encoding = DescribeReadEncoding(*stack);
   r.width = stack->width(), r.height = stack->height(), r.channels = stack->channels();
   if (o.decode_only) {
     r.timings = stages.Snapshot();
@@ -129,7 +142,8 @@ StatusOr<FitJobResult> RunFitJob(const FitJobOptions& o, const StageProgress& pr
   }
   // What is wrong with the data itself (coverage, clipping, light file, alpha) heads the fit's
   // warnings, as `matfit info` reports it.
-  const std::vector<std::string> dataset_warnings = ComputeDatasetInfo(*stack).warnings;
+  std::vector<std::string> dataset_warnings = ComputeDatasetInfo(*stack).warnings;
+  dataset_warnings.insert(dataset_warnings.begin(), tone_warnings.begin(), tone_warnings.end());
   auto with_dataset_warnings = [&](std::vector<std::string>* w) {
     w->insert(w->begin(), dataset_warnings.begin(), dataset_warnings.end());
   };
@@ -168,6 +182,8 @@ StatusOr<FitJobResult> RunFitJob(const FitJobOptions& o, const StageProgress& pr
     ri.truth = r.truth;
     ri.source = o.source_label.empty() ? o.input : o.source_label;
     ri.timings = &r.timings;
+    ri.tone = r.tone ? &*r.tone : nullptr;
+    ri.read_encoding = r.read_encoding;
     r.report_json = MakeReportJson(ri);
     if (!o.out.empty()) MATFIT_RETURN_IF_ERROR(WriteFileAtomic(o.out, r.report_json));
     return r;
@@ -199,6 +215,7 @@ StatusOr<FitJobResult> RunFitJob(const FitJobOptions& o, const StageProgress& pr
       auto small = DownsampleStack(*stack, f);
       if (!small.ok()) return small.status();
       *stack = std::move(*small);
+      diagnosis.reset();  // a new stack: the assessment diagnoses it
     }
     if (selection->level > 0)
       selection->warnings.push_back(Warning(
@@ -230,7 +247,8 @@ StatusOr<FitJobResult> RunFitJob(const FitJobOptions& o, const StageProgress& pr
   stages.End();
   const std::vector<uint8_t> fitted_status = fit->status;  // metrics describe what was fitted
   if (!stages.Begin("confidence")) return Cancelled();
-  r.assessment = AssessFit(*stack, *method, &*fit, {}, stages.Callback(), &score.residuals);
+  r.assessment = AssessFit(*stack, *method, &*fit, {}, stages.Callback(), &score.residuals,
+                           diagnosis ? &*diagnosis : nullptr);
   with_dataset_warnings(&fit->warnings);
   stages.End();
   if (selection) {
@@ -287,6 +305,8 @@ StatusOr<FitJobResult> RunFitJob(const FitJobOptions& o, const StageProgress& pr
   ri.heldout = r.heldout;
   ri.truth = r.truth;
   ri.assessment = &r.assessment;
+  ri.tone = r.tone ? &*r.tone : nullptr;
+  ri.read_encoding = r.read_encoding;
   ri.bound_ratio_heldout = r.bound_ratio_heldout;
   ri.bound_ratio_truth = r.bound_ratio_truth;
   if (selection) ri.selection_json = SelectionJson(*selection, scene);

@@ -49,6 +49,9 @@ struct FitJobResult {
   FitAssessment assessment;  // diagnostics + per-texel error bound (not report_only)
   std::optional<BoundRatio> bound_ratio_heldout, bound_ratio_truth;  // the bound's tightness
   std::optional<Selection> selection;                                // with model "auto"
+  // --color-space auto: what the tone-curve estimate did to the read (fit/diagnostics.h).
+  std::optional<ToneResolution> tone;
+  std::string read_encoding;  // how the stack was linearised (DescribeReadEncoding)
   std::string report_json;
   int width = 0, height = 0, channels = 0;  // of the stack as read
   // Wall seconds per stage and in total. report.json holds them as of composing it (its write

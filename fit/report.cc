@@ -104,6 +104,15 @@ std::string MakeReportJson(const FitReportInputs& in) {
                         {"residual_srgb_decoded", d.residual_srgb_decoded},
                         {"residual_srgb_encoded", d.residual_srgb_encoded}};
   }
+  if (!in.read_encoding.empty()) j["diagnostics"]["read_as"] = in.read_encoding;
+  if (in.tone)
+    j["diagnostics"]["tone_correction"] =
+        in.tone->corrected ? json{{"from", in.tone->from.ToString()},
+                                  {"from_reason", in.tone->from_reason},
+                                  {"to", in.tone->to.ToString()},
+                                  {"gamma_before", in.tone->before.encoding_exponent},
+                                  {"evidence_before", in.tone->before.evidence}}
+                           : json();
   if (in.timings) {
     json t = json::object();
     for (const auto& [stage, seconds] : in.timings->stages) t[stage] = seconds;

@@ -29,6 +29,9 @@ struct FitReportInputs {
   std::optional<HeldOutMetrics> heldout;
   std::optional<TruthMetrics> truth;
   const FitAssessment* assessment = nullptr;  // optional
+  // How the images were linearised, and what --color-space auto changed (optional).
+  const ToneResolution* tone = nullptr;
+  std::string read_encoding;  // e.g. "linear (tone-curve estimate …)"
   // The bound's tightness (fit/confidence.h BoundToActualRatio) against held-out lights and
   // against truth, when those ran.
   std::optional<BoundRatio> bound_ratio_heldout, bound_ratio_truth;

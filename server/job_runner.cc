@@ -1,5 +1,6 @@
 #include "server/job_runner.h"
 
+#include <cmath>
 #include <cstdio>
 #include <filesystem>
 #include <map>
@@ -131,6 +132,12 @@ Status ValidateDataset(const JobSpec& spec, const std::string& dir, int64_t max_
                            " folds need at least as many images, the dataset has " +
                            std::to_string(images) + "; use a holdout of 2.." +
                            std::to_string(images) + " or 0 (off)");
+  if (spec.holdout == fit::kLeaveOneOut && images < 3)
+    return *field = "holdout",
+           InvalidArgument(
+               "field 'holdout': leave-one-out fits on all images but one and needs "
+               "at least 3 images, the dataset has " +
+               std::to_string(images) + "; use 0 (off)");
   if (spec.model == "auto" && images < 3)
     return *field = "model",
            InvalidArgument(
@@ -199,7 +206,12 @@ StatusOr<std::string> RunJob(const JobSpec& spec, const std::string& dataset,
             {"psnr_db", r->reconstruction.psnr_db},
             {"deviation_percent", r->reconstruction.deviation_percent},
             {"warnings", ForApi(r->fit.warnings)}};
-  if (r->heldout) s["heldout_rmse"] = r->heldout->rmse;
+  if (r->heldout) {
+    s["heldout_rmse"] = r->heldout->rmse;
+    s["heldout_folds"] = r->heldout->folds;
+    if (std::isfinite(r->heldout->psnr_srgb8_db))
+      s["heldout_psnr_srgb8_db"] = r->heldout->psnr_srgb8_db;
+  }
   if (r->truth && r->truth->has_normal) s["normal_mae_deg"] = r->truth->normal_mae_deg;
   return JsonText(s);
 }

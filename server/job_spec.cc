@@ -6,6 +6,7 @@
 
 #include "core/color.h"
 #include "core/dataset/dataset.h"
+#include "fit/holdout.h"
 #include "fit/method.h"
 #include "server/text.h"
 
@@ -37,7 +38,7 @@ json JobSpec::ToJson() const {
   return {{"mode", mode},
           {"model", model},
           {"view", view},
-          {"holdout", holdout},
+          {"holdout", holdout == fit::kLeaveOneOut ? json("loo") : json(holdout)},
           {"budget", budget},
           {"layout", layout},
           {"color_space", color_space}};
@@ -60,9 +61,13 @@ StatusOr<JobSpec> ParseJobSpecFields(const std::map<std::string, std::string>& f
     } else if (k == "holdout") {
       char* end = nullptr;
       const long h = std::strtol(v.c_str(), &end, 10);
-      if (v.empty() || *end || h < 0 || h == 1 || h > 1000)
-        return FieldError("holdout", "must be 0 (off) or a fold count ≥ 2, got '" + v + "'");
-      s.holdout = int(h);
+      if (v == "loo")
+        s.holdout = fit::kLeaveOneOut;
+      else if (v.empty() || *end || h < 0 || h == 1 || h > 1000)
+        return FieldError(
+            "holdout", "must be 0 (off), a fold count ≥ 2 or loo (leave-one-out), got '" + v + "'");
+      else
+        s.holdout = int(h);
     } else if (k == "budget") {
       char* end = nullptr;
       const double b = std::strtod(v.c_str(), &end);
@@ -123,8 +128,12 @@ StatusOr<JobSpec> ParseJobSpecJson(const std::string& body, std::string* dataset
   for (const auto& [k, v] : j.items()) {
     if (k == "dataset") continue;
     if (k == "holdout") {
-      if (!v.is_number_integer()) return FieldError("holdout", "must be an integer");
-      fields[k] = std::to_string(v.get<int64_t>());
+      if (v.is_string() && v.get<std::string>() == "loo")
+        fields[k] = "loo";
+      else if (!v.is_number_integer())
+        return FieldError("holdout", "must be an integer fold count or \"loo\"");
+      else
+        fields[k] = std::to_string(v.get<int64_t>());
     } else if (k == "budget") {
       if (!v.is_number()) return FieldError("budget", "must be a number");
       fields[k] = JsonText(v);

@@ -83,6 +83,27 @@ bool IsBlackImage(const LightStack& s, int i, int64_t first_bright) {
 // 120° gaps, which Lambertian photometric stereo still handles.
 constexpr double kMaxAzimuthGapDeg = 120.0, kMinElevationSpanDeg = 5.0;
 
+namespace {
+
+// "sRGB (8-bit default (sRGB)) x 12", one per distinct encoding and reason.
+std::vector<std::string> EncodingCounts(const LightStack& s) {
+  std::map<std::string, int> enc;
+  for (size_t i = 0; i < s.encodings.size(); ++i)
+    enc[s.encodings[i].ToString() + " (" +
+        (i < s.encoding_reasons.size() ? s.encoding_reasons[i] : "") + ")"]++;
+  std::vector<std::string> out;
+  for (auto& [k, c] : enc) out.push_back(k + " x " + std::to_string(c));
+  return out;
+}
+
+}  // namespace
+
+std::string DescribeReadEncoding(const LightStack& s) {
+  std::string out;
+  for (const std::string& e : EncodingCounts(s)) out += (out.empty() ? "" : "; ") + e;
+  return out;
+}
+
 DatasetInfo ComputeDatasetInfo(const LightStack& s) {
   DatasetInfo info;
   info.layout = s.layout;
@@ -137,12 +158,7 @@ DatasetInfo ComputeDatasetInfo(const LightStack& s) {
                                            : std::numeric_limits<double>::infinity();
   }
 
-  // Encodings.
-  std::map<std::string, int> enc;
-  for (size_t i = 0; i < s.encodings.size(); ++i)
-    enc[s.encodings[i].ToString() + " (" +
-        (i < s.encoding_reasons.size() ? s.encoding_reasons[i] : "") + ")"]++;
-  for (auto& [k, c] : enc) info.encodings.push_back(k + " x " + std::to_string(c));
+  info.encodings = EncodingCounts(s);
 
   // Clipping and non-finite samples.
   int64_t sat = 0;

@@ -41,6 +41,9 @@ struct DatasetInfo {
 };
 
 DatasetInfo ComputeDatasetInfo(const LightStack& stack);
+// How the images were linearised, one entry per distinct encoding: "sRGB (8-bit default (sRGB))
+// x 12", joined by "; ".
+std::string DescribeReadEncoding(const LightStack& stack);
 std::string FormatDatasetInfo(const DatasetInfo& info);  // human-readable report
 std::string DatasetInfoJson(const DatasetInfo& info);    // the same as JSON
 

@@ -12,20 +12,23 @@ tmp=$(mktemp -d); trap 'rm -rf "$tmp"' EXIT
 cd "$tmp"
 command -v oiiotool >/dev/null || { echo "oiiotool missing (openimageio-tools)"; exit 1; }
 
-# warns NAME DIR CODE: info (text and JSON) names the warning.
+# warns NAME DIR CODE [OPTION...]: info (text and JSON) names the warning.
 warns() {
-  local info
-  info=$("$bin" info "$2" --quiet 2>&1) || bad "$1: info failed: $info"
-  expect_contains "$1 info" "$info" "warning      $3: "
-  info=$("$bin" info "$2" --quiet --json 2>&1)
-  expect_contains "$1 info --json" "$info" "\"$3: "
+  local info name=$1 dir=$2 code=$3
+  shift 3
+  info=$("$bin" info "$dir" --quiet "$@" 2>&1) || bad "$name: info failed: $info"
+  expect_contains "$name info" "$info" "warning      $code: "
+  info=$("$bin" info "$dir" --quiet --json "$@" 2>&1)
+  expect_contains "$name info --json" "$info" "\"$code: "
 }
-# fit_warns NAME DIR CODE: the fit's summary and its report.json carry the warning.
+# fit_warns NAME DIR CODE [OPTION...]: the fit's summary and its report.json carry the warning.
 fit_warns() {
-  local out
-  out=$("$bin" fit "$2" --model lambert --out "$tmp/pack-$1" --quiet 2>&1) || bad "$1: fit failed: $out"
-  expect_contains "$1 fit summary" "$out" "warning     $3: "
-  expect_contains "$1 report.json" "$(cat "$tmp/pack-$1/report.json")" "\"$3: "
+  local out name=$1 dir=$2 code=$3
+  shift 3
+  out=$("$bin" fit "$dir" --model lambert --out "$tmp/pack-$name" --quiet "$@" 2>&1) ||
+    bad "$name: fit failed: $out"
+  expect_contains "$name fit summary" "$out" "warning     $code: "
+  expect_contains "$name report.json" "$(cat "$tmp/pack-$name/report.json")" "\"$code: "
 }
 
 # A clean set first: two dozen lights over a dome, 16-bit linear PNG.
@@ -52,10 +55,22 @@ mkdir -p gamma/g8 && cp g8/lights.txt gamma/g8/
 for f in g8/g8.*.png; do
   oiiotool "$f" --eraseattrib oiio:ColorSpace -d uint16 -o "gamma/g8/$(basename "$f" .png).tif"
 done
-warns gamma gamma/g8 gamma-encoded
-warns gamma gamma/g8 encoding-assumed  # no metadata: 16-bit read as linear by convention
-fit_warns gamma gamma/g8 gamma-encoded
-warns gamma gamma/g8 encoding-assumed  # no metadata: 16-bit read as linear by convention
+# Read as linear (the 16-bit convention, or the user's choice) they look gamma-encoded; with
+# --color-space auto (the default) the stack's own tone curve wins: re-read as sRGB, and said.
+warns gamma gamma/g8 gamma-encoded --color-space linear
+fit_warns gamma gamma/g8 gamma-encoded --color-space linear
+warns gamma-auto gamma/g8 tone-corrected
+fit_warns gamma-auto gamma/g8 tone-corrected
+expect_contains "gamma auto colour" "$("$bin" info gamma/g8 --quiet)" "colour       sRGB (tone-curve estimate"
+expect_contains "gamma auto report" "$(cat "$tmp/pack-gamma-auto/report.json")" '"to": "sRGB"'
+# Linear values in 16-bit TIFFs without metadata: read as linear by the convention, which the
+# stack confirms (no correction), and the assumption is said.
+mkdir -p assumed/ds && cp ds/lights.txt assumed/ds/
+for f in ds/ds.*.png; do
+  oiiotool "$f" --eraseattrib oiio:ColorSpace -d uint16 -o "assumed/ds/$(basename "$f" .png).tif"
+done
+warns assumed assumed/ds encoding-assumed
+expect_contains "assumed colour" "$("$bin" info assumed/ds --quiet)" "colour       linear (default for high bit depth"
 
 # 4. All lights within φ 0…98°: a 262° azimuth gap (θ spread over 20…66°, so no elevation warning).
 mkdir gap && cp -r ds gap/ds

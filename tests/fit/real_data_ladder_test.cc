@@ -68,29 +68,38 @@ TEST(RealHeldOut, RobustAndNonlinearModelsBeatPlainLambertOnTheCat) {
 
 // Issue 19: the per-texel bound (the pack's confidence map) against real held-out lights, leave-
 // one-out: no texel's held-out error exceeds it (no silent failure on real data), and the bound
-// is a bound, not a loose ceiling of 100×. Measured 2026-12-04: lambert 9.4× (gray) / 7.4× (cat)
-// median, 0 texels exceeded; the issue's ≤ 4 is not met (docs/stability.md says why).
+// is a bound, not a loose ceiling of 100×. Measured 2026-12-04, read as sRGB (the 8-bit
+// convention): lambert 9.4× (gray) / 7.4× (cat) median, 0 texels exceeded. Read as `matfit fit`
+// reads them (--color-space auto: gray re-read as linear, cat unchanged): gray 19.4× (lambert),
+// lambert-robust 0.03 % of texels exceeded. The extrapolation allowance (a − 1) μ scales with
+// the texel's level, which the linear reading roughly doubles against the same errors. The
+// issue's ≤ 4 is not met (docs/stability.md says why).
 TEST(RealHeldOut, NoTexelExceedsItsBoundOnLeaveOneOutLights) {
-  for (const char* object : {"gray", "cat"}) {
-    const std::string dir = SharedDir() + "/psm/" + object;
-    if (!std::filesystem::exists(dir)) GTEST_SKIP() << "shared data 'psm' not found; skipping";
-    auto s = ReadDataset(dir);
-    ASSERT_TRUE(s.ok());
-    for (const char* name : {"lambert", "lambert-robust", "ptm"}) {
-      auto method = MakeMethod(name);
-      auto fit = method->Fit(*s, {});
-      ASSERT_TRUE(fit.ok()) << name;
-      const FitAssessment a = AssessFit(*s, *method, &*fit);
-      auto h = HeldOut(*method, *s, kLeaveOneOut, {});
-      ASSERT_TRUE(h.ok()) << name;
-      const BoundRatio r = BoundToActualRatio(a.confidence.bound, h->texel_rmse, fit->status);
-      SCOPED_TRACE(std::string(object) + " " + name);
-      EXPECT_GT(r.texels, s->MaskedTexels() * 9 / 10);
-      EXPECT_LE(r.exceeded_fraction, 0.001);
-      EXPECT_GT(r.median, 1.5);
-      EXPECT_LT(r.median, 15.0);
+  for (const char* object : {"gray", "cat"})
+    for (const bool as_fit : {false, true}) {
+      const std::string dir = SharedDir() + "/psm/" + object;
+      if (!std::filesystem::exists(dir)) GTEST_SKIP() << "shared data 'psm' not found; skipping";
+      auto s = ReadDataset(dir);
+      ASSERT_TRUE(s.ok());
+      if (as_fit) {
+        StackDiagnostics d = DiagnoseStack(*s);
+        EXPECT_EQ(ResolveToneCurve(&*s, &d).corrected, std::string(object) == "gray");
+      }
+      for (const char* name : {"lambert", "lambert-robust", "ptm"}) {
+        auto method = MakeMethod(name);
+        auto fit = method->Fit(*s, {});
+        ASSERT_TRUE(fit.ok()) << name;
+        const FitAssessment a = AssessFit(*s, *method, &*fit);
+        auto h = HeldOut(*method, *s, kLeaveOneOut, {});
+        ASSERT_TRUE(h.ok()) << name;
+        const BoundRatio r = BoundToActualRatio(a.confidence.bound, h->texel_rmse, fit->status);
+        SCOPED_TRACE(std::string(object) + " " + name + (as_fit ? " (auto reading)" : " (sRGB)"));
+        EXPECT_GT(r.texels, s->MaskedTexels() * 9 / 10);
+        EXPECT_LE(r.exceeded_fraction, 0.001);
+        EXPECT_GT(r.median, 1.5);
+        EXPECT_LT(r.median, as_fit ? 25.0 : 15.0);
+      }
     }
-  }
 }
 
 }  // namespace

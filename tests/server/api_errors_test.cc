@@ -157,11 +157,17 @@ TEST_F(ApiErrorsTest, ColorSpaceFieldIsUsedAndWarningsSpeakOfJobFields) {
     for (const auto& w : done["summary"]["warnings"]) all += w.get<std::string>() + "\n";
     return all;
   };
-  const std::string linear = summary_warnings({{"model", "lambert"}});
+  // auto (the default) follows the stack's own tone curve and says how to keep the first reading.
+  const std::string automatic = summary_warnings({{"model", "lambert"}});
+  EXPECT_NE(automatic.find("tone-corrected:"), std::string::npos) << automatic;
+  EXPECT_NE(automatic.find("set the job field \"color_space\" to linear"), std::string::npos)
+      << automatic;
+  const std::string linear = summary_warnings({{"model", "lambert"}, {"color_space", "linear"}});
   EXPECT_NE(linear.find("gamma-encoded:"), std::string::npos) << linear;
   EXPECT_NE(linear.find("job field \"color_space\": \"srgb\""), std::string::npos) << linear;
   const std::string srgb = summary_warnings({{"model", "lambert"}, {"color_space", "srgb"}});
   EXPECT_EQ(srgb.find("gamma-encoded:"), std::string::npos) << srgb;
+  EXPECT_EQ(srgb.find("tone-corrected:"), std::string::npos) << srgb;
 }
 
 TEST(ApiWording, FlagsBecomeJobFieldsOrNamedSettings) {

@@ -3,6 +3,8 @@
 // leaf job, every OpenAPI path, and the viewer in headless Chromium.
 #include "tests/server/server_fixture.h"
 
+#include "server/job_spec.h"
+
 namespace matfit::server::testing_fixture {
 namespace {
 
@@ -112,6 +114,37 @@ TEST_F(ServerTest, SubmitPollDownloadEqualsADirectFit) {
   Get("/api/v1/jobs/" + id, 404);
   EXPECT_FALSE(fs::exists(fs::path(opts_.data_dir) / "packs" / id));
   EXPECT_TRUE(fs::is_empty(fs::path(opts_.data_dir) / "datasets"));
+}
+
+// holdout "loo" (issue 19): leave-one-out over lights, as `matfit fit --holdout loo`, from a form
+// field or a JSON body; the stored spec keeps it (a restarted job re-reads it).
+TEST_F(ServerTest, LeaveOneOutHoldoutFromFormAndJson) {
+  opts_.allow_roots = {tmp_.string()};
+  Start();
+  auto r = Upload(ZipFixture("plastic-ring12"), {{"model", "lambert"}, {"holdout", "loo"}});
+  ASSERT_TRUE(r);
+  ASSERT_EQ(r->status, 202) << r->body;
+  const json job = WaitFor(json::parse(r->body)["id"], Finished);
+  ASSERT_EQ(job["state"], "succeeded") << job.dump(2);
+  EXPECT_EQ(job["summary"]["heldout_folds"], 12) << job.dump(2);
+  EXPECT_GT(job["summary"]["heldout_psnr_srgb8_db"].get<double>(), 20) << job.dump(2);
+  fs::copy(kFixtures + "/plastic-ring12", tmp_ / "ring");
+  auto j =
+      SubmitPath({{"dataset", (tmp_ / "ring").string()}, {"model", "lambert"}, {"holdout", "loo"}});
+  ASSERT_TRUE(j);
+  ASSERT_EQ(j->status, 202) << j->body;
+  EXPECT_EQ(WaitFor(json::parse(j->body)["id"], Finished)["summary"]["heldout_folds"], 12);
+  for (const json& bad : {json("lo"), json(true), json(-1)}) {
+    auto b = SubmitPath({{"dataset", (tmp_ / "ring").string()}, {"holdout", bad}});
+    ASSERT_TRUE(b);
+    EXPECT_EQ(b->status, 400) << bad.dump() << " " << b->body;
+    EXPECT_NE(b->body.find("holdout"), std::string::npos) << b->body;
+  }
+  JobSpec spec;
+  spec.holdout = fit::kLeaveOneOut;
+  auto back = JobSpecFromJson(spec.ToJson().dump());
+  ASSERT_TRUE(back.ok()) << back.status().message();
+  EXPECT_EQ(back->holdout, fit::kLeaveOneOut);
 }
 
 TEST_F(ServerTest, CancelARunningFitStopsPromptlyAndLeavesNoPack) {
