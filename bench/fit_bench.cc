@@ -149,12 +149,18 @@ BENCHMARK(BM_Fit<fit::FitLambertRobust>)->Name("lambert_robust")->Apply(RobustAr
 void ReferenceArgs(benchmark::internal::Benchmark* b) {
   b->Args({64, 1, 64})->Args({256, 1, 64})->Unit(benchmark::kMillisecond)->UseRealTime();
 }
+StatusOr<fit::FitResult> PtmLinear(const LightStack& s, const fit::FitOptions& o) {
+  return fit::FitPtm(s, o);
+}
+StatusOr<fit::FitResult> PtmSrgb(const LightStack& s, const fit::FitOptions& o) {
+  return fit::FitPtm(s, o, /*srgb=*/true);
+}
 BENCHMARK(BM_Fit<fit::FitHeinrichReference>)->Name("heinrich_reference")->Apply(ReferenceArgs);
 BENCHMARK(BM_Fit<fit::FitHeinrich>)->Name("heinrich_fast")->Apply(Args);
 BENCHMARK(BM_Fit<fit::FitLambertReference>)->Name("lambert_reference")->Apply(ReferenceArgs);
 BENCHMARK(BM_Fit<fit::FitLambert>)->Name("lambert_fast")->Apply(Args);
 BENCHMARK(BM_Fit<fit::FitPtmReference>)->Name("ptm_reference")->Apply(ReferenceArgs);
-BENCHMARK(BM_Fit<fit::FitPtm>)->Name("ptm_fast")->Apply(Args);
+BENCHMARK(BM_Fit<PtmLinear>)->Name("ptm_fast")->Apply(Args);
 BENCHMARK(BM_Fit<fit::FitMean>)->Name("mean")->Apply(Args);
 // The fast fits on the 8-bit stack held natively (decoded through the table inside the kernels).
 void NativeArgs(benchmark::internal::Benchmark* b) {
@@ -162,7 +168,9 @@ void NativeArgs(benchmark::internal::Benchmark* b) {
   b->Unit(benchmark::kMillisecond)->UseRealTime();
 }
 BENCHMARK(BM_Fit<fit::FitLambert, true>)->Name("lambert_fast_u8")->Apply(NativeArgs);
-BENCHMARK(BM_Fit<fit::FitPtm, true>)->Name("ptm_fast_u8")->Apply(NativeArgs);
+BENCHMARK(BM_Fit<PtmLinear, true>)->Name("ptm_fast_u8")->Apply(NativeArgs);
+// ptm-srgb: the same fit of each sample's sRGB encode (a table lookup per sample).
+BENCHMARK(BM_Fit<PtmSrgb, true>)->Name("ptm_srgb_u8")->Apply(NativeArgs);
 BENCHMARK(BM_Fit<fit::FitHeinrich, true>)->Name("heinrich_fast_u8")->Apply(NativeArgs);
 BENCHMARK(BM_Fit<fit::FitMean, true>)->Name("mean_u8")->Apply(NativeArgs);
 BENCHMARK(BM_Fit<fit::FitLambertRobust, true>)->Name("lambert_robust_u8")->Apply(RobustArgs);

@@ -68,6 +68,21 @@ struct Srgb8Tables {
 
 }  // namespace
 
+const SrgbCurveTable& SrgbCurves() {
+  static const std::vector<float> tables = [] {
+    std::vector<float> t(2 * (SrgbCurveTable::kSteps + 1));
+    for (int i = 0; i <= SrgbCurveTable::kSteps; ++i) {
+      const double x = double(i) / SrgbCurveTable::kSteps;
+      t[size_t(i)] = float(x <= 0.04045 ? x / 12.92 : std::pow((x + 0.055) / 1.055, 2.4));
+      t[size_t(SrgbCurveTable::kSteps + 1 + i)] =
+          float(x <= 0.0031308 ? 12.92 * x : 1.055 * std::pow(x, 1 / 2.4) - 0.055);
+    }
+    return t;
+  }();
+  static const SrgbCurveTable curves{tables.data(), tables.data() + SrgbCurveTable::kSteps + 1};
+  return curves;
+}
+
 uint8_t LinearToSrgb8Fast(float linear) {
   static const Srgb8Tables t;
   if (!(linear > 0)) return 0;  // also NaN

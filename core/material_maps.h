@@ -49,6 +49,9 @@ struct MaterialMaps {
   // (3 channels, or 1 for grey stacks). HSH order = √k.
   Image coefficients;
   int basis_terms = 0;
+  // The basis sum is sRGB-encoded, as RTI tools fit the stored 8-bit codes: R = decode(clamp(
+  // Σ_j a_j B_j(l), 0, 1)) with the sRGB decode (ptm-srgb, hsh*-srgb; METHODS.md §4).
+  bool basis_srgb = false;
   // Lafortune lobes: amplitude ρ_s,j in `specular` (one plane per lobe); shape per lobe in
   // `lobe_shape` (planes 2j = C_xy, 2j + 1 = exponent).
   Image lobe_shape;

@@ -11,6 +11,7 @@
 #include <limits>
 #include <vector>
 
+#include "core/color.h"
 #include "core/shading/relight_basis.h"
 #include "fit/fit_common.h"
 #include "fit/methods.h"
@@ -35,8 +36,9 @@ Eigen::MatrixXd BasisMatrix(const std::vector<LightSample>& lights, int K, const
 
 // Coefficients of one texel from its valid lights: normal equations G = B_Vᵀ B_V (k × k),
 // refused when λ_min(G) / λ_max(G) ≤ 1e-12 (σ_min / σ_max of B_V ≤ 1e-6, the whole-set test).
+// srgb: the observations are sRGB-encoded before the fit and the preview albedo decoded.
 uint8_t BasisSubsetFit(const TexelSamples& t, const Eigen::MatrixXd& B, const double* front,
-                       FitResult* r) {
+                       bool srgb, FitResult* r) {
   const int K = int(B.cols()), C = t.channels;
   if (t.valid_count < K) return kTexelTooFewLights;
   Eigen::MatrixXd G = Eigen::MatrixXd::Zero(K, K), rhs = Eigen::MatrixXd::Zero(K, C);
@@ -44,7 +46,10 @@ uint8_t BasisSubsetFit(const TexelSamples& t, const Eigen::MatrixXd& B, const do
     if (!t.valid[i]) continue;
     const auto b = B.row(i).transpose();
     G.selfadjointView<Eigen::Lower>().rankUpdate(b);
-    for (int c = 0; c < C; ++c) rhs.col(c) += b * t.obs[i * C + c];
+    for (int c = 0; c < C; ++c)
+      rhs.col(c) +=
+          b * (srgb ? double(SrgbCurveLookup(SrgbCurves().encode, float(t.obs[i * C + c])))
+                    : t.obs[i * C + c]);
   }
   G = G.selfadjointView<Eigen::Lower>();
   Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> eig(G);
@@ -58,15 +63,18 @@ uint8_t BasisSubsetFit(const TexelSamples& t, const Eigen::MatrixXd& B, const do
   for (int c = 0; c < 3; ++c) {
     double v = 0;
     for (int j = 0; j < K; ++j) v += front[j] * X(j, C == 1 ? 0 : c);
-    r->maps.albedo.Plane(c)[t.p] = float(v);
+    r->maps.albedo.Plane(c)[t.p] = srgb ? SrgbCurveLookup(SrgbCurves().decode, float(v)) : float(v);
   }
   r->maps.normal.Plane(2)[t.p] = 1.0f;
   return kTexelOk;
 }
 
+// srgb: fit the sRGB encode of each sample (divided by its light's intensity, clamped to
+// [0, 1]) — the stored 8-bit code for an sRGB file under unit intensity — as RTI tools do; the
+// maps then say basis_srgb and every evaluator decodes the sum.
 StatusOr<FitResult> FitLinearBasis(const LightStack& s, const FitOptions& o,
                                    const std::string& name, std::string_view model, int K,
-                                   const BasisFn& basis) {
+                                   const BasisFn& basis, bool srgb) {
   std::string why;
   if (!o.Check(&why)) return InvalidArgument(why);
   const int n = s.num_images(), C = s.channels(), W = s.width();
@@ -89,6 +97,7 @@ StatusOr<FitResult> FitLinearBasis(const LightStack& s, const FitOptions& o,
   InitResult(s, model, name, &r);
   r.maps.coefficients = Image(s.width(), s.height(), K * C);
   r.maps.basis_terms = K;
+  r.maps.basis_srgb = srgb;
   r.parameters["basis_condition_number"] = sv[0] / sv[K - 1];
   const std::vector<float> inv = InverseIntensities(s);
   std::vector<float> pinv(size_t(K) * n);
@@ -108,6 +117,10 @@ StatusOr<FitResult> FitLinearBasis(const LightStack& s, const FitOptions& o,
     float* ap[kMaxRowTerms];
     StripReader reader(s);
     float w[kMaxRowPlanes * kMaxRowTerms];
+    // srgb: the group's rows encoded (v · 1/I, clamped) into `enc`; the peak stays the raw one.
+    std::vector<float> enc(srgb ? size_t(kMaxRowPlanes) * StripReader::kChunk : 0);
+    std::vector<float> enc_peak(srgb ? StripReader::kChunk : 0);
+    const float* encode = SrgbCurves().encode;
     auto coef = [&](int q) { return r.maps.coefficients.Plane(q).data() + first; };
     for (int c = 0; c < C; ++c) {
       for (int j = 0; j < K; ++j) ap[j] = coef(c * K + j);
@@ -115,12 +128,32 @@ StatusOr<FitResult> FitLinearBasis(const LightStack& s, const FitOptions& o,
         const int planes = std::min(kMaxRowPlanes, n - i0);
         for (int q = 0; q < planes; ++q) {
           const int i = i0 + q;
-          for (int j = 0; j < K; ++j) w[q * K + j] = pinv[size_t(j) * n + i] * inv[i * C + c];
+          for (int j = 0; j < K; ++j)
+            w[q * K + j] = pinv[size_t(j) * n + i] * (srgb ? 1.0f : inv[i * C + c]);
         }
         reader.Group(i0, planes, c, first, m, [&](const float* const* src, int64_t x, int64_t len) {
           float* a[kMaxRowTerms];
           for (int j = 0; j < K; ++j) a[j] = ap[j] + x;
-          RowAccumulate(src, planes, len, K, w, a, peak.data() + x);
+          if (!srgb) return RowAccumulate(src, planes, len, K, w, a, peak.data() + x);
+          // In chunks of the reader's size (a float stack hands over the whole strip).
+          for (int64_t x0 = 0; x0 < len; x0 += StripReader::kChunk) {
+            const int64_t l = std::min<int64_t>(StripReader::kChunk, len - x0);
+            const float* e[kMaxRowPlanes];
+            float* pk = peak.data() + x + x0;
+            for (int q = 0; q < planes; ++q) {
+              const float* v = src[q] + x0;
+              float* out = enc.data() + size_t(q) * StripReader::kChunk;
+              const float scale = inv[(i0 + q) * C + c];
+              for (int64_t u = 0; u < l; ++u) {
+                pk[u] = std::max(pk[u], v[u]);  // NaN is caught by the finite check below
+                const float y = v[u] * scale;   // a lost sample stays lost (NaN/Inf flags it)
+                out[u] = std::isfinite(y) ? SrgbCurveLookup(encode, y) : y;
+              }
+              e[q] = out;
+            }
+            for (int j = 0; j < K; ++j) a[j] = ap[j] + x + x0;
+            RowAccumulate(e, planes, l, K, w, a, enc_peak.data());
+          }
         });
       }
     }
@@ -154,21 +187,25 @@ StatusOr<FitResult> FitLinearBasis(const LightStack& s, const FitOptions& o,
     for (int c = 0; c < 3; ++c) {
       const float* v = value.data() + size_t(C == 1 ? 0 : c) * m;
       float* albedo = r.maps.albedo.Plane(c).data() + first;
+      const float* decode = SrgbCurves().decode;
       for (int64_t k = 0; k < m; ++k)
-        if (fitted[k]) albedo[k] = v[k], nz[k] = 1.0f;
+        if (fitted[k]) albedo[k] = srgb ? SrgbCurveLookup(decode, v[k]) : v[k], nz[k] = 1.0f;
     }
   });
   if (ok)
     RefitFromValidSamples(
         s, {},
-        [&](const TexelSamples& t, FitResult* out) { return BasisSubsetFit(t, B, front, out); },
+        [&](const TexelSamples& t, FitResult* out) {
+          return BasisSubsetFit(t, B, front, srgb, out);
+        },
         &r);
   return FinishFit(ok, t0, std::move(r));
 }
 
 }  // namespace
 
-double RelightBasisCondition(const std::vector<LightSample>& lights, const std::string& method) {
+double RelightBasisCondition(const std::vector<LightSample>& lights, std::string method) {
+  if (method.size() > 5 && method.ends_with("-srgb")) method.resize(method.size() - 5);
   int K = 0;
   BasisFn basis;
   if (method == "ptm") {
@@ -187,16 +224,18 @@ double RelightBasisCondition(const std::vector<LightSample>& lights, const std::
   return sv[K - 1] > 0 ? sv[0] / sv[K - 1] : std::numeric_limits<double>::infinity();
 }
 
-StatusOr<FitResult> FitPtm(const LightStack& s, const FitOptions& o) {
-  return FitLinearBasis(s, o, "ptm", "ptm", shading::kPtmTerms,
-                        [](const Vec3& l, double* b) { shading::PtmBasis(l, b); });
+StatusOr<FitResult> FitPtm(const LightStack& s, const FitOptions& o, bool srgb) {
+  return FitLinearBasis(
+      s, o, srgb ? "ptm-srgb" : "ptm", "ptm", shading::kPtmTerms,
+      [](const Vec3& l, double* b) { shading::PtmBasis(l, b); }, srgb);
 }
 
-StatusOr<FitResult> FitHsh(const LightStack& s, const FitOptions& o, int order) {
+StatusOr<FitResult> FitHsh(const LightStack& s, const FitOptions& o, int order, bool srgb) {
   if (order < 1 || order > 4)
     return InvalidArgument("hsh order must be 1 to 4, got " + std::to_string(order));
-  return FitLinearBasis(s, o, "hsh" + std::to_string(order), "hsh", order * order,
-                        [order](const Vec3& l, double* b) { shading::HshBasis(order, l, b); });
+  return FitLinearBasis(
+      s, o, "hsh" + std::to_string(order) + (srgb ? "-srgb" : ""), "hsh", order * order,
+      [order](const Vec3& l, double* b) { shading::HshBasis(order, l, b); }, srgb);
 }
 
 }  // namespace matfit::fit

@@ -39,8 +39,9 @@ class FunctionMethod : public FitMethod {
 }  // namespace
 
 std::vector<std::string> MethodNames() {
-  return {"mean", "lambert",     "lambert-robust", "heinrich",   "ptm",       "hsh2",
-          "hsh3", "blinn-phong", "cook-torrance",  "lafortune1", "lafortune2"};
+  return {"mean",        "lambert",       "lambert-robust", "heinrich",  "ptm",
+          "ptm-srgb",    "hsh2",          "hsh2-srgb",      "hsh3",      "hsh3-srgb",
+          "blinn-phong", "cook-torrance", "lafortune1",     "lafortune2"};
 }
 
 std::unique_ptr<FitMethod> MakeMethod(const std::string& name) {
@@ -60,13 +61,17 @@ std::unique_ptr<FitMethod> MakeMethod(const std::string& name) {
     return std::make_unique<FunctionMethod>(
         name, "seed method A: mean texture, unnormalised normal, grey ambient, specular map", 12,
         17, 5, 2, FitHeinrich);
-  if (name == "hsh2" || name == "hsh3") {
-    const int order = name == "hsh2" ? 2 : 3;
+  if (name == "hsh2" || name == "hsh3" || name == "hsh2-srgb" || name == "hsh3-srgb") {
+    const int order = name[3] - '0';
+    const bool srgb = name.ends_with("-srgb");
     return std::make_unique<FunctionMethod>(
         name,
-        "hemispherical harmonics, " + std::to_string(order * order) + " coefficients per channel",
+        "hemispherical harmonics, " + std::to_string(order * order) + " coefficients per channel" +
+            (srgb ? ", fitted to the sRGB-encoded values (as RTI tools do)" : ""),
         3 * order * order, 6 * order * order, order * order, order * order,
-        [order](const LightStack& s, const FitOptions& o) { return FitHsh(s, o, order); });
+        [order, srgb](const LightStack& s, const FitOptions& o) {
+          return FitHsh(s, o, order, srgb);
+        });
   }
   if (name == "blinn-phong")
     return std::make_unique<FunctionMethod>(
@@ -83,9 +88,15 @@ std::unique_ptr<FitMethod> MakeMethod(const std::string& name) {
         5 + lobes, 9 + 2 * lobes, 3 + lobes, 1,
         [lobes](const LightStack& s, const FitOptions& o) { return FitLafortune(s, o, lobes); });
   }
-  if (name == "ptm")
+  if (name == "ptm" || name == "ptm-srgb") {
+    const bool srgb = name == "ptm-srgb";
     return std::make_unique<FunctionMethod>(
-        name, "polynomial texture map, 6 coefficients per channel", 18, 36, 6, 6, FitPtm);
+        name,
+        std::string("polynomial texture map, 6 coefficients per channel") +
+            (srgb ? ", fitted to the sRGB-encoded values (as RTI tools do)" : ""),
+        18, 36, 6, 6,
+        [srgb](const LightStack& s, const FitOptions& o) { return FitPtm(s, o, srgb); });
+  }
   return nullptr;
 }
 

@@ -30,15 +30,19 @@ StatusOr<FitResult> FitLafortune(const LightStack& stack, const FitOptions& opti
 
 // ptm (METHODS.md §4): 6 polynomial coefficients per channel in (u, v) = (l_x, l_y), one
 // pseudo-inverse for all texels. Coefficients in maps.coefficients (plane c·6 + j).
-StatusOr<FitResult> FitPtm(const LightStack& stack, const FitOptions& options);
+// srgb (ptm-srgb): fitted to the samples' sRGB encode, as RTI tools fit the stored 8-bit codes;
+// evaluated as decode(clamp(Σ a B, 0, 1)) (MaterialMaps::basis_srgb).
+StatusOr<FitResult> FitPtm(const LightStack& stack, const FitOptions& options, bool srgb = false);
 
 // hsh (METHODS.md §4): hemispherical harmonics with `order` bands (order² coefficients per
 // channel; the ladder has orders 2 and 3), one pseudo-inverse for all texels.
-StatusOr<FitResult> FitHsh(const LightStack& stack, const FitOptions& options, int order);
+StatusOr<FitResult> FitHsh(const LightStack& stack, const FitOptions& options, int order,
+                           bool srgb = false);
 
 // σ_max / σ_min of the N × k basis matrix of the method's relighting basis over `lights`
-// ("ptm", "hsh1" … "hsh4"; +inf when rank-deficient); 0 for a method without such a basis.
-double RelightBasisCondition(const std::vector<LightSample>& lights, const std::string& method);
+// ("ptm", "hsh1" … "hsh4", each also with "-srgb"; +inf when rank-deficient); 0 for a method
+// without such a basis.
+double RelightBasisCondition(const std::vector<LightSample>& lights, std::string method);
 
 // heinrich (METHODS.md §2), fast: exploits the shared structure of the 6 × 6 normal equations
 // (closed form: a_c = 1 − m·n, n = (Σ_i (l_i − m)(l_i − m)ᵀ)⁻¹ (Σ_c t_c q_c / Σ_c t_c² − Σ_i l_i),

@@ -180,6 +180,7 @@ StatusOr<Image> EglRenderer::Render(const MaterialMaps& maps, const RenderOption
     glUniform1i(glGetUniformLocation(p, "u_model"), g->model);
     glUniform1i(glGetUniformLocation(p, "u_terms"), g->terms);
     glUniform1i(glGetUniformLocation(p, "u_coef_channels"), g->coef_channels);
+    glUniform1i(glGetUniformLocation(p, "u_basis_srgb"), g->basis_srgb);
     glUniform1i(glGetUniformLocation(p, "u_heinrich_specular"), g->heinrich_specular);
     glUniform1i(glGetUniformLocation(p, "u_flat_normal"), g->flat_normal);
     glUniform1i(glGetUniformLocation(p, "u_leaf_base"), g->leaf_base);

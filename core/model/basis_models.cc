@@ -1,8 +1,11 @@
 // Relighting bases (METHODS.md §4): R_c = Σ_j a_{c,j} B_j(l), PTM (6 terms) and HSH (order²
 // terms). Maps: coefficients, plane c·k + j (or j alone for grey stacks), k = basis_terms.
-// The basis values are computed once per light (Prepare); a run is k axpys per channel.
+// The basis values are computed once per light (Prepare); a run is k axpys per channel. With
+// maps.basis_srgb the sum is an sRGB-encoded value: R_c = decode(clamp(Σ_j a_{c,j} B_j(l), 0, 1))
+// (the table decode of core/color.h, here and in every evaluator).
 #include <cmath>
 
+#include "core/color.h"
 #include "core/model/model_impl.h"
 #include "core/shading/relight_basis.h"
 
@@ -77,7 +80,7 @@ class BasisModel final : public ModelBase<BasisModel<kPtm>> {
     const int base = (m.coefficients.channels() == k ? 0 : c) * k;
     double r = 0;
     for (int j = 0; j < k; ++j) r += b[j] * m.coefficients.Plane(base + j)[i];
-    return float(r);
+    return m.basis_srgb ? SrgbCurveLookup(SrgbCurves().decode, float(r)) : float(r);
   }
   void Prepare(const MaterialMaps& m, const Vec3f& l, const Vec3f& v,
                ModelLight* out) const override {
@@ -110,6 +113,11 @@ class BasisModel final : public ModelBase<BasisModel<kPtm>> {
       for (; l < count; ++l)
         BasisKernel(planes, lights[l].basis, k, p0, n, out + (size_t(l) * channels + c) * n);
     }
+    if (m.basis_srgb) {
+      const float* decode = SrgbCurves().decode;
+      for (size_t q = 0; q < size_t(count) * channels * n; ++q)
+        out[q] = SrgbCurveLookup(decode, out[q]);
+    }
   }
   Status WritePackMaps(const MaterialMaps& m, const PutPackMapFn& put) const override {
     return put({"coefficients", "coefficients.exr", &m.coefficients, MapEncoding::kFloat,
@@ -117,6 +125,7 @@ class BasisModel final : public ModelBase<BasisModel<kPtm>> {
   }
   void PackParameters(const MaterialMaps& m, std::map<std::string, double>* out) const override {
     if (m.basis_terms > 0) (*out)["basis_terms"] = m.basis_terms;
+    if (m.basis_srgb) (*out)["basis_srgb"] = 1;
   }
   Status ReadPackMaps(const LoadPackMapFn& load, const std::map<std::string, double>& params,
                       MaterialMaps* m) const override {
@@ -126,6 +135,12 @@ class BasisModel final : public ModelBase<BasisModel<kPtm>> {
       return DataError(std::string("model.parameters.basis_terms is missing for a ") + name() +
                        " pack");
     m->basis_terms = int(k->second);
+    if (auto e = params.find("basis_srgb"); e != params.end()) {
+      if (e->second != 0 && e->second != 1)
+        return DataError("model.parameters.basis_srgb is " + std::to_string(e->second) +
+                         "; it must be 1 (the basis sum is sRGB-encoded) or 0 (linear)");
+      m->basis_srgb = e->second == 1;
+    }
     const int order = int(std::lround(std::sqrt(double(m->basis_terms))));
     const bool valid = kPtm ? m->basis_terms == shading::kPtmTerms
                             : k->second == double(m->basis_terms) && order >= 1 && order <= 4 &&
@@ -144,6 +159,7 @@ class BasisModel final : public ModelBase<BasisModel<kPtm>> {
   }
   bool AddShaderPlanes(const MaterialMaps& m, ShaderPlaneSink* s) const override {
     s->terms = m.basis_terms;
+    s->basis_srgb = m.basis_srgb;
     s->coef_channels = s->terms > 0 ? m.coefficients.channels() / s->terms : 0;
     if (s->terms < 1 || s->terms > 16 || (s->coef_channels != 1 && s->coef_channels != 3))
       return false;

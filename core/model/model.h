@@ -60,6 +60,7 @@ class ShaderPlaneSink {
   int terms = 0;               // ptm/hsh coefficients per channel, lafortune lobes
   int coef_channels = 3;
   bool heinrich_specular = false, flat_normal = false;
+  bool basis_srgb = false;  // ptm/hsh: the basis sum is sRGB-encoded (MaterialMaps::basis_srgb)
 };
 
 // A synthetic material's specular parameters at one texel (core/synth/materials.cc).

@@ -241,6 +241,7 @@ Status WritePack(const MaterialMaps& m, const std::vector<uint8_t>& status, cons
               {"model_index", sp->model},
               {"terms", sp->terms},
               {"coef_channels", sp->coef_channels},
+              {"basis_srgb", sp->basis_srgb},
               {"heinrich_specular", sp->heinrich_specular},
               {"flat_normal", sp->flat_normal},
               {"leaf_base", sp->leaf_base},

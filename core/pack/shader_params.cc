@@ -57,6 +57,7 @@ Status CollectPlanes(const MaterialMaps& m, const float* ones, const float* zero
   ok = ok && Model(m.model).AddShaderPlanes(m, &sink);
   g.terms = sink.terms, g.coef_channels = sink.coef_channels;
   g.heinrich_specular = sink.heinrich_specular, g.flat_normal = sink.flat_normal;
+  g.basis_srgb = sink.basis_srgb;
   if (ok && !m.translucency.empty()) {
     g.leaf_base = int(planes.size());
     ok = ok && sink.Add(m.translucency, 3, "translucency");

@@ -26,8 +26,9 @@ struct ShaderParams {
   int terms = 0;  // ptm/hsh coefficients per channel, lafortune lobes
   int coef_channels = 3;
   bool heinrich_specular = false, flat_normal = false;
-  int leaf_base = -1;     // first leaf plane, −1: not a leaf
-  bool leaf_hl2 = false;  // HL2 coefficients present (else the diffuse BTDF)
+  bool basis_srgb = false;  // ptm/hsh: decode the basis sum from sRGB
+  int leaf_base = -1;       // first leaf plane, −1: not a leaf
+  bool leaf_hl2 = false;    // HL2 coefficients present (else the diffuse BTDF)
   // layers × height × width × 4, row 0 = top (huge pages: one fault per 2 MiB, not per 4 KiB)
   std::vector<float, LargePageAllocator<float>> texels;
 };

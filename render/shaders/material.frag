@@ -10,6 +10,7 @@ uniform int u_model;        // 0 mean, 1 lambert, 2 blinn-phong, 3 cook-torrance
                             // 5 ptm, 6 hsh, 7 lafortune
 uniform int u_terms;        // ptm/hsh coefficients per channel, or lafortune lobes
 uniform int u_coef_channels;  // ptm/hsh: 1 (grey) or 3
+uniform bool u_basis_srgb;    // ptm/hsh: the basis sum is sRGB-encoded (decode after clamping)
 uniform bool u_heinrich_specular, u_flat_normal;
 uniform int u_leaf_base;    // −1: one-sided material; else the first leaf plane (two-sided)
 uniform bool u_leaf_hl2;
@@ -36,7 +37,7 @@ float EvaluateChannel(int c, vec3 l, vec3 v) {
     int base = 7 + (u_coef_channels == 1 ? 0 : c) * u_terms;
     float r = 0.0;
     for (int j = 0; j < u_terms; ++j) r += b[j] * P(base + j);
-    return r;
+    return u_basis_srgb ? SrgbDecode(clamp(r, 0.0, 1.0)) : r;
   }
   vec3 n = vec3(P(0), P(1), P(2));
   if (u_model == 4) {

@@ -75,6 +75,11 @@ float Hl2Translucency(float rho_t, vec3 h, vec3 w) {
 float DiffuseTranslucency(float rho_t, vec3 w) { return rho_t * Clamp0(w.z); }
 
 // ---- relight_basis.cc ----
+// core/color.h SrgbToLinear: the decode of an sRGB-encoded basis sum (MaterialMaps::basis_srgb).
+float SrgbDecode(float x) {
+  return x <= 0.04045 ? x / 12.92 : pow((x + 0.055) / 1.055, 2.4);
+}
+
 void PtmBasis(vec3 l, out float b[16]) {
   b[0] = l.x * l.x;
   b[1] = l.y * l.y;

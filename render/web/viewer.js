@@ -114,6 +114,7 @@ async function main() {
     gl.uniform1i(U('u_model'), v.model_index);
     gl.uniform1i(U('u_terms'), v.terms);
     gl.uniform1i(U('u_coef_channels'), v.coef_channels);
+    gl.uniform1i(U('u_basis_srgb'), v.basis_srgb ? 1 : 0);
     gl.uniform1i(U('u_heinrich_specular'), v.heinrich_specular ? 1 : 0);
     gl.uniform1i(U('u_flat_normal'), v.flat_normal ? 1 : 0);
     gl.uniform1i(U('u_leaf_base'), v.leaf_base ?? -1);

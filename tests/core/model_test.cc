@@ -57,10 +57,13 @@ TEST(ModelRegistry, IdsNamesAndLookupsAgree) {
 TEST(ModelBatch, EqualsPerSampleEvaluationForEveryModel) {
   const std::vector<Vec3f> lights = TestLights();
   for (const ModelDescriptor* d : AllModels())
-    for (bool grey : {false, true}) {
-      if (grey && d->name() != std::string("ptm") && d->name() != std::string("hsh")) continue;
+    for (int variant = 0; variant < 4; ++variant) {
+      // Basis models also grey, and with an sRGB-encoded basis sum (ptm-srgb, hsh*-srgb).
+      const bool grey = variant & 1, srgb = variant & 2;
+      if (variant && d->name() != std::string("ptm") && d->name() != std::string("hsh")) continue;
       for (uint32_t seed : {1u, 2u}) {
-        const MaterialMaps m = RandomModelMaps(d->id(), 23, 7, seed, grey);
+        MaterialMaps m = RandomModelMaps(d->id(), 23, 7, seed, grey);
+        m.basis_srgb = srgb;
         const Vec3f v = seed == 1 ? Vec3f(0, 0, 1) : Normalize(Vec3f(0.3f, -0.2f, 0.9f));
         const BatchEvaluator eval(m, lights, v);
         const int64_t T = int64_t(m.width) * m.height;
@@ -88,9 +91,11 @@ TEST(ModelBatch, EqualsPerSampleEvaluationForEveryModel) {
 TEST(ModelBatch, LightGroupsEqualSingleLightsExactly) {
   const std::vector<Vec3f> lights = TestLights();  // 26 lights
   for (const ModelDescriptor* d : AllModels())
-    for (bool grey : {false, true}) {
-      if (grey && d->name() != std::string("ptm") && d->name() != std::string("hsh")) continue;
-      const MaterialMaps m = RandomModelMaps(d->id(), 23, 7, 3, grey);
+    for (int variant = 0; variant < 4; ++variant) {
+      const bool grey = variant & 1, srgb = variant & 2;
+      if (variant && d->name() != std::string("ptm") && d->name() != std::string("hsh")) continue;
+      MaterialMaps m = RandomModelMaps(d->id(), 23, 7, 3, grey);
+      m.basis_srgb = srgb;
       const BatchEvaluator eval(m, lights, Vec3f(0, 0, 1));
       for (int channels : {1, 3})
         for (int n : {1, 16, 37, 154}) {
@@ -135,29 +140,34 @@ TEST(ModelBatch, ScatteredEvaluationEqualsPerSample) {
 TEST(ModelPack, RoundTripEvaluatesTheSameForEveryModel) {
   testing::TempDir dir;
   const std::vector<Vec3f> lights = TestLights();
-  for (const ModelDescriptor* d : AllModels()) {
-    const MaterialMaps m = RandomModelMaps(d->id(), 8, 6, 2);
-    const std::vector<uint8_t> status(size_t(m.width) * m.height, 0);
-    PackInfo info;
-    info.method = d->name();
-    if (!m.specular_color.empty()) info.model_parameters["exponent"] = m.exponent.data()[0];
-    const std::string out = dir / d->name();
-    ASSERT_TRUE(WritePack(m, status, info, {}, out).ok()) << d->name();
-    auto back = ReadPack(out);
-    ASSERT_TRUE(back.ok()) << d->name() << ": " << back.status().message();
-    EXPECT_EQ(back->maps.model, d->id());
-    EXPECT_EQ(back->maps.basis_terms, m.basis_terms);
-    EXPECT_EQ(back->maps.specular_flat_normal, m.specular_flat_normal);
-    EXPECT_EQ(d->ParameterPlanes(back->maps), d->ParameterPlanes(m)) << d->name();
-    for (int64_t p = 0; p < int64_t(m.width) * m.height; ++p)
-      for (const Vec3f& l : lights)
-        for (int c = 0; c < 3; ++c) {
-          const float want = d->Evaluate(m, p, c, l, Vec3f(0, 0, 1));
-          ASSERT_NEAR(d->Evaluate(back->maps, p, c, l, Vec3f(0, 0, 1)), want,
-                      1e-6 + 1e-6 * std::abs(want))
-              << d->name();
-        }
-  }
+  for (const ModelDescriptor* d : AllModels())
+    for (const bool srgb : {false, true}) {
+      const bool basis = d->name() == std::string("ptm") || d->name() == std::string("hsh");
+      if (srgb && !basis) continue;
+      MaterialMaps m = RandomModelMaps(d->id(), 8, 6, 2);
+      m.basis_srgb = srgb;  // ptm-srgb / hsh*-srgb: material.json basis_srgb
+      const std::vector<uint8_t> status(size_t(m.width) * m.height, 0);
+      PackInfo info;
+      info.method = d->name();
+      if (!m.specular_color.empty()) info.model_parameters["exponent"] = m.exponent.data()[0];
+      const std::string out = dir / (std::string(d->name()) + (srgb ? "-srgb" : ""));
+      ASSERT_TRUE(WritePack(m, status, info, {}, out).ok()) << d->name();
+      auto back = ReadPack(out);
+      ASSERT_TRUE(back.ok()) << d->name() << ": " << back.status().message();
+      EXPECT_EQ(back->maps.model, d->id());
+      EXPECT_EQ(back->maps.basis_terms, m.basis_terms);
+      EXPECT_EQ(back->maps.basis_srgb, srgb) << d->name();
+      EXPECT_EQ(back->maps.specular_flat_normal, m.specular_flat_normal);
+      EXPECT_EQ(d->ParameterPlanes(back->maps), d->ParameterPlanes(m)) << d->name();
+      for (int64_t p = 0; p < int64_t(m.width) * m.height; ++p)
+        for (const Vec3f& l : lights)
+          for (int c = 0; c < 3; ++c) {
+            const float want = d->Evaluate(m, p, c, l, Vec3f(0, 0, 1));
+            ASSERT_NEAR(d->Evaluate(back->maps, p, c, l, Vec3f(0, 0, 1)), want,
+                        1e-6 + 1e-6 * std::abs(want))
+                << d->name();
+          }
+    }
 }
 
 // preview.png has no holes (issue #21): a flagged texel shows its maps' estimate like an ok one,

@@ -51,6 +51,7 @@ TEST(Relight, RenderedPlaneAtTheDatasetLightsReproducesTheReportedError) {
        std::vector<std::pair<std::string, std::string>>{{"plaster-bonn81", "lambert"},
                                                         {"plastic-ring12", "blinn-phong"},
                                                         {"plaster-bonn81", "ptm"},
+                                                        {"wool-bonn81-8bit", "ptm-srgb"},
                                                         {"wool-bonn81-8bit", "heinrich"}}) {
     auto s = ReadDataset(root + dataset);
     ASSERT_TRUE(s.ok()) << s.status().ToString();

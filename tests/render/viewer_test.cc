@@ -18,6 +18,8 @@
 
 #include "core/pack/pack.h"
 #include "core/synth/materials.h"
+#include "core/synth/synth.h"
+#include "fit/method.h"
 #include "render/cpu_renderer.h"
 #include "render/egl_renderer.h"
 
@@ -71,6 +73,7 @@ struct Case {
   double theta, phi;
   const char* other = nullptr;  // a second pack listed first: the model switcher selects ours
   double camera_theta = 0, camera_phi = 0;
+  const char* fit_model = nullptr;  // the pack holds this model's fit of the material (else truth)
 };
 
 TEST(WebViewer, HeadlessChromiumDrawsWhatTheEglRendererDraws) {
@@ -91,9 +94,18 @@ TEST(WebViewer, HeadlessChromiumDrawsWhatTheEglRendererDraws) {
   auto egl = EglRenderer::Create();
   for (const Case& c : {Case{"plastic", "sphere", 40, 30}, Case{"plastic-ct", "plane", 55, 200},
                         Case{"wool", "plane", 30, 45}, Case{"leaf", "plane", 150, 30, "wool-plane"},
-                        Case{"plastic", "cloth", 45, 60, nullptr, 35, -40}}) {
-    const MaterialMaps maps = *synth::MakeMaterial(c.material, 48, 3);
-    const std::string name = std::string(c.material) + "-" + c.scene;  // the pack's folder
+                        Case{"plastic", "cloth", 45, 60, nullptr, 35, -40},
+                        Case{"plastic", "plane", 35, 60, nullptr, 0, 0, "ptm-srgb"}}) {
+    MaterialMaps maps = *synth::MakeMaterial(c.material, 48, 3);
+    if (c.fit_model) {  // an sRGB-domain basis (u_basis_srgb) as the viewer draws it
+      synth::SynthOptions so;
+      so.material = c.material, so.lights = "dome:60", so.size = 48, so.layout = Layout::kLp;
+      auto fit = fit::MakeMethod(c.fit_model)->Fit(synth::Synthesize(so)->stack, {});
+      ASSERT_TRUE(fit.ok()) << fit.status().ToString();
+      maps = std::move(fit->maps);
+    }
+    const std::string name = std::string(c.material) + "-" + c.scene +
+                             (c.fit_model ? std::string("-") + c.fit_model : "");  // the folder
     ASSERT_TRUE(
         WritePack(maps, std::vector<uint8_t>(size_t(48 * 48), 0), {}, {}, (tmp / name).string())
             .ok());
