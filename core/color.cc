@@ -68,6 +68,18 @@ struct Srgb8Tables {
 
 }  // namespace
 
+void LinearToSrgb8Batch(const float* in, float scale, int n, uint8_t* out) {
+  static const Srgb8Tables t;
+  const float* bounds = t.bounds.data();
+  const uint8_t* base = t.base.data();
+  for (int i = 0; i < n; ++i) {
+    const float v = scale * in[i];
+    const float c = v > 0.0f ? (v < 1.0f ? v : 1.0f) : 0.0f;  // NaN → 0; ≥ 1 → bin kBins: 255
+    const int k = base[int(c * float(kBins))];
+    out[i] = uint8_t(k + (bounds[k + 1] <= c));
+  }
+}
+
 const SrgbCurveTable& SrgbCurves() {
   static const std::vector<float> tables = [] {
     std::vector<float> t(2 * (SrgbCurveTable::kSteps + 1));

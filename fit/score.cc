@@ -133,13 +133,20 @@ double ScoreLightParts(bool residuals, bool reconstruction, const LightChannels&
 // Σ over scored texels and channels of (code(raw) − code(I · pred))², codes by LinearToSrgb8Fast:
 // an integer, so the sum is exact in any order.
 int64_t Srgb8SquaredError(const LightChannels& l, int channels, const float* ok, int n) {
+  constexpr int kBlock = 256;
+  uint8_t a[kBlock], b[kBlock];
   int64_t sum = 0;
   for (int c = 0; c < channels; ++c)
-    for (int t = 0; t < n; ++t) {
-      if (ok[t] == 0) continue;
-      const int d = int(LinearToSrgb8Fast(l.raw[c][t])) -
-                    int(LinearToSrgb8Fast(l.intensity[c] * l.pred[c][t]));
-      sum += d * d;
+    for (int t0 = 0; t0 < n; t0 += kBlock) {
+      const int m = std::min(kBlock, n - t0);
+      LinearToSrgb8Batch(l.raw[c] + t0, 1.0f, m, a);
+      LinearToSrgb8Batch(l.pred[c] + t0, l.intensity[c], m, b);
+      int32_t block = 0;  // ≤ 256 · 255² < 2^31
+      for (int t = 0; t < m; ++t) {
+        const int d = int(a[t]) - int(b[t]);
+        block += ok[t0 + t] != 0 ? d * d : 0;
+      }
+      sum += block;
     }
   return sum;
 }

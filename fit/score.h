@@ -31,8 +31,8 @@ struct ScoreParts {
   bool reconstruction = true;
   bool residuals = true;
   // With reconstruction: also the error in 8-bit sRGB codes (ReconstructionMetrics::rmse_srgb8),
-  // both the sample and I · prediction encoded by LinearToSrgb8Fast — a scalar pass per sample,
-  // so only held-out scoring asks for it.
+  // both the sample and I · prediction encoded as LinearToSrgb8Fast does (batched); a table pass
+  // per sample, so only held-out scoring asks for it.
   bool srgb8 = false;
 };
 

@@ -1,7 +1,9 @@
 #include <gtest/gtest.h>
+#include <algorithm>
 #include <cmath>
 #include <cstdint>
 #include <cstring>
+#include <vector>
 
 #include "core/color.h"
 
@@ -35,6 +37,48 @@ TEST(Srgb, FastEightBitEncodeEqualsThePowForm) {
   EXPECT_EQ(LinearToSrgb8Fast(2.0f), 255);
   EXPECT_EQ(LinearToSrgb8Fast(INFINITY), 255);
   EXPECT_EQ(LinearToSrgb8Fast(NAN), 0);
+}
+
+// The batched encode gives LinearToSrgb8Fast's code for every value and scale (16 M floats of
+// [0, 1] in blocks, specials, a scale of 0.7 applied before the encode).
+TEST(Srgb, BatchedEightBitEncodeEqualsTheFastOne) {
+  const float one = 1.0f;
+  uint32_t end;
+  std::memcpy(&end, &one, sizeof end);
+  std::vector<float> in;
+  for (uint32_t bits = 0; bits <= end; bits += 61) {
+    float v;
+    std::memcpy(&v, &bits, sizeof v);
+    in.push_back(v);
+  }
+  for (float v : {-0.5f, 2.0f, float(INFINITY), float(NAN), -0.0f, 1.0f}) in.push_back(v);
+  std::vector<uint8_t> out(in.size());
+  for (float scale : {1.0f, 0.7f}) {
+    for (size_t i = 0; i < in.size(); i += 1000)
+      LinearToSrgb8Batch(in.data() + i, scale, int(std::min<size_t>(1000, in.size() - i)),
+                         out.data() + i);
+    int64_t mismatches = 0;
+    for (size_t i = 0; i < in.size(); ++i) mismatches += out[i] != LinearToSrgb8Fast(scale * in[i]);
+    EXPECT_EQ(mismatches, 0) << scale;
+  }
+}
+
+// The table curves (SrgbCurves) against the pow forms: decode ≤ 1e-7, encode ≤ 2e-5, and both
+// clamp to [0, 1] (NaN → 0).
+TEST(Srgb, TableCurvesAreWithinTheirStatedError) {
+  double worst_decode = 0, worst_encode = 0;
+  for (int i = 0; i <= 1 << 20; ++i) {
+    const float x = float(i) / float(1 << 20);
+    worst_decode = std::max(
+        worst_decode, double(std::abs(SrgbCurveLookup(SrgbCurves().decode, x) - SrgbToLinear(x))));
+    worst_encode = std::max(
+        worst_encode, double(std::abs(SrgbCurveLookup(SrgbCurves().encode, x) - LinearToSrgb(x))));
+  }
+  EXPECT_LE(worst_decode, 1e-7);
+  EXPECT_LE(worst_encode, 2e-5);
+  EXPECT_EQ(SrgbCurveLookup(SrgbCurves().decode, NAN), 0.0f);
+  EXPECT_EQ(SrgbCurveLookup(SrgbCurves().decode, 3.0f), 1.0f);
+  EXPECT_EQ(SrgbCurveLookup(SrgbCurves().encode, -1.0f), 0.0f);
 }
 
 TEST(Srgb, KnownValues) {
