@@ -283,13 +283,23 @@ StackDiagnostics DiagnoseStack(const LightStack& s, int max_texels) {
   else
     d.verdict = ToneVerdict::kUnknown;
   d.looks_linear_read_as_srgb = d.verdict == ToneVerdict::kLinearReadAsSrgb;
+  // Lights at one elevation see every texel at nearly one n·l per azimuth: a specular lobe bends
+  // the values as a curve would (ResolveToneCurve does not act there), and the warning says so.
+  double lo = 90, hi = 0;
+  for (const LightSample& l : s.lights())
+    if (l.direction.z > 0) lo = std::min(lo, l.theta_deg), hi = std::max(hi, l.theta_deg);
+  const bool one_elevation = hi - lo < kMinToneElevationSpanDeg;
   if (d.looks_linear_read_as_srgb) {
-    char msg[320];
+    char msg[480];
     std::snprintf(msg, sizeof msg,
                   "the images look linear but were decoded as sRGB: the read values grow like "
                   "(n·l)^(1/%.2f), an sRGB encode makes them linear in n·l (Lambertian residual "
-                  "%.2g → %.2g); re-read them with --color-space linear",
-                  best, d.residual_linear, d.residual_srgb_encoded);
+                  "%.2g → %.2g); re-read them with --color-space linear%s",
+                  best, d.residual_linear, d.residual_srgb_encoded,
+                  one_elevation ? " — unless the material is glossy: with every light at one "
+                                  "elevation a specular lobe bends the values the same way, so "
+                                  "--color-space auto leaves the reading as it is"
+                                : "");
     d.warnings.push_back(Warning(WarningCode::kLinearReadAsSrgb, msg));
   }
   // Only an interior minimum is evidence (at the ends of [0.3, 3.3] the search is inconclusive).
