@@ -13,6 +13,7 @@
 #include "core/simd_clones.h"
 #include "core/warnings.h"
 #include "fit/fit_common.h"
+#include "fit/light_cover.h"
 
 namespace matfit::fit {
 namespace {
@@ -285,10 +286,7 @@ StackDiagnostics DiagnoseStack(const LightStack& s, int max_texels) {
   d.looks_linear_read_as_srgb = d.verdict == ToneVerdict::kLinearReadAsSrgb;
   // Lights at one elevation see every texel at nearly one n·l per azimuth: a specular lobe bends
   // the values as a curve would (ResolveToneCurve does not act there), and the warning says so.
-  double lo = 90, hi = 0;
-  for (const LightSample& l : s.lights())
-    if (l.direction.z > 0) lo = std::min(lo, l.theta_deg), hi = std::max(hi, l.theta_deg);
-  const bool one_elevation = hi - lo < kMinToneElevationSpanDeg;
+  const bool one_elevation = LitElevationRange(s.lights()).span() < kMinToneElevationSpanDeg;
   if (d.looks_linear_read_as_srgb) {
     char msg[480];
     std::snprintf(msg, sizeof msg,
@@ -328,10 +326,9 @@ ToneResolution ResolveToneCurve(LightStack* s, StackDiagnostics* diag) {
     if (s->encodings[i].transfer != r.from.transfer || s->encodings[i].gamma != r.from.gamma ||
         (i < s->encoding_reasons.size() && s->encoding_reasons[i] == "user override"))
       return r;
-  double lo = 90, hi = 0;
-  for (const LightSample& l : s->lights())
-    if (l.direction.z > 0) lo = std::min(lo, l.theta_deg), hi = std::max(hi, l.theta_deg);
-  if (hi - lo < kMinToneElevationSpanDeg || diag->evidence < kToneActEvidence) return r;
+  if (LitElevationRange(s->lights()).span() < kMinToneElevationSpanDeg ||
+      diag->evidence < kToneActEvidence)
+    return r;
   const bool linear = r.from.transfer == TransferFunction::kLinear;
   const double g = diag->encoding_exponent;
   // The curve chosen must itself explain the same samples better than the read: its residual

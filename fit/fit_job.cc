@@ -114,9 +114,9 @@ StatusOr<FitJobResult> RunFitJob(const FitJobOptions& o, const StageProgress& pr
   auto stack = ReadDataset(o.input, ro);
   if (!stack.ok()) return stack.status();
   FitJobResult r;
-  // --color-space auto: the tone curve the stack shows overrides a rule's guess (docs/formats.md).
-  // The diagnosis is the assessment's too, while the stack stays as read (it does, but for auto).
-  // (--decode-only times the decode alone.)
+  // --color-space auto: the tone curve the stack shows overrides a rule's guess (docs/data-model.md
+  // "Colour"). The same diagnosis serves the assessment (reset when --model auto downsamples the
+  // stack); --decode-only times the decode alone and skips it.
   std::optional<StackDiagnostics> diagnosis;
   if (!o.decode_only) diagnosis = DiagnoseStack(*stack);
   std::vector<std::string> tone_warnings;

@@ -9,6 +9,13 @@
 
 namespace matfit::fit {
 
+ElevationRange LitElevationRange(const std::vector<LightSample>& lights) {
+  ElevationRange r;
+  for (const LightSample& l : lights)
+    if (l.direction.z > 0) r.lo = std::min(r.lo, l.theta_deg), r.hi = std::max(r.hi, l.theta_deg);
+  return r;
+}
+
 std::string LightCoverShortfall(const std::vector<LightSample>& lights, const FitMethod& method) {
   int lit = 0;  // lights above the surface plane: the others add nothing to a texel facing +z
   for (const LightSample& l : lights) lit += l.direction.z > 0 ? 1 : 0;
@@ -26,16 +33,14 @@ std::string LightCoverShortfall(const std::vector<LightSample>& lights, const Fi
   }
   const std::string& name = method.name();
   if (name == "blinn-phong" || name == "cook-torrance" || name.rfind("lafortune", 0) == 0) {
-    double lo = 90, hi = 0;
-    for (const LightSample& l : lights)
-      if (l.direction.z > 0) lo = std::min(lo, l.theta_deg), hi = std::max(hi, l.theta_deg);
-    if (lit > 0 && hi - lo < kMinLobeElevationSpanDeg) {
+    const ElevationRange e = LitElevationRange(lights);
+    if (lit > 0 && e.span() < kMinLobeElevationSpanDeg) {
       std::snprintf(why, sizeof why,
                     "every light lies at θl %.1f°…%.1f°: no other elevation checks %s's "
                     "specular lobe, so its predictions there are unverified (on a real 45° "
                     "ring, lobe fits missed held-out lights by 3-1600× lambert's error) and no "
                     "error bound is claimed; use lambert, or add lights at other elevations",
-                    lo, hi, name.c_str());
+                    e.lo, e.hi, name.c_str());
       return why;
     }
   }

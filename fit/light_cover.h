@@ -23,6 +23,13 @@ inline constexpr double kMaxBasisCondition = 1000;     // σ_max / σ_min of the
 // elevation-span warning uses the same span).
 inline constexpr double kMinLobeElevationSpanDeg = 5;
 
+// θl range (degrees) of the lights above the surface plane; span() < 0 when none is lit.
+struct ElevationRange {
+  double lo = 90, hi = 0;
+  double span() const { return hi - lo; }
+};
+ElevationRange LitElevationRange(const std::vector<LightSample>& lights);
+
 // Empty when `lights` support `method`; else why not, naming the counts and the fix.
 std::string LightCoverShortfall(const std::vector<LightSample>& lights, const FitMethod& method);
 

@@ -100,7 +100,9 @@ TEST(WebViewer, HeadlessChromiumDrawsWhatTheEglRendererDraws) {
     if (c.fit_model) {  // an sRGB-domain basis (u_basis_srgb) as the viewer draws it
       synth::SynthOptions so;
       so.material = c.material, so.lights = "dome:60", so.size = 48, so.layout = Layout::kLp;
-      auto fit = fit::MakeMethod(c.fit_model)->Fit(synth::Synthesize(so)->stack, {});
+      auto data = synth::Synthesize(so);
+      ASSERT_TRUE(data.ok()) << data.status().ToString();
+      auto fit = fit::MakeMethod(c.fit_model)->Fit(data->stack, {});
       ASSERT_TRUE(fit.ok()) << fit.status().ToString();
       maps = std::move(fit->maps);
     }
