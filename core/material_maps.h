@@ -19,9 +19,10 @@ enum class ShadingModel {
   kHeinrich,
   kPtm,
   kHsh,
-  kLafortune
+  kLafortune,
+  kRbf
 };
-// "mean", "lambert", "blinn-phong", "cook-torrance", "heinrich", "ptm", "hsh", "lafortune"
+// "mean", "lambert", "blinn-phong", "cook-torrance", "heinrich", "ptm", "hsh", "lafortune", "rbf"
 const char* ShadingModelName(ShadingModel m);
 
 struct MaterialMaps {
@@ -52,6 +53,9 @@ struct MaterialMaps {
   // The basis sum is sRGB-encoded, as RTI tools fit the stored 8-bit codes: R = decode(clamp(
   // Σ_j a_j B_j(l), 0, 1)) with the sRGB decode (ptm-srgb, hsh*-srgb; METHODS.md §4).
   bool basis_srgb = false;
+  // rbf: the k = basis_terms basis functions of the light tabulated on a G × G grid (k planes,
+  // core/shading/relight_basis.h RbfTableBasis); not texel-sized. Empty for ptm/hsh.
+  Image basis_table;
   // Lafortune lobes: amplitude ρ_s,j in `specular` (one plane per lobe); shape per lobe in
   // `lobe_shape` (planes 2j = C_xy, 2j + 1 = exponent).
   Image lobe_shape;

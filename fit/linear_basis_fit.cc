@@ -14,14 +14,13 @@
 #include "core/color.h"
 #include "core/shading/relight_basis.h"
 #include "fit/fit_common.h"
+#include "fit/linear_basis.h"
 #include "fit/methods.h"
 #include "fit/row_kernels.h"
 #include "fit/valid_refit.h"
 
 namespace matfit::fit {
 namespace {
-
-using BasisFn = std::function<void(const Vec3&, double*)>;
 
 // B(i, j) = basis_j(l_i): the N × k basis matrix over the lights.
 Eigen::MatrixXd BasisMatrix(const std::vector<LightSample>& lights, int K, const BasisFn& basis) {
@@ -69,9 +68,8 @@ uint8_t BasisSubsetFit(const TexelSamples& t, const Eigen::MatrixXd& B, const do
   return kTexelOk;
 }
 
-// srgb: fit the sRGB encode of each sample (divided by its light's intensity, clamped to
-// [0, 1]) — the stored 8-bit code for an sRGB file under unit intensity — as RTI tools do; the
-// maps then say basis_srgb and every evaluator decodes the sum.
+}  // namespace
+
 StatusOr<FitResult> FitLinearBasis(const LightStack& s, const FitOptions& o,
                                    const std::string& name, std::string_view model, int K,
                                    const BasisFn& basis, bool srgb) {
@@ -201,8 +199,6 @@ StatusOr<FitResult> FitLinearBasis(const LightStack& s, const FitOptions& o,
         &r);
   return FinishFit(ok, t0, std::move(r));
 }
-
-}  // namespace
 
 double RelightBasisCondition(const std::vector<LightSample>& lights, std::string method) {
   if (method.size() > 5 && method.ends_with("-srgb")) method.resize(method.size() - 5);

@@ -39,8 +39,8 @@ class FunctionMethod : public FitMethod {
 }  // namespace
 
 std::vector<std::string> MethodNames() {
-  return {"mean",        "lambert",       "lambert-robust", "heinrich",  "ptm",
-          "ptm-srgb",    "hsh2",          "hsh2-srgb",      "hsh3",      "hsh3-srgb",
+  return {"mean",        "lambert",       "lambert-robust", "heinrich",  "ptm", "ptm-srgb",
+          "hsh2",        "hsh2-srgb",     "hsh3",           "hsh3-srgb", "rbf", "rbf-srgb",
           "blinn-phong", "cook-torrance", "lafortune1",     "lafortune2"};
 }
 
@@ -96,6 +96,17 @@ std::unique_ptr<FitMethod> MakeMethod(const std::string& name) {
             (srgb ? ", fitted to the sRGB-encoded values (as RTI tools do)" : ""),
         18, 36, 6, 6,
         [srgb](const LightStack& s, const FitOptions& o) { return FitPtm(s, o, srgb); });
+  }
+  if (name == "rbf" || name == "rbf-srgb") {
+    const bool srgb = name == "rbf-srgb";
+    const int k = kRbfComponents;
+    return std::make_unique<FunctionMethod>(
+        name,
+        "radial-basis interpolation over the lights of " + std::to_string(k) + " PCA components, " +
+            std::to_string(k) + " coefficients per channel" +
+            (srgb ? ", fitted to the sRGB-encoded values (as RTI tools do)" : ""),
+        3 * k, 6 * k, k, k,
+        [srgb](const LightStack& s, const FitOptions& o) { return FitRbf(s, o, srgb); });
   }
   return nullptr;
 }

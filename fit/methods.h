@@ -39,6 +39,14 @@ StatusOr<FitResult> FitPtm(const LightStack& stack, const FitOptions& options, b
 StatusOr<FitResult> FitHsh(const LightStack& stack, const FitOptions& options, int order,
                            bool srgb = false);
 
+// rbf (fit/rbf_fit.cc): kRbfComponents PCA components (at most N − 3 for N lights) of the samples
+// over the lights, each interpolated over light directions by Gaussian RBFs (width and
+// regularisation by leave-one-light-out), tabulated on a kRbfTableSize² grid
+// (MaterialMaps::basis_table), and per-texel coefficients fitted against that table like ptm/hsh.
+// srgb as for FitPtm.
+inline constexpr int kRbfComponents = 9, kRbfTableSize = 64;
+StatusOr<FitResult> FitRbf(const LightStack& stack, const FitOptions& options, bool srgb = false);
+
 // σ_max / σ_min of the N × k basis matrix of the method's relighting basis over `lights`
 // ("ptm", "hsh1" … "hsh4", each also with "-srgb"; +inf when rank-deficient); 0 for a method
 // without such a basis.

@@ -18,7 +18,7 @@ namespace {
 std::string MakePackDir() {
   const std::string d = fuzz::ScratchDir() + "/pack";
   fs::create_directories(d);
-  for (const char* name : {"lambert", "ptm"}) {
+  for (const char* name : {"lambert", "ptm", "rbf"}) {
     MaterialMaps m;
     m.width = m.height = 4, m.model = ModelId(name);
     m.normal = Image(4, 4, 3, 0.0f);
@@ -26,6 +26,9 @@ std::string MakePackDir() {
     m.albedo = Image(4, 4, 3, 0.5f);
     m.mask = Image(4, 4, 1, 1.0f);
     if (std::string(name) == "ptm") m.basis_terms = 6, m.coefficients = Image(4, 4, 18, 0.1f);
+    if (std::string(name) == "rbf")  // a table the fuzzed material.json can point anywhere
+      m.basis_terms = 2, m.coefficients = Image(4, 4, 6, 0.1f),
+      m.basis_table = Image(3, 3, 2, 0.5f);
     const std::string out = fuzz::ScratchDir() + "/" + name;
     if (!WritePack(m, std::vector<uint8_t>(16, 0), {}, {}, out).ok()) std::abort();
     for (const auto& e : fs::recursive_directory_iterator(out)) {  // merge both packs' maps

@@ -158,6 +158,16 @@ StatusOr<Image> EglRenderer::Render(const MaterialMaps& maps, const RenderOption
   glPixelStorei(GL_UNPACK_ALIGNMENT, 4);
   glTexImage3D(GL_TEXTURE_2D_ARRAY, 0, GL_RGBA32F, g->width, g->height, g->layers, 0, GL_RGBA,
                GL_FLOAT, g->texels.data());
+  // rbf: the basis table as a second array texture (one R32F layer per term) on unit 1.
+  GLuint table = 0;
+  if (g->table_size > 0) {
+    glGenTextures(1, &table);
+    glBindTexture(GL_TEXTURE_2D_ARRAY, table);
+    glTexParameteri(GL_TEXTURE_2D_ARRAY, GL_TEXTURE_MIN_FILTER, GL_NEAREST);
+    glTexParameteri(GL_TEXTURE_2D_ARRAY, GL_TEXTURE_MAG_FILTER, GL_NEAREST);
+    glTexImage3D(GL_TEXTURE_2D_ARRAY, 0, GL_R32F, g->table_size, g->table_size, g->terms, 0, GL_RED,
+                 GL_FLOAT, g->basis_table.data());
+  }
   glGenRenderbuffers(1, &rb);
   glBindRenderbuffer(GL_RENDERBUFFER, rb);
   glRenderbufferStorage(GL_RENDERBUFFER, GL_RGBA32F, o.size, o.size);
@@ -174,6 +184,8 @@ StatusOr<Image> EglRenderer::Render(const MaterialMaps& maps, const RenderOption
     const Vec3 l = o.LightDirection();
     const Vec3 rad = o.light_color * o.intensity;
     glUniform1i(glGetUniformLocation(p, "u_params"), 0);
+    glUniform1i(glGetUniformLocation(p, "u_basis_table"), 1);
+    glUniform1i(glGetUniformLocation(p, "u_table_size"), g->table_size);
     glUniform2i(glGetUniformLocation(p, "u_texels"), g->width, g->height);
     glUniform1i(glGetUniformLocation(p, "u_size"), o.size);
     glUniform1i(glGetUniformLocation(p, "u_scene"), int(o.scene));
@@ -196,6 +208,8 @@ StatusOr<Image> EglRenderer::Render(const MaterialMaps& maps, const RenderOption
     glUniform1f(glGetUniformLocation(p, "u_exposure"), float(o.exposure));
     glUniform1i(glGetUniformLocation(p, "u_tonemap"), int(o.tonemap));
     glUniform1i(glGetUniformLocation(p, "u_display"), o.display);
+    glActiveTexture(GL_TEXTURE1);
+    glBindTexture(GL_TEXTURE_2D_ARRAY, table);
     glActiveTexture(GL_TEXTURE0);
     glBindTexture(GL_TEXTURE_2D_ARRAY, tex);
     glBindVertexArray(s_->vao);
@@ -215,12 +229,14 @@ StatusOr<Image> EglRenderer::Render(const MaterialMaps& maps, const RenderOption
     glDeleteFramebuffers(1, &fbo);
     glDeleteRenderbuffers(1, &rb);
     glDeleteTextures(1, &tex);
+    if (table) glDeleteTextures(1, &table);
     if (status.ok()) return out;
     return status;
   }
   glDeleteFramebuffers(1, &fbo);
   glDeleteRenderbuffers(1, &rb);
   glDeleteTextures(1, &tex);
+  if (table) glDeleteTextures(1, &table);
   return status;
 }
 

@@ -1,8 +1,9 @@
-// Relighting bases (METHODS.md §4): R_c = Σ_j a_{c,j} B_j(l), PTM (6 terms) and HSH (order²
-// terms). Maps: coefficients, plane c·k + j (or j alone for grey stacks), k = basis_terms.
-// The basis values are computed once per light (Prepare); a run is k axpys per channel. With
-// maps.basis_srgb the sum is an sRGB-encoded value: R_c = decode(clamp(Σ_j a_{c,j} B_j(l), 0, 1))
-// (the table decode of core/color.h, here and in every evaluator).
+// Relighting bases (METHODS.md §4): R_c = Σ_j a_{c,j} B_j(l), PTM (6 terms), HSH (order²
+// terms) and RBF (k terms tabulated over the light disc in maps.basis_table, fit/rbf_fit.cc). Maps:
+// coefficients, plane c·k + j (or j alone for grey stacks), k = basis_terms. The basis values are
+// computed once per light (Prepare); a run is k axpys per channel. With maps.basis_srgb the sum is
+// an sRGB-encoded value: R_c = decode(clamp(Σ_j a_{c,j} B_j(l), 0, 1)) (the table decode of
+// core/color.h, here and in every evaluator).
 #include <cmath>
 
 #include "core/color.h"
@@ -54,11 +55,20 @@ void BasisKernel4(const float* const* coef, const float* const* basis, int k, in
   }
 }
 
-template <bool kPtm>
-class BasisModel final : public ModelBase<BasisModel<kPtm>> {
+enum class BasisKind { kPtm, kHsh, kRbf };
+
+// The rbf table's limits: G nodes per side (RbfTableBasis needs ≥ 2; fits write 64).
+inline constexpr int kMinRbfTable = 2, kMaxRbfTable = 1024;
+
+template <BasisKind kKind>
+class BasisModel final : public ModelBase<BasisModel<kKind>> {
+  static constexpr bool kPtm = kKind == BasisKind::kPtm, kRbf = kKind == BasisKind::kRbf;
+
  public:
-  ShadingModel id() const override { return kPtm ? ShadingModel::kPtm : ShadingModel::kHsh; }
-  const char* name() const override { return kPtm ? "ptm" : "hsh"; }
+  ShadingModel id() const override {
+    return kPtm ? ShadingModel::kPtm : kRbf ? ShadingModel::kRbf : ShadingModel::kHsh;
+  }
+  const char* name() const override { return kPtm ? "ptm" : kRbf ? "rbf" : "hsh"; }
   std::vector<std::pair<const char*, const Image*>> ParameterMaps(
       const MaterialMaps& m) const override {
     return {{"coefficients", &m.coefficients}};
@@ -69,6 +79,9 @@ class BasisModel final : public ModelBase<BasisModel<kPtm>> {
   static void Basis(const MaterialMaps& m, const Vec3f& l, double* b) {
     if (kPtm)
       shading::PtmBasis(Vec3(l), b);
+    else if (kRbf)
+      shading::RbfTableBasis(m.basis_table.data().data(), m.basis_table.width(), m.basis_terms,
+                             Vec3(l), b);
     else
       shading::HshBasis(int(std::lround(std::sqrt(double(m.basis_terms)))), Vec3(l), b);
   }
@@ -81,6 +94,24 @@ class BasisModel final : public ModelBase<BasisModel<kPtm>> {
     double r = 0;
     for (int j = 0; j < k; ++j) r += b[j] * m.coefficients.Plane(base + j)[i];
     return m.basis_srgb ? SrgbCurveLookup(SrgbCurves().decode, float(r)) : float(r);
+  }
+  // rbf: the table is square, ≥ 2 nodes a side, with one plane per basis term.
+  static Status CheckTable(const MaterialMaps& m) {
+    const Image& t = m.basis_table;
+    if (t.empty())
+      return DataError(
+          "an rbf material needs its basis table (maps/basis_table.exr); the pack "
+          "lists none");
+    if (t.width() != t.height() || t.width() < kMinRbfTable || t.width() > kMaxRbfTable ||
+        t.channels() != m.basis_terms)
+      return DataError("the rbf basis table is " + std::to_string(t.width()) + " x " +
+                       std::to_string(t.height()) + " with " + std::to_string(t.channels()) +
+                       " channel(s); it must be square, " + std::to_string(kMinRbfTable) + " to " +
+                       std::to_string(kMaxRbfTable) + " a side, with basis_terms (" +
+                       std::to_string(m.basis_terms) + ") channels");
+    for (float v : t.data())
+      if (!std::isfinite(v)) return DataError("the rbf basis table has a non-finite value");
+    return Status::Ok();
   }
   void Prepare(const MaterialMaps& m, const Vec3f& l, const Vec3f& v,
                ModelLight* out) const override {
@@ -120,8 +151,12 @@ class BasisModel final : public ModelBase<BasisModel<kPtm>> {
     }
   }
   Status WritePackMaps(const MaterialMaps& m, const PutPackMapFn& put) const override {
-    return put({"coefficients", "coefficients.exr", &m.coefficients, MapEncoding::kFloat,
-                "relighting coefficients, channel c*k + j"});
+    MATFIT_RETURN_IF_ERROR(put({"coefficients", "coefficients.exr", &m.coefficients,
+                                MapEncoding::kFloat, "relighting coefficients, channel c*k + j"}));
+    if (!kRbf) return Status::Ok();
+    return put({"basis_table", "basis_table.exr", &m.basis_table, MapEncoding::kFloat,
+                "rbf basis B_j tabulated over the light disc (theta/90deg)(cos phi, sin phi), "
+                "channel j, row y from -1 (first) to +1"});
   }
   void PackParameters(const MaterialMaps& m, std::map<std::string, double>* out) const override {
     if (m.basis_terms > 0) (*out)["basis_terms"] = m.basis_terms;
@@ -142,13 +177,21 @@ class BasisModel final : public ModelBase<BasisModel<kPtm>> {
       m->basis_srgb = e->second == 1;
     }
     const int order = int(std::lround(std::sqrt(double(m->basis_terms))));
-    const bool valid = kPtm ? m->basis_terms == shading::kPtmTerms
-                            : k->second == double(m->basis_terms) && order >= 1 && order <= 4 &&
-                                  order * order == m->basis_terms;
+    const bool integral = k->second == double(m->basis_terms);
+    const bool valid =
+        kPtm   ? m->basis_terms == shading::kPtmTerms
+        : kRbf ? integral && m->basis_terms >= 1 && m->basis_terms <= ModelLight::kMaxBasis
+               : integral && order >= 1 && order <= 4 && order * order == m->basis_terms;
     if (!valid)
       return DataError(std::string("model.parameters.basis_terms is ") + std::to_string(k->second) +
                        " for a " + name() + " pack; it must be " +
-                       (kPtm ? "6" : "1, 4, 9 or 16 (HSH order²)"));
+                       (kPtm   ? "6"
+                        : kRbf ? "1 to 16"
+                               : "1, 4, 9 or 16 (HSH order²)"));
+    if (kRbf) {
+      MATFIT_RETURN_IF_ERROR(load("basis_table", &m->basis_table));
+      if (Status st = CheckTable(*m); !st.ok()) return st;
+    }
     const int ch = m->coefficients.channels();
     if (ch != m->basis_terms && ch != 3 * m->basis_terms)
       return DataError("the coefficients map has " + std::to_string(ch) + " channel(s); a " +
@@ -158,6 +201,10 @@ class BasisModel final : public ModelBase<BasisModel<kPtm>> {
     return Status::Ok();
   }
   bool AddShaderPlanes(const MaterialMaps& m, ShaderPlaneSink* s) const override {
+    if (kRbf) {
+      if (!CheckTable(m).ok()) return false;
+      s->basis_table = &m.basis_table;
+    }
     s->terms = m.basis_terms;
     s->basis_srgb = m.basis_srgb;
     s->coef_channels = s->terms > 0 ? m.coefficients.channels() / s->terms : 0;
@@ -170,11 +217,15 @@ class BasisModel final : public ModelBase<BasisModel<kPtm>> {
 }  // namespace
 
 const ModelDescriptor& PtmDescriptor() {
-  static const BasisModel<true> model;
+  static const BasisModel<BasisKind::kPtm> model;
   return model;
 }
 const ModelDescriptor& HshDescriptor() {
-  static const BasisModel<false> model;
+  static const BasisModel<BasisKind::kHsh> model;
+  return model;
+}
+const ModelDescriptor& RbfDescriptor() {
+  static const BasisModel<BasisKind::kRbf> model;
   return model;
 }
 

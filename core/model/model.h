@@ -61,6 +61,7 @@ class ShaderPlaneSink {
   int coef_channels = 3;
   bool heinrich_specular = false, flat_normal = false;
   bool basis_srgb = false;  // ptm/hsh: the basis sum is sRGB-encoded (MaterialMaps::basis_srgb)
+  const Image* basis_table = nullptr;  // rbf: MaterialMaps::basis_table (a separate texture)
 };
 
 // A synthetic material's specular parameters at one texel (core/synth/materials.cc).

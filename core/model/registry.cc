@@ -16,15 +16,16 @@ const ModelDescriptor& HeinrichDescriptor();
 const ModelDescriptor& PtmDescriptor();
 const ModelDescriptor& HshDescriptor();
 const ModelDescriptor& LafortuneDescriptor();
+const ModelDescriptor& RbfDescriptor();
 }  // namespace model_impl
 
 const std::vector<const ModelDescriptor*>& AllModels() {
   using namespace model_impl;
   static const std::vector<const ModelDescriptor*> all = [] {
-    std::vector<const ModelDescriptor*> v = {&MeanDescriptor(),       &LambertDescriptor(),
-                                             &BlinnPhongDescriptor(), &CookTorranceDescriptor(),
-                                             &HeinrichDescriptor(),   &PtmDescriptor(),
-                                             &HshDescriptor(),        &LafortuneDescriptor()};
+    std::vector<const ModelDescriptor*> v = {
+        &MeanDescriptor(),         &LambertDescriptor(),   &BlinnPhongDescriptor(),
+        &CookTorranceDescriptor(), &HeinrichDescriptor(),  &PtmDescriptor(),
+        &HshDescriptor(),          &LafortuneDescriptor(), &RbfDescriptor()};
     for (size_t i = 0; i < v.size(); ++i) MATFIT_CHECK(int(v[i]->id()) == int(i));
     return v;
   }();

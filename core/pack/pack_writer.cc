@@ -233,6 +233,11 @@ Status WritePack(const MaterialMaps& m, const std::vector<uint8_t>& status, cons
         WriteFileAtomic((root / "viewer" / "params.bin").string(),
                         std::string_view(reinterpret_cast<const char*>(sp->texels.data()),
                                          sp->texels.size() * sizeof(float))));
+    if (sp->table_size > 0)
+      MATFIT_RETURN_IF_ERROR(
+          WriteFileAtomic((root / "viewer" / "basis_table.bin").string(),
+                          std::string_view(reinterpret_cast<const char*>(sp->basis_table.data()),
+                                           sp->basis_table.size() * sizeof(float))));
     viewer = {{"params", "viewer/params.bin"},
               {"encoding", "float32le rgba layers"},
               {"width", sp->width},
@@ -246,6 +251,8 @@ Status WritePack(const MaterialMaps& m, const std::vector<uint8_t>& status, cons
               {"flat_normal", sp->flat_normal},
               {"leaf_base", sp->leaf_base},
               {"leaf_hl2", sp->leaf_hl2}};
+    if (sp->table_size > 0)
+      viewer["basis_table"] = "viewer/basis_table.bin", viewer["table_size"] = sp->table_size;
     return Status::Ok();
   });
   {

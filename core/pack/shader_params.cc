@@ -58,6 +58,7 @@ Status CollectPlanes(const MaterialMaps& m, const float* ones, const float* zero
   g.terms = sink.terms, g.coef_channels = sink.coef_channels;
   g.heinrich_specular = sink.heinrich_specular, g.flat_normal = sink.flat_normal;
   g.basis_srgb = sink.basis_srgb;
+  if (sink.basis_table) g.table_size = sink.basis_table->width();
   if (ok && !m.translucency.empty()) {
     g.leaf_base = int(planes.size());
     ok = ok && sink.Add(m.translucency, 3, "translucency");
@@ -87,6 +88,7 @@ StatusOr<ShaderParams> PackShaderParams(const MaterialMaps& m) {
   const size_t n_texels = size_t(std::max(0, m.width)) * size_t(std::max(0, m.height));
   const std::vector<float> ones(n_texels, 1.0f), zeros(n_texels, 0.0f);
   if (Status st = CollectPlanes(m, ones.data(), zeros.data(), &g, &planes); !st.ok()) return st;
+  if (g.table_size > 0) g.basis_table = m.basis_table.data();
   const int w = m.width, h = m.height;
   const int64_t n = int64_t(w) * h;
   g.texels.resize(size_t(g.layers) * size_t(n) * 4);  // every element written below

@@ -7,7 +7,8 @@
 //   blinn-phong: 7 k_s, 8 exponent;  cook-torrance: 7 F0, 8 roughness;
 //   lafortune (L lobes): 7 + j amplitude, 7 + L + 2j C_xy, 8 + L + 2j exponent;
 //   heinrich: 7–9 ambient, 10 |n_raw|, 11–13 L_spec, 14 exponent;
-//   ptm/hsh: 7 + c·K + j coefficient j of channel c;
+//   ptm/hsh/rbf: 7 + c·K + j coefficient j of channel c (rbf's basis is a separate table:
+//   basis_table, K planes of table_size² floats, an R32F 2D array texture in the shaders);
 //   two-sided leaves (translucency present), after the model's planes from leaf_base:
 //   +0–2 ρ_t, +3–5 lower-side albedo, +6–8 HL2 h_1..h_3 (when leaf_hl2).
 #pragma once
@@ -29,6 +30,9 @@ struct ShaderParams {
   bool basis_srgb = false;  // ptm/hsh: decode the basis sum from sRGB
   int leaf_base = -1;       // first leaf plane, −1: not a leaf
   bool leaf_hl2 = false;    // HL2 coefficients present (else the diffuse BTDF)
+  // rbf: MaterialMaps::basis_table, terms planes of table_size × table_size (row j = y node j).
+  int table_size = 0;
+  std::vector<float> basis_table;
   // layers × height × width × 4, row 0 = top (huge pages: one fault per 2 MiB, not per 4 KiB)
   std::vector<float, LargePageAllocator<float>> texels;
 };

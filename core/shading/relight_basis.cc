@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdint>
 #include <numbers>
 
 namespace matfit::shading {
@@ -54,6 +55,28 @@ void HshBasis(int order, const Vec3& dir, double out[kMaxHshTerms]) {
       if (m < 0) v *= std::sqrt(2.0) * std::sin(am * phi);
       out[l * l + l + m] = v;
     }
+}
+
+void RbfTableCoords(const Vec3& l, int G, double* fx, double* fy) {
+  const double theta = std::acos(std::clamp(l.z, -1.0, 1.0));
+  const double s = std::hypot(l.x, l.y);
+  // ρ = θ / 90°, clamped to the horizon; (x, y) = ρ (l_x, l_y) / |(l_x, l_y)|.
+  const double rho = std::min(1.0, theta / (std::numbers::pi / 2));
+  const double x = s > 0 ? rho * l.x / s : 0.0, y = s > 0 ? rho * l.y / s : 0.0;
+  *fx = (x + 1) * 0.5 * (G - 1), *fy = (y + 1) * 0.5 * (G - 1);
+}
+
+void RbfTableBasis(const float* table, int G, int k, const Vec3& l, double* out) {
+  double fx, fy;
+  RbfTableCoords(l, G, &fx, &fy);
+  const int x0 = std::clamp(int(std::floor(fx)), 0, G - 2);
+  const int y0 = std::clamp(int(std::floor(fy)), 0, G - 2);
+  const double tx = fx - x0, ty = fy - y0;
+  const int64_t plane = int64_t(G) * G;
+  for (int q = 0; q < k; ++q) {
+    const float* t = table + q * plane + int64_t(y0) * G + x0;
+    out[q] = (1 - ty) * ((1 - tx) * t[0] + tx * t[1]) + ty * ((1 - tx) * t[G] + tx * t[G + 1]);
+  }
 }
 
 }  // namespace matfit::shading

@@ -17,4 +17,13 @@ void PtmBasis(const Vec3& l, double out[kPtmTerms]);
 inline constexpr int kMaxHshTerms = 16;
 void HshBasis(int order, const Vec3& l, double out[kMaxHshTerms]);
 
+// Tabulated basis (the rbf model, fit/rbf_fit.cc): k basis functions of the light direction,
+// stored as k planes of a G × G table over the azimuthal-equidistant disc
+// (x, y) = (θ / 90°) (cos φ, sin φ) ∈ [−1, 1]² (θ from +z; the horizon is the unit circle,
+// directions below it clamp to it); node (i, j) of plane q, value table[q·G² + j·G + i], sits at
+// x = −1 + 2i/(G − 1), y = −1 + 2j/(G − 1); values between nodes are bilinear.
+// RbfTableCoords maps l to the table's continuous node coordinates (fx, fy) ∈ [0, G − 1]².
+void RbfTableCoords(const Vec3& l, int G, double* fx, double* fy);
+void RbfTableBasis(const float* table, int G, int k, const Vec3& l, double* out);
+
 }  // namespace matfit::shading

@@ -3,13 +3,15 @@
 // add ambient, then expose, tone-map and encode. Mirrors render/cpu_renderer.cc.
 // Parameter planes (core/pack/shader_params.h): plane q is component q % 4 of layer q / 4.
 uniform sampler2DArray u_params;
+uniform sampler2DArray u_basis_table;  // rbf: the basis table, one R32F layer per term
+uniform int u_table_size;              // rbf: nodes per side of u_basis_table
 uniform ivec2 u_texels;     // material width, height
 uniform int u_size;         // output is u_size × u_size pixels
 uniform int u_scene;        // 0 plane, 1 sphere, 2 cloth
 uniform int u_model;        // 0 mean, 1 lambert, 2 blinn-phong, 3 cook-torrance, 4 heinrich,
-                            // 5 ptm, 6 hsh, 7 lafortune
-uniform int u_terms;        // ptm/hsh coefficients per channel, or lafortune lobes
-uniform int u_coef_channels;  // ptm/hsh: 1 (grey) or 3
+                            // 5 ptm, 6 hsh, 7 lafortune, 8 rbf
+uniform int u_terms;        // ptm/hsh/rbf coefficients per channel, or lafortune lobes
+uniform int u_coef_channels;  // ptm/hsh/rbf: 1 (grey) or 3
 uniform bool u_basis_srgb;    // ptm/hsh: the basis sum is sRGB-encoded (decode after clamping)
 uniform bool u_heinrich_specular, u_flat_normal;
 uniform int u_leaf_base;    // −1: one-sided material; else the first leaf plane (two-sided)
@@ -28,10 +30,12 @@ float P(int q) { return texelFetch(u_params, ivec3(g_texel, q / 4), 0)[q % 4]; }
 
 float EvaluateChannel(int c, vec3 l, vec3 v) {
   if (u_model == 0) return P(3 + c);
-  if (u_model == 5 || u_model == 6) {
+  if (u_model == 5 || u_model == 6 || u_model == 8) {
     float b[16];
     if (u_model == 5)
       PtmBasis(l, b);
+    else if (u_model == 8)
+      RbfTableBasis(u_basis_table, u_table_size, u_terms, l, b);
     else
       HshBasis(int(round(sqrt(float(u_terms)))), l, b);
     int base = 7 + (u_coef_channels == 1 ? 0 : c) * u_terms;

@@ -129,3 +129,22 @@ void HshBasis(int order, vec3 dir, out float b[16]) {
       b[l * l + l + m] = v;
     }
 }
+
+// RbfTableBasis: k planes of a G × G table over (x, y) = (θ / 90°)(cos φ, sin φ), clamped to the
+// horizon, bilinear between nodes (node (i, j) at x = −1 + 2i/(G − 1), y = −1 + 2j/(G − 1)).
+void RbfTableBasis(highp sampler2DArray table, int G, int k, vec3 l, out float b[16]) {
+  float theta = acos(clamp(l.z, -1.0, 1.0));
+  float s = length(l.xy);
+  float rho = min(1.0, theta / (0.5 * kPi));
+  vec2 xy = s > 0.0 ? rho * l.xy / s : vec2(0.0);
+  vec2 f = (xy + 1.0) * 0.5 * float(G - 1);
+  ivec2 i0 = clamp(ivec2(floor(f)), ivec2(0), ivec2(G - 2));
+  vec2 t = f - vec2(i0);
+  for (int q = 0; q < k; ++q) {
+    float t00 = texelFetch(table, ivec3(i0, q), 0).r;
+    float t10 = texelFetch(table, ivec3(i0 + ivec2(1, 0), q), 0).r;
+    float t01 = texelFetch(table, ivec3(i0 + ivec2(0, 1), q), 0).r;
+    float t11 = texelFetch(table, ivec3(i0 + ivec2(1, 1), q), 0).r;
+    b[q] = (1.0 - t.y) * ((1.0 - t.x) * t00 + t.x * t10) + t.y * ((1.0 - t.x) * t01 + t.x * t11);
+  }
+}

@@ -11,7 +11,7 @@
 'use strict';
 
 const MODEL_NAMES = ['mean', 'lambert', 'blinn-phong', 'cook-torrance', 'heinrich', 'ptm', 'hsh',
-                     'lafortune'];
+                     'lafortune', 'rbf'];
 
 function fail(message) {
   document.getElementById('error').textContent = 'matfit viewer: ' + message;
@@ -75,6 +75,13 @@ async function main() {
   gl.bindTexture(gl.TEXTURE_2D_ARRAY, tex);
   gl.texParameteri(gl.TEXTURE_2D_ARRAY, gl.TEXTURE_MIN_FILTER, gl.NEAREST);
   gl.texParameteri(gl.TEXTURE_2D_ARRAY, gl.TEXTURE_MAG_FILTER, gl.NEAREST);
+  // rbf: the basis table, one R32F layer per term (texture unit 1).
+  const table = gl.createTexture();
+  gl.bindTexture(gl.TEXTURE_2D_ARRAY, table);
+  gl.texParameteri(gl.TEXTURE_2D_ARRAY, gl.TEXTURE_MIN_FILTER, gl.NEAREST);
+  gl.texParameteri(gl.TEXTURE_2D_ARRAY, gl.TEXTURE_MAG_FILTER, gl.NEAREST);
+  gl.texImage3D(gl.TEXTURE_2D_ARRAY, 0, gl.R32F, 1, 1, 1, 0, gl.RED, gl.FLOAT,
+                new Float32Array(1));  // complete until an rbf pack replaces it
   // Uploads pack i's parameter planes (fetched once, then cached).
   const cache = new Map();
   async function loadPack(i) {
@@ -84,11 +91,23 @@ async function main() {
       if (texels.length !== mv.layers * mv.width * mv.height * 4)
         fail(`${packs[i]}${mv.params} has ${texels.length} floats, expected ` +
              `${mv.layers * mv.width * mv.height * 4}`);
-      cache.set(i, texels);
+      let basis = null;
+      if (mv.table_size > 0) {
+        basis = new Float32Array(await fetchOk(packs[i] + mv.basis_table, 'buffer'));
+        if (basis.length !== mv.table_size * mv.table_size * mv.terms)
+          fail(`${packs[i]}${mv.basis_table} has ${basis.length} floats, expected ` +
+               `${mv.table_size * mv.table_size * mv.terms}`);
+      }
+      cache.set(i, {texels, basis});
     }
     gl.bindTexture(gl.TEXTURE_2D_ARRAY, tex);
     gl.texImage3D(gl.TEXTURE_2D_ARRAY, 0, gl.RGBA32F, mv.width, mv.height, mv.layers, 0, gl.RGBA,
-                  gl.FLOAT, cache.get(i));
+                  gl.FLOAT, cache.get(i).texels);
+    if (cache.get(i).basis) {
+      gl.bindTexture(gl.TEXTURE_2D_ARRAY, table);
+      gl.texImage3D(gl.TEXTURE_2D_ARRAY, 0, gl.R32F, mv.table_size, mv.table_size, mv.terms, 0,
+                    gl.RED, gl.FLOAT, cache.get(i).basis);
+    }
     v = mv;
     const model = MODEL_NAMES[v.model_index] || materials[i].model?.name;
     document.getElementById('title').textContent = `matfit viewer: ${model}`;
@@ -108,6 +127,8 @@ async function main() {
     gl.clear(gl.COLOR_BUFFER_BIT);
     gl.useProgram(program);
     gl.uniform1i(U('u_params'), 0);
+    gl.uniform1i(U('u_basis_table'), 1);
+    gl.uniform1i(U('u_table_size'), v.table_size || 0);
     gl.uniform2i(U('u_texels'), v.width, v.height);
     gl.uniform1i(U('u_size'), size);
     gl.uniform1i(U('u_scene'), state.scene);
@@ -132,6 +153,8 @@ async function main() {
     gl.uniform1f(U('u_exposure'), state.exposure);
     gl.uniform1i(U('u_tonemap'), state.tonemap);
     gl.uniform1i(U('u_display'), 1);
+    gl.activeTexture(gl.TEXTURE1);
+    gl.bindTexture(gl.TEXTURE_2D_ARRAY, table);
     gl.activeTexture(gl.TEXTURE0);
     gl.bindTexture(gl.TEXTURE_2D_ARRAY, tex);
     gl.bindVertexArray(vao);

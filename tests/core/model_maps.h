@@ -10,7 +10,7 @@
 
 namespace matfit::testing {
 
-// `grey`: ptm/hsh coefficients for one channel only (grey stacks).
+// `grey`: ptm/hsh/rbf coefficients for one channel only (grey stacks).
 inline MaterialMaps RandomModelMaps(ShadingModel id, int w, int h, uint32_t seed,
                                     bool grey = false) {
   std::mt19937 rng(seed);
@@ -52,6 +52,12 @@ inline MaterialMaps RandomModelMaps(ShadingModel id, int w, int h, uint32_t seed
   } else if (name == "ptm" || name == "hsh") {
     m.basis_terms = name == "ptm" ? 6 : (seed & 1 ? 9 : 4);
     fill(&m.coefficients, (grey ? 1 : 3) * m.basis_terms, -0.5, 0.7);
+  } else if (name == "rbf") {
+    // A random smooth-ish table: k terms on a 9 × 9 grid (any size ≥ 2 is valid).
+    m.basis_terms = seed & 1 ? 9 : 5;
+    fill(&m.coefficients, (grey ? 1 : 3) * m.basis_terms, -0.5, 0.7);
+    m.basis_table = Image(9, 9, m.basis_terms);
+    for (float& v : m.basis_table.data()) v = u(-0.4, 1.0);
   }
   return m;
 }

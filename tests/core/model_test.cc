@@ -21,6 +21,12 @@ namespace {
 
 using testing::RandomModelMaps;
 
+// ptm, hsh and rbf: coefficients × a basis of the light (also grey and with an sRGB sum).
+bool IsBasisModel(const ModelDescriptor& d) {
+  const std::string n = d.name();
+  return n == "ptm" || n == "hsh" || n == "rbf";
+}
+
 // Directions over the whole sphere, upper hemisphere denser, grazing and below-horizon ones too.
 std::vector<Vec3f> TestLights() {
   std::vector<Vec3f> d;
@@ -49,7 +55,7 @@ TEST(ModelRegistry, IdsNamesAndLookupsAgree) {
     EXPECT_LE(m->light_group(), kMaxEvalLightGroup) << m->name();
   }
   EXPECT_EQ(FindModel("no-such-model"), nullptr);
-  EXPECT_EQ(AllModels().size(), 8u);
+  EXPECT_EQ(AllModels().size(), 9u);
 }
 
 // The batched evaluator equals the per-sample definition for every model, light, channel count
@@ -60,7 +66,7 @@ TEST(ModelBatch, EqualsPerSampleEvaluationForEveryModel) {
     for (int variant = 0; variant < 4; ++variant) {
       // Basis models also grey, and with an sRGB-encoded basis sum (ptm-srgb, hsh*-srgb).
       const bool grey = variant & 1, srgb = variant & 2;
-      if (variant && d->name() != std::string("ptm") && d->name() != std::string("hsh")) continue;
+      if (variant && !IsBasisModel(*d)) continue;
       for (uint32_t seed : {1u, 2u}) {
         MaterialMaps m = RandomModelMaps(d->id(), 23, 7, seed, grey);
         m.basis_srgb = srgb;
@@ -93,7 +99,7 @@ TEST(ModelBatch, LightGroupsEqualSingleLightsExactly) {
   for (const ModelDescriptor* d : AllModels())
     for (int variant = 0; variant < 4; ++variant) {
       const bool grey = variant & 1, srgb = variant & 2;
-      if (variant && d->name() != std::string("ptm") && d->name() != std::string("hsh")) continue;
+      if (variant && !IsBasisModel(*d)) continue;
       MaterialMaps m = RandomModelMaps(d->id(), 23, 7, 3, grey);
       m.basis_srgb = srgb;
       const BatchEvaluator eval(m, lights, Vec3f(0, 0, 1));
@@ -142,8 +148,7 @@ TEST(ModelPack, RoundTripEvaluatesTheSameForEveryModel) {
   const std::vector<Vec3f> lights = TestLights();
   for (const ModelDescriptor* d : AllModels())
     for (const bool srgb : {false, true}) {
-      const bool basis = d->name() == std::string("ptm") || d->name() == std::string("hsh");
-      if (srgb && !basis) continue;
+      if (srgb && !IsBasisModel(*d)) continue;
       MaterialMaps m = RandomModelMaps(d->id(), 8, 6, 2);
       m.basis_srgb = srgb;  // ptm-srgb / hsh*-srgb: material.json basis_srgb
       const std::vector<uint8_t> status(size_t(m.width) * m.height, 0);
@@ -157,6 +162,7 @@ TEST(ModelPack, RoundTripEvaluatesTheSameForEveryModel) {
       EXPECT_EQ(back->maps.model, d->id());
       EXPECT_EQ(back->maps.basis_terms, m.basis_terms);
       EXPECT_EQ(back->maps.basis_srgb, srgb) << d->name();
+      EXPECT_EQ(back->maps.basis_table.data(), m.basis_table.data()) << d->name();
       EXPECT_EQ(back->maps.specular_flat_normal, m.specular_flat_normal);
       EXPECT_EQ(d->ParameterPlanes(back->maps), d->ParameterPlanes(m)) << d->name();
       for (int64_t p = 0; p < int64_t(m.width) * m.height; ++p)
@@ -223,6 +229,51 @@ TEST(ModelPack, ReaderRefusesInconsistentBasisTerms) {
     ASSERT_FALSE(back.ok()) << terms;
     EXPECT_NE(back.status().message().find(want), std::string::npos) << back.status().message();
     EXPECT_NE(back.status().message().find("material.json"), std::string::npos);
+  }
+}
+
+// An rbf pack without its basis table, or with one that does not match basis_terms, is refused
+// with an error naming the table.
+TEST(ModelPack, ReaderRefusesAMissingOrMismatchedRbfTable) {
+  testing::TempDir dir;
+  const MaterialMaps m = RandomModelMaps(ModelId("rbf"), 6, 5, 1);  // 9 terms, 9 × 9 table
+  const std::vector<uint8_t> status(30, 0);
+  const std::string out = dir / "rbf";
+  ASSERT_TRUE(WritePack(m, status, {}, {}, out).ok());
+  ASSERT_TRUE(ReadPack(out).ok());
+  const std::string mj = out + "/material.json";
+  std::ifstream in(mj);
+  const std::string good((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  {  // 5 terms: the 27-plane coefficients map no longer fits either
+    std::string text = good;
+    text.replace(text.find("\"basis_terms\": 9"), 17, "\"basis_terms\": 17");
+    testing::WriteText(mj, text);
+    auto back = ReadPack(out);
+    ASSERT_FALSE(back.ok());
+    EXPECT_NE(back.status().message().find("must be 1 to 16"), std::string::npos)
+        << back.status().message();
+  }
+  {  // a table with the wrong number of channels
+    testing::WriteText(mj, good);
+    ImageWriteOptions exr;
+    exr.format = PixelFormat::kFloat;
+    ASSERT_TRUE(WriteImage(out + "/maps/basis_table.exr", Image(9, 9, 4, 0.5f), exr).ok());
+    auto back = ReadPack(out);
+    ASSERT_FALSE(back.ok());
+    EXPECT_NE(back.status().message().find("basis table is 9 x 9 with 4 channel(s)"),
+              std::string::npos)
+        << back.status().message();
+  }
+  {  // no table listed
+    std::string text = good;
+    const size_t at = text.find("\"name\": \"basis_table\"");
+    ASSERT_NE(at, std::string::npos);
+    text.replace(at, 21, "\"name\": \"basis_tablX\"");
+    testing::WriteText(mj, text);
+    auto back = ReadPack(out);
+    ASSERT_FALSE(back.ok());
+    EXPECT_NE(back.status().message().find("needs its basis table"), std::string::npos)
+        << back.status().message();
   }
 }
 

@@ -143,6 +143,37 @@ TEST(Select, GlossyMaterialNeedsASpecularModelUnderATightBudget) {
       << sel->reason;
 }
 
+// The learned basis (rbf, rbf-srgb) competes under dense lights and is skipped unevaluated as an
+// overfit risk where 9 coefficients per channel have fewer than 2 lights each; with a budget
+// nothing meets, the most accurate evaluated candidate is chosen, whichever family it is.
+TEST(Select, TheLearnedBasisCompetesUnderDenseLightsOnly) {
+  SelectOptions o;
+  o.methods = {"lambert", "hsh3", "rbf", "rbf-srgb"};
+  o.max_coarser_levels = 0;
+  SceneSpec scene;
+  scene.error_budget = 1e-6;
+  scene.srgb8 = true;
+  const auto dense = SynthData({.material = "plastic", .lights = "dome:120", .size = 12});
+  auto sel = SelectModel(dense.stack, scene, o);
+  ASSERT_TRUE(sel.ok()) << sel.status().ToString();
+  double best = 1e9;
+  std::string best_method;
+  for (const Candidate& c : sel->candidates) {
+    EXPECT_TRUE(c.evaluated) << c.method << ": " << c.note;
+    if (c.evaluated && c.error < best) best = c.error, best_method = c.method;
+  }
+  EXPECT_EQ(sel->method, best_method);
+  std::printf("plastic, 120 lights, srgb8: chosen %s at %.4f\n", sel->method.c_str(), sel->error);
+  const auto sparse = SynthData({.material = "plastic", .lights = "dome:12", .size = 12});
+  sel = SelectModel(sparse.stack, scene, o);
+  ASSERT_TRUE(sel.ok()) << sel.status().ToString();
+  for (const Candidate& c : sel->candidates)
+    if (c.method.rfind("rbf", 0) == 0) {
+      EXPECT_FALSE(c.evaluated) << c.method;
+      EXPECT_EQ(c.note.rfind("overfit risk", 0), 0u) << c.note;
+    }
+}
+
 TEST(Select, FarAwayUnderEnvironmentLightACoarseSmallMapSuffices) {
   const auto data = SynthData({.material = "plaster", .size = 64, .noise = 0.005});
   SceneSpec scene;

@@ -31,7 +31,7 @@ const std::map<std::string, MaterialMaps>& Materials() {
     o.layout = Layout::kLp;
     const LightStack s = synth::Synthesize(o)->stack;
     for (const char* name : {"mean", "lambert", "heinrich", "ptm", "ptm-srgb", "hsh2", "hsh3",
-                             "hsh3-srgb", "lafortune1", "lafortune2"}) {
+                             "hsh3-srgb", "lafortune1", "lafortune2", "rbf", "rbf-srgb"}) {
       auto method = fit::MakeMethod(name);
       auto r = method->Fit(s, {});
       if (r.ok()) (*m)[name] = std::move(r->maps);
@@ -146,7 +146,7 @@ TEST(CpuRenderer, RejectsBadOptionsAndIncompleteMaterials) {
 // renders differ by at most 2/255 per channel on at least 99.5 % of pixels.
 TEST(EglRenderer, MatchesTheCpuReferenceForEveryModel) {
   if (!Egl()) GTEST_SKIP() << EglRenderer::Create().status().ToString();
-  ASSERT_EQ(Materials().size(), 14u);
+  ASSERT_EQ(Materials().size(), 16u);
   int64_t all_off = 0, all_total = 0, exact = 0;
   double all_worst = 0;
   for (Scene scene : {Scene::kPlane, Scene::kSphere, Scene::kCloth})
@@ -184,7 +184,7 @@ TEST(EglRenderer, MatchesTheCpuReferenceForEveryModel) {
             << " values off by > 2/255 (worst " << worst << ")";
       }
   std::printf(
-      "EGL vs CPU, 14 materials × 3 scenes × 4 lights: %.4f %% of values off by > 2/255, "
+      "EGL vs CPU, 16 materials × 3 scenes × 4 lights: %.4f %% of values off by > 2/255, "
       "%.2f %% identical, worst %.0f/255\n",
       100.0 * double(all_off) / double(all_total), 100.0 * double(exact) / double(all_total),
       all_worst);

@@ -95,9 +95,10 @@ TEST(WebViewer, HeadlessChromiumDrawsWhatTheEglRendererDraws) {
   for (const Case& c : {Case{"plastic", "sphere", 40, 30}, Case{"plastic-ct", "plane", 55, 200},
                         Case{"wool", "plane", 30, 45}, Case{"leaf", "plane", 150, 30, "wool-plane"},
                         Case{"plastic", "cloth", 45, 60, nullptr, 35, -40},
-                        Case{"plastic", "plane", 35, 60, nullptr, 0, 0, "ptm-srgb"}}) {
+                        Case{"plastic", "plane", 35, 60, nullptr, 0, 0, "ptm-srgb"},
+                        Case{"plastic", "sphere", 35, 60, nullptr, 0, 0, "rbf"}}) {
     MaterialMaps maps = *synth::MakeMaterial(c.material, 48, 3);
-    if (c.fit_model) {  // an sRGB-domain basis (u_basis_srgb) as the viewer draws it
+    if (c.fit_model) {  // an sRGB-domain basis (u_basis_srgb), rbf's table texture
       synth::SynthOptions so;
       so.material = c.material, so.lights = "dome:60", so.size = 48, so.layout = Layout::kLp;
       auto data = synth::Synthesize(so);

@@ -1,0 +1,233 @@
+// rbf (issue 19 item 5): a data-driven relighting basis interpolated over the light directions,
+// the kind of model RTI tools ship as "RBF" (relight, OpenLIME). With y_t ∈ R^N the samples of one
+// texel and channel over the N lights (p_i / I_i, or its sRGB encode for rbf-srgb):
+//  1. PCA: E (N × K) = the K leading eigenvectors of Σ_t y_t y_tᵀ over sampled texels and
+//     channels whose every sample is valid (uncentred: the mean is in the first component);
+//  2. each column E_j is interpolated over the unit light directions l_i by Gaussian radial
+//     functions plus a linear polynomial: B_j(l) = Σ_i α_ij φ(|l − l_i|) + β_0j + β_1j l_x
+//     + β_2j l_y, φ(r) = exp(−r² / (2σ²)), from [Φ + λI, P; Pᵀ, 0] [α; β] = [E_j; 0]; σ and λ
+//     minimise the leave-one-light-out error of that interpolation, Σ_j w_j Σ_i e_ij² with
+//     e_ij = α_ij / (A⁻¹)_ii (Rippa 1999, "An algorithm for selecting a good value for the
+//     parameter c in radial basis function interpolation") and w_j E_j's eigenvalue;
+//  3. B is tabulated on a kRbfTableSize² grid (shading::RbfTableBasis) and the per-texel
+//     coefficients fitted by least squares against the *tabulated* basis, exactly as ptm/hsh
+//     (fit/linear_basis.h), so the fit, the CPU evaluators and the shaders use one function.
+#include <Eigen/Dense>
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <numbers>
+#include <vector>
+
+#include "core/color.h"
+#include "core/parallel.h"
+#include "core/shading/relight_basis.h"
+#include "fit/fit_common.h"
+#include "fit/linear_basis.h"
+#include "fit/methods.h"
+
+namespace matfit::fit {
+namespace {
+
+// At most this many texels feed the PCA (a grid over the image): N² work each.
+constexpr int64_t kMaxPcaTexels = 8192;
+
+// The second-moment matrix of sampled texel-channel vectors y (N entries each, all valid).
+// Returns the number of vectors used.
+int64_t SampleMoments(const LightStack& s, bool srgb, Eigen::MatrixXd* moment) {
+  const int N = s.num_images(), C = s.channels();
+  const int64_t texels = s.texels();
+  const int64_t stride = std::max<int64_t>(1, texels / kMaxPcaTexels);
+  const std::vector<float> inv = InverseIntensities(s);
+  const bool clip = StackMayBeClipped(s);
+  const float* encode = SrgbCurves().encode;
+  std::vector<int64_t> picks;
+  for (int64_t p = stride / 2; p < texels; p += stride)
+    if (!s.has_mask() || s.mask[size_t(p)]) picks.push_back(p);
+  // Per thread block: a partial moment, summed at the end.
+  const int64_t blocks = std::min<int64_t>(int64_t(picks.size()), 8);
+  std::vector<Eigen::MatrixXd> part(size_t(std::max<int64_t>(blocks, 1)),
+                                    Eigen::MatrixXd::Zero(N, N));
+  std::vector<int64_t> used(part.size(), 0);
+  // Vectors are gathered as the columns of Y (N × kBatch) and added as one blocked Y Yᵀ.
+  constexpr int kBatch = 256;
+  ParallelFor(0, blocks, [&](int64_t b0, int64_t b1) {
+    Eigen::MatrixXd Y(N, kBatch);
+    for (int64_t b = b0; b < b1; ++b) {
+      const size_t first = size_t(b) * picks.size() / size_t(blocks);
+      const size_t last = size_t(b + 1) * picks.size() / size_t(blocks);
+      int cols = 0;
+      auto flush = [&] {
+        if (cols > 0) part[size_t(b)].selfadjointView<Eigen::Lower>().rankUpdate(Y.leftCols(cols));
+        used[size_t(b)] += cols, cols = 0;
+      };
+      for (size_t k = first; k < last; ++k)
+        for (int c = 0; c < C; ++c) {
+          bool valid = true;
+          double energy = 0;
+          for (int i = 0; i < N && valid; ++i) {
+            const float raw = s.Sample(i, c, picks[k]);
+            const float v = raw * inv[size_t(i) * C + c];
+            valid = std::isfinite(v) && !(clip && raw >= kClipLevel);
+            const double y = srgb ? SrgbCurveLookup(encode, v) : v;
+            Y(i, cols) = y, energy += y * y;
+          }
+          if (!valid || !(energy > 0)) continue;
+          if (++cols == kBatch) flush();
+        }
+      flush();
+    }
+  });
+  *moment = Eigen::MatrixXd::Zero(N, N);
+  int64_t n = 0;
+  for (size_t b = 0; b < part.size(); ++b) *moment += part[b], n += used[b];
+  *moment = moment->selfadjointView<Eigen::Lower>();
+  return n;
+}
+
+struct RbfInterpolant {
+  double sigma = 0, lambda = 0, loo_error = std::numeric_limits<double>::infinity();
+  Eigen::MatrixXd alpha;  // N × K
+  Eigen::MatrixXd beta;   // 3 × K: 1, l_x, l_y
+};
+
+// The augmented system A = [Φ + λI, P; Pᵀ, 0] for Gaussian width σ.
+Eigen::MatrixXd AugmentedSystem(const std::vector<Vec3>& dirs, double sigma, double lambda) {
+  const int N = int(dirs.size());
+  Eigen::MatrixXd A = Eigen::MatrixXd::Zero(N + 3, N + 3);
+  const double g = 1 / (2 * sigma * sigma);
+  for (int i = 0; i < N; ++i) {
+    for (int k = 0; k < N; ++k) A(i, k) = std::exp(-g * Dot(dirs[i] - dirs[k], dirs[i] - dirs[k]));
+    A(i, i) += lambda;
+    const double p[3] = {1, dirs[i].x, dirs[i].y};
+    for (int q = 0; q < 3; ++q) A(i, N + q) = A(N + q, i) = p[q];
+  }
+  return A;
+}
+
+// σ over multiples of the median nearest-neighbour distance between lights, λ over a few
+// decades; the pair with the smallest energy-weighted leave-one-out error.
+StatusOr<RbfInterpolant> ChooseInterpolant(const std::vector<Vec3>& dirs, const Eigen::MatrixXd& E,
+                                           const Eigen::VectorXd& weight) {
+  const int N = int(dirs.size()), K = int(E.cols());
+  std::vector<double> nearest(size_t(N), std::numeric_limits<double>::infinity());
+  for (int i = 0; i < N; ++i)
+    for (int k = 0; k < N; ++k)
+      if (k != i) nearest[size_t(i)] = std::min(nearest[size_t(i)], Length(dirs[i] - dirs[k]));
+  std::nth_element(nearest.begin(), nearest.begin() + N / 2, nearest.end());
+  const double spacing = nearest[size_t(N / 2)];
+  if (!(spacing > 1e-6) || !std::isfinite(spacing))
+    return InvalidArgument("rbf: two or more lights share one direction (nearest-light spacing " +
+                           std::to_string(spacing) +
+                           "); merge repeated directions or use a basis model (ptm, hsh2)");
+  const double sigmas[] = {0.5, 0.75, 1.0, 1.5, 2.0, 3.0};
+  const double lambdas[] = {1e-6, 1e-3, 1e-2, 1e-1};
+  constexpr int kS = int(std::size(sigmas)), kL = int(std::size(lambdas));
+  std::vector<RbfInterpolant> tried(size_t(kS * kL));
+  Eigen::MatrixXd rhs = Eigen::MatrixXd::Zero(N + 3, K);
+  rhs.topRows(N) = E;
+  ParallelFor(0, kS * kL, [&](int64_t c0, int64_t c1) {
+    for (int64_t c = c0; c < c1; ++c) {
+      RbfInterpolant& r = tried[size_t(c)];
+      r.sigma = sigmas[c / kL] * spacing, r.lambda = lambdas[c % kL];
+      const Eigen::MatrixXd A = AugmentedSystem(dirs, r.sigma, r.lambda);
+      const Eigen::PartialPivLU<Eigen::MatrixXd> lu(A);
+      const Eigen::MatrixXd Ainv = lu.inverse();
+      const Eigen::MatrixXd coef = Ainv * rhs;
+      if (!Ainv.allFinite() || !coef.allFinite()) continue;
+      double err = 0;
+      for (int i = 0; i < N; ++i) {
+        const double d = Ainv(i, i);
+        if (!(std::abs(d) > 1e-300)) err = std::numeric_limits<double>::infinity();
+        for (int j = 0; j < K; ++j) err += weight[j] * std::pow(coef(i, j) / d, 2);
+      }
+      if (!std::isfinite(err)) continue;
+      r.loo_error = err, r.alpha = coef.topRows(N), r.beta = coef.bottomRows(3);
+    }
+  });
+  const auto best = std::min_element(tried.begin(), tried.end(), [](const auto& a, const auto& b) {
+    return a.loo_error < b.loo_error;
+  });
+  if (!std::isfinite(best->loo_error))
+    return InvalidArgument(
+        "rbf: the light directions do not determine the interpolation (every light on one line "
+        "of the light disc?); use lights spread in azimuth or the lambert model");
+  return *best;
+}
+
+// B_j at every node of the G × G table (RbfTableBasis's grid; nodes outside the horizon take
+// the horizon's value, as lookups there clamp to it).
+Image Tabulate(const std::vector<Vec3>& dirs, const RbfInterpolant& f, int G) {
+  const int N = int(dirs.size()), K = int(f.alpha.cols());
+  Image table(G, G, K);
+  const double g = 1 / (2 * f.sigma * f.sigma);
+  ParallelFor(0, G, [&](int64_t j0, int64_t j1) {
+    std::vector<double> kernel(static_cast<size_t>(N));
+    for (int64_t j = j0; j < j1; ++j)
+      for (int i = 0; i < G; ++i) {
+        double x = -1 + 2.0 * i / (G - 1), y = -1 + 2.0 * double(j) / (G - 1);
+        double rho = std::hypot(x, y);
+        if (rho > 1) x /= rho, y /= rho, rho = 1;
+        const double theta = rho * std::numbers::pi / 2, phi_az = std::atan2(y, x);
+        const Vec3 l(std::sin(theta) * std::cos(phi_az), std::sin(theta) * std::sin(phi_az),
+                     std::cos(theta));
+        for (int k = 0; k < N; ++k)
+          kernel[size_t(k)] = std::exp(-g * Dot(l - dirs[k], l - dirs[k]));
+        for (int q = 0; q < K; ++q) {
+          double v = f.beta(0, q) + f.beta(1, q) * l.x + f.beta(2, q) * l.y;
+          for (int k = 0; k < N; ++k) v += f.alpha(k, q) * kernel[size_t(k)];
+          table.Plane(q)[j * G + i] = float(v);
+        }
+      }
+  });
+  return table;
+}
+
+}  // namespace
+
+StatusOr<FitResult> FitRbf(const LightStack& s, const FitOptions& o, bool srgb) {
+  const std::string name = srgb ? "rbf-srgb" : "rbf";
+  std::string why;
+  if (!o.Check(&why)) return InvalidArgument(why);
+  // K components, fewer when the lights cannot carry them beside the interpolation's linear
+  // part (3 terms): K ≤ N − 3.
+  const int N = s.num_images(), K = std::min(kRbfComponents, N - 3);
+  if (K < 1)
+    return InvalidArgument(name + ": " + std::to_string(N) +
+                           " light(s); the interpolation needs at least 4 light directions "
+                           "(capture more lights or use lambert)");
+  Eigen::MatrixXd moment;
+  const int64_t vectors = SampleMoments(s, srgb, &moment);
+  if (vectors < K)
+    return InvalidArgument(name + ": only " + std::to_string(vectors) +
+                           " texel channel(s) have every sample finite, unclipped and non-zero; "
+                           "the basis needs at least " +
+                           std::to_string(K) + " (is the mask or the exposure right?)");
+  Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> eig(moment);
+  if (eig.info() != Eigen::Success)
+    return InvalidArgument(name + ": the PCA of the samples did not converge (non-finite values?)");
+  // Eigenvalues ascend: the K leading ones are the last columns.
+  const Eigen::MatrixXd E = eig.eigenvectors().rightCols(K).rowwise().reverse();
+  const Eigen::VectorXd weight = eig.eigenvalues().tail(K).reverse().cwiseMax(0.0);
+  std::vector<Vec3> dirs;
+  for (const LightSample& l : s.lights()) dirs.push_back(Normalize(l.direction));
+  auto f = ChooseInterpolant(dirs, E, weight);
+  if (!f.ok()) return f.status();
+  const Image table = Tabulate(dirs, *f, kRbfTableSize);
+  auto r = FitLinearBasis(
+      s, o, name, "rbf", K,
+      [&table, K](const Vec3& l, double* b) {
+        shading::RbfTableBasis(table.data().data(), kRbfTableSize, K, l, b);
+      },
+      srgb);
+  if (!r.ok()) return r.status();
+  r->maps.basis_table = table;
+  r->parameters["rbf_sigma"] = f->sigma;
+  r->parameters["rbf_lambda"] = f->lambda;
+  r->parameters["rbf_pca_vectors"] = double(vectors);
+  const double total = eig.eigenvalues().cwiseMax(0.0).sum();
+  r->parameters["rbf_pca_energy"] = total > 0 ? weight.sum() / total : 1.0;
+  return r;
+}
+
+}  // namespace matfit::fit
