@@ -56,6 +56,10 @@ struct MaterialMaps {
   // rbf: the k = basis_terms basis functions of the light tabulated on a G × G grid (k planes,
   // core/shading/relight_basis.h RbfTableBasis); not texel-sized. Empty for ptm/hsh.
   Image basis_table;
+  // 1 plane (rbf): the leave-one-light-out RMS of the texel's prediction, linear radiance per unit
+  // light — how far an interpolating model can be off between its samples, which its residuals at
+  // the samples do not show; fit/confidence.h floors the residual RMS with it. Empty: none.
+  Image interpolation_error;
   // Lafortune lobes: amplitude ρ_s,j in `specular` (one plane per lobe); shape per lobe in
   // `lobe_shape` (planes 2j = C_xy, 2j + 1 = exponent).
   Image lobe_shape;

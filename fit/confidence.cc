@@ -137,6 +137,8 @@ Confidence ComputeConfidence(const LightStack& s, const MaterialMaps& maps, Mode
     if (ok(p) && samples[p] > P) pooled_rss += rss[p], pooled_dof += samples[p] - P;
   const double sigma2 = pooled_dof > 0 ? pooled_rss / pooled_dof : inf;
   out.pooled_sigma = std::sqrt(sigma2);
+  const Image& ie = maps.interpolation_error;
+  const bool interp = ie.width() == s.width() && ie.height() == s.height() && ie.channels() == 1;
   for (int64_t p = 0; p < T; ++p) {
     if (!ok(p)) continue;
     const double dof = samples[p] - P;
@@ -146,7 +148,9 @@ Confidence ComputeConfidence(const LightStack& s, const MaterialMaps& maps, Mode
       ++out.unverifiable;
       continue;
     }
-    const double s2 = std::max(rss[p] / dof, sigma2);
+    double s2 = std::max(rss[p] / dof, sigma2);
+    if (interp)  // an interpolating model's error between its samples
+      s2 = std::max(s2, std::pow(double(maps.interpolation_error.Plane(0)[p]), 2));
     const double extra = (out.extrapolation - 1) * level[p];
     out.bound[p] = float(std::sqrt(
         o.kappa * o.kappa * s2 * out.extrapolation * (1.0 + P / samples[p]) + extra * extra));

@@ -13,7 +13,9 @@
 // a ≤ max_extrapolation (2): the bound claims only directions the lights can predict. Where
 // a > 1 no residual can tell how a wrong model extrapolates, so up to (a − 1) times the texel's
 // mean level μ_x is added. The bound on the RMS error over the supported dome is
-//   b_x = sqrt(κ² · max(s_x², σ̂²) · a · (1 + P/n_x) + ((a − 1) μ_x)²).
+//   b_x = sqrt(κ² · max(s_x², σ̂², i_x²) · a · (1 + P/n_x) + ((a − 1) μ_x)²),
+// i_x = maps.interpolation_error (an interpolating model's error between its samples, which its
+// residuals at the samples do not show; rbf only, else 0).
 // Texels with n_x ≤ P, with fewer usable lights than the model's light parameters + 3 (too few
 // spare lights to reveal misfit), lights whose moment matrix is singular or that predict no
 // dome down to 10° within max_extrapolation, or lights that all miss the frontal cone (no light

@@ -89,6 +89,7 @@ struct RbfInterpolant {
   double sigma = 0, lambda = 0, loo_error = std::numeric_limits<double>::infinity();
   Eigen::MatrixXd alpha;  // N × K
   Eigen::MatrixXd beta;   // 3 × K: 1, l_x, l_y
+  Eigen::MatrixXd loo;    // N × K: e_ij, E_ij minus its interpolation from the other lights
 };
 
 // The augmented system A = [Φ + λI, P; Pᵀ, 0] for Gaussian width σ.
@@ -136,13 +137,16 @@ StatusOr<RbfInterpolant> ChooseInterpolant(const std::vector<Vec3>& dirs, const 
       const Eigen::MatrixXd coef = Ainv * rhs;
       if (!Ainv.allFinite() || !coef.allFinite()) continue;
       double err = 0;
+      Eigen::MatrixXd loo(N, K);
       for (int i = 0; i < N; ++i) {
         const double d = Ainv(i, i);
         if (!(std::abs(d) > 1e-300)) err = std::numeric_limits<double>::infinity();
-        for (int j = 0; j < K; ++j) err += weight[j] * std::pow(coef(i, j) / d, 2);
+        for (int j = 0; j < K; ++j)
+          loo(i, j) = coef(i, j) / d, err += weight[j] * loo(i, j) * loo(i, j);
       }
       if (!std::isfinite(err)) continue;
       r.loo_error = err, r.alpha = coef.topRows(N), r.beta = coef.bottomRows(3);
+      r.loo = std::move(loo);
     }
   });
   const auto best = std::min_element(tried.begin(), tried.end(), [](const auto& a, const auto& b) {
@@ -181,6 +185,57 @@ Image Tabulate(const std::vector<Vec3>& dirs, const RbfInterpolant& f, int G) {
       }
   });
   return table;
+}
+
+// Per texel, the RMS over lights and channels of the change in its prediction at each light
+// when that light's basis values are the interpolation from the other lights (B_ij − e_ij
+// instead of B_ij), in linear radiance per unit light: how far the texel's relighting can be
+// off between its samples, which its residuals at the samples do not show (ComputeConfidence
+// floors the residual RMS with it). Linear domain: (1 / NC) Σ_c a_cᵀ (eᵀe) a_c; sRGB domain:
+// the decoded difference light by light, over ≤ 64 of the lights.
+Image InterpolationError(const LightStack& s, const Image& table, const Eigen::MatrixXd& e,
+                         bool srgb, const FitResult& r) {
+  const int N = int(e.rows()), K = int(e.cols()), C = r.maps.coefficients.channels() / K;
+  Image out(s.width(), s.height(), 1, 0.0f);
+  // sRGB domain: the RMS over at most 64 lights spread through the list (one decode pair each).
+  const int stride = (N + 63) / 64, M = (N + stride - 1) / stride;
+  Eigen::MatrixXf B(M, K), Bloo(M, K);
+  for (int m = 0; m < M; ++m) {
+    const int i = m * stride;
+    double b[shading::kMaxHshTerms];
+    shading::RbfTableBasis(table.data().data(), table.width(), K,
+                           Normalize(s.lights()[i].direction), b);
+    for (int j = 0; j < K; ++j) B(m, j) = float(b[j]), Bloo(m, j) = float(b[j] - e(i, j));
+  }
+  const Eigen::MatrixXf gram = (e.transpose() * e).cast<float>() / float(N);
+  const float* decode = SrgbCurves().decode;
+  ParallelFor(
+      0, s.texels(),
+      [&](int64_t p0, int64_t p1) {
+        Eigen::VectorXf a(K), pred(M), pred_loo(M);
+        for (int64_t p = p0; p < p1; ++p) {
+          if (r.status[size_t(p)] != kTexelOk) continue;
+          double sum = 0;
+          for (int c = 0; c < C; ++c) {
+            for (int j = 0; j < K; ++j) a[j] = r.maps.coefficients.Plane(c * K + j)[p];
+            if (!srgb) {
+              sum += double(a.dot(gram * a));
+              continue;
+            }
+            pred.noalias() = B * a, pred_loo.noalias() = Bloo * a;
+            double ss = 0;
+            for (int i = 0; i < M; ++i) {
+              const float d =
+                  SrgbCurveLookup(decode, pred[i]) - SrgbCurveLookup(decode, pred_loo[i]);
+              ss += double(d) * d;
+            }
+            sum += ss / M;
+          }
+          out.Plane(0)[p] = float(std::sqrt(sum / C));
+        }
+      },
+      1024);
+  return out;
 }
 
 }  // namespace
@@ -222,6 +277,7 @@ StatusOr<FitResult> FitRbf(const LightStack& s, const FitOptions& o, bool srgb) 
       srgb);
   if (!r.ok()) return r.status();
   r->maps.basis_table = table;
+  r->maps.interpolation_error = InterpolationError(s, table, f->loo, srgb, *r);
   r->parameters["rbf_sigma"] = f->sigma;
   r->parameters["rbf_lambda"] = f->lambda;
   r->parameters["rbf_pca_vectors"] = double(vectors);

@@ -71,6 +71,8 @@ class BasisModel final : public ModelBase<BasisModel<kKind>> {
   const char* name() const override { return kPtm ? "ptm" : kRbf ? "rbf" : "hsh"; }
   std::vector<std::pair<const char*, const Image*>> ParameterMaps(
       const MaterialMaps& m) const override {
+    if (kRbf)
+      return {{"coefficients", &m.coefficients}, {"interpolation_error", &m.interpolation_error}};
     return {{"coefficients", &m.coefficients}};
   }
   bool writes_normal_map() const override { return !kPtm; }
@@ -154,6 +156,10 @@ class BasisModel final : public ModelBase<BasisModel<kKind>> {
     MATFIT_RETURN_IF_ERROR(put({"coefficients", "coefficients.exr", &m.coefficients,
                                 MapEncoding::kFloat, "relighting coefficients, channel c*k + j"}));
     if (!kRbf) return Status::Ok();
+    MATFIT_RETURN_IF_ERROR(put({"interpolation_error", "interpolation_error.exr",
+                                &m.interpolation_error, MapEncoding::kFloat,
+                                "leave-one-light-out RMS of the prediction (linear), floors the "
+                                "confidence bound"}));
     return put({"basis_table", "basis_table.exr", &m.basis_table, MapEncoding::kFloat,
                 "rbf basis B_j tabulated over the light disc (theta/90deg)(cos phi, sin phi), "
                 "channel j, row y from -1 (first) to +1"});
@@ -190,6 +196,16 @@ class BasisModel final : public ModelBase<BasisModel<kKind>> {
                                : "1, 4, 9 or 16 (HSH order²)"));
     if (kRbf) {
       MATFIT_RETURN_IF_ERROR(load("basis_table", &m->basis_table));
+      MATFIT_RETURN_IF_ERROR(load("interpolation_error", &m->interpolation_error));
+      const Image& ie = m->interpolation_error;
+      if (!ie.empty() && (ie.width() != m->coefficients.width() ||
+                          ie.height() != m->coefficients.height() || ie.channels() != 1))
+        return DataError("the rbf interpolation_error map is " + std::to_string(ie.width()) +
+                         " x " + std::to_string(ie.height()) + " with " +
+                         std::to_string(ie.channels()) +
+                         " channel(s); it must be one channel the coefficients' size (" +
+                         std::to_string(m->coefficients.width()) + " x " +
+                         std::to_string(m->coefficients.height()) + ")");
       if (Status st = CheckTable(*m); !st.ok()) return st;
     }
     const int ch = m->coefficients.channels();
