@@ -8,8 +8,10 @@
 #include <numbers>
 
 #include "../core/test_util.h"
+#include "core/color.h"
 #include "core/image_io.h"
 #include "core/pack/pack_reader.h"
+#include "fit/diagnostics.h"
 #include "leaf/flat_field.h"
 #include "leaf/hl2.h"
 #include "leaf/leaf_job.h"
@@ -431,6 +433,66 @@ TEST(FlatField, CensoredFitSeesThroughClipping) {
 }
 
 // ---- Files: the job, the manifest, bad input ----
+
+// Why the leaf pipeline does not act on the tone-curve estimate (fit/diagnostics.h
+// ResolveToneCurve, which matfit fit uses under --color-space auto): a leaf rig's lights are
+// near, so each image's brightness falls off across the sheet differently, and the per-texel
+// Lambertian consistency the estimate relies on does not hold for the raw top-lit stack. Top-lit
+// photos holding correct linear codes (two rings, 30° and 60°, so the elevation gate would
+// pass) look like sRGB read as linear with strong evidence; acting on that would corrupt a right
+// reading. The flat-fielded stack (the sheet analysis's J = I / B · cos θ) reads "as read", but
+// flat-fielding a wrongly decoded stack mixes domains (B is fitted to the decoded values and
+// cos θ is linear), so it cannot tell the right curve either. So the scan is read by its
+// manifest and the file's metadata, and its maps do not depend on the estimate.
+TEST(LeafJob, TheToneEstimateIsNotValidOnANearLightLeafRig) {
+  TempDir tmp;
+  SyntheticScanOptions so = Small();
+  so.two_rings = true;
+  const auto s = MakeSyntheticScan(so);
+  ASSERT_TRUE(WriteLeafScan(s, tmp / "scan", false).ok());
+  // Every photo rewritten as linear codes of the same linear values, tagged linear.
+  ImageReadOptions raw;
+  raw.color_space = ColorSpaceChoice::kLinear;  // the stored values, undecoded
+  for (const auto& e : fs::directory_iterator(tmp / "scan")) {
+    if (e.path().extension() != ".png") continue;
+    auto img = ReadImage(e.path().string(), raw);
+    ASSERT_TRUE(img.ok()) << img.status().ToString();
+    for (float& v : img->data()) v = SrgbToLinear(v);
+    ASSERT_TRUE(
+        WriteImage(e.path().string(), *img, {PixelFormat::kUint8, TransferFunction::kLinear}).ok());
+  }
+  std::ifstream in(tmp / "scan/leaf.json");
+  auto m = nlohmann::json::parse(in);
+  m.erase("color_space");  // auto: the file's metadata says linear
+  std::ofstream(tmp / "scan/leaf.json") << m.dump(2);
+  auto scan = ReadLeafScan(tmp / "scan");
+  ASSERT_TRUE(scan.ok()) << scan.status().ToString();
+  ASSERT_EQ(scan->top.encodings[0].transfer, TransferFunction::kLinear);
+  const fit::StackDiagnostics d = fit::DiagnoseStack(scan->top);
+  std::printf("raw top-lit stack, correctly read as linear: gamma %.2f at evidence %.2f\n",
+              d.encoding_exponent, d.evidence);
+  EXPECT_GT(d.encoding_exponent, 1.6);  // a false "sRGB read as linear"
+  EXPECT_GT(d.evidence, 2.0);
+  auto sheet = AnalyzeSheet(*scan, SheetOptions{});
+  ASSERT_TRUE(sheet.ok());
+  const fit::StackDiagnostics f = fit::DiagnoseStack(sheet->top);
+  std::printf("flat-fielded: gamma %.2f at evidence %.2f\n", f.encoding_exponent, f.evidence);
+  EXPECT_EQ(f.verdict, fit::ToneVerdict::kAsRead);
+  // The job keeps the reading: maps equal to those of the same scan told "linear".
+  LeafJobOptions o;
+  o.input = tmp / "scan", o.out = tmp / "auto";
+  auto a = RunLeafJob(o);
+  ASSERT_TRUE(a.ok()) << a.status().ToString();
+  m["color_space"] = "linear";
+  std::ofstream(tmp / "scan/leaf.json") << m.dump(2);
+  o.out = tmp / "told";
+  auto b = RunLeafJob(o);
+  ASSERT_TRUE(b.ok()) << b.status().ToString();
+  auto pa = ReadPack(tmp / "auto/leaf_01"), pb = ReadPack(tmp / "told/leaf_01");
+  ASSERT_TRUE(pa.ok() && pb.ok());
+  EXPECT_EQ(pa->maps.albedo.data(), pb->maps.albedo.data());
+  EXPECT_EQ(pa->maps.translucency.data(), pb->maps.translucency.data());
+}
 
 TEST(LeafJob, WritesOnePackPerLeafAndAnIndexAtomically) {
   TempDir tmp;
