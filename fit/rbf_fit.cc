@@ -244,9 +244,10 @@ StatusOr<FitResult> FitRbf(const LightStack& s, const FitOptions& o, bool srgb) 
   const std::string name = srgb ? "rbf-srgb" : "rbf";
   std::string why;
   if (!o.Check(&why)) return InvalidArgument(why);
-  // K components, fewer when the lights cannot carry them beside the interpolation's linear
-  // part (3 terms): K ≤ N − 3.
-  const int N = s.num_images(), K = std::min(kRbfComponents, N - 3);
+  // K components, fewer when the lights cannot carry them: beside the interpolation's linear part
+  // (3 terms), K ≤ N − 3, and two lights per component, K ≤ N / 2 (psm, 12 lights, leave-one-out:
+  // held-out RMSE 0.0355 → 0.0310 on gray, 0.0407 → 0.0363 on the cat against K = N − 3).
+  const int N = s.num_images(), K = std::min(kRbfComponents, std::min(N - 3, N / 2));
   if (K < 1)
     return InvalidArgument(name + ": " + std::to_string(N) +
                            " light(s); the interpolation needs at least 4 light directions "

@@ -12,6 +12,7 @@
 #include "fit/holdout.h"
 #include "fit/method.h"
 #include "fit/methods.h"
+#include "synth_data.h"
 
 namespace matfit::fit {
 namespace {
@@ -74,16 +75,10 @@ TEST(Rbf, PredictsHeldOutLightsOfDataInASmoothSpan) {
 // captures in few components: real matter varies more (docs/benchmarks.md).
 TEST(Rbf, LearnedBasisPredictsGlossyHeldOutLightsBetterThanFixedOnes) {
   for (const char* material : {"plastic", "plaster"}) {
-    synth::SynthOptions o;
-    o.material = material;
-    o.lights = "dome:240";
-    o.size = 24;
-    o.layout = Layout::kLp;
-    o.perturb.gaussian_sigma = 0.005;
-    auto data = synth::Synthesize(o);
-    ASSERT_TRUE(data.ok());
-    auto rbf = HeldOut(*MakeMethod("rbf"), data->stack, 8, {});
-    auto hsh3 = HeldOut(*MakeMethod("hsh3"), data->stack, 8, {});
+    const auto data =
+        SynthData({.material = material, .lights = "dome:240", .size = 24, .noise = 0.005});
+    auto rbf = HeldOut(*MakeMethod("rbf"), data.stack, 8, {});
+    auto hsh3 = HeldOut(*MakeMethod("hsh3"), data.stack, 8, {});
     ASSERT_TRUE(rbf.ok() && hsh3.ok()) << rbf.status().ToString();
     std::printf("%s held-out RMSE: rbf %.5f, hsh3 %.5f\n", material, rbf->rmse, hsh3->rmse);
     if (std::string(material) == "plastic")
@@ -93,14 +88,14 @@ TEST(Rbf, LearnedBasisPredictsGlossyHeldOutLightsBetterThanFixedOnes) {
   }
 }
 
-// Fewer lights: K = min(9, N − 3) components; under 4 lights a clear error.
+// Fewer lights: K = min(9, N − 3, N / 2) components; under 4 lights a clear error.
 TEST(Rbf, ComponentsFollowTheLightCount) {
   synth::SynthOptions o;
   o.material = "plaster";
   o.size = 8;
   o.layout = Layout::kLp;
   for (const auto& [lights, want] :
-       std::vector<std::pair<std::string, int>>{{"dome:12", 9}, {"dome:8", 5}, {"dome:4", 1}}) {
+       std::vector<std::pair<std::string, int>>{{"dome:18", 9}, {"dome:12", 6}, {"dome:8", 4}, {"dome:4", 1}}) {
     o.lights = lights;
     auto data = synth::Synthesize(o);
     ASSERT_TRUE(data.ok()) << lights;
