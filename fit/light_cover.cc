@@ -32,15 +32,20 @@ std::string LightCoverShortfall(const std::vector<LightSample>& lights, const Fi
     return why;
   }
   const std::string& name = method.name();
-  if (name == "blinn-phong" || name == "cook-torrance" || name.rfind("lafortune", 0) == 0) {
+  const bool lobe =
+      name == "blinn-phong" || name == "cook-torrance" || name.rfind("lafortune", 0) == 0;
+  // rbf interpolates between the lights: under one ring it knows that ring only.
+  const bool learned = name.rfind("rbf", 0) == 0;
+  if (lobe || learned) {
     const ElevationRange e = LitElevationRange(lights);
     if (lit > 0 && e.span() < kMinLobeElevationSpanDeg) {
       std::snprintf(why, sizeof why,
-                    "every light lies at θl %.1f°…%.1f°: no other elevation checks %s's "
-                    "specular lobe, so its predictions there are unverified (on a real 45° "
-                    "ring, lobe fits missed held-out lights by 3-1600× lambert's error) and no "
-                    "error bound is claimed; use lambert, or add lights at other elevations",
-                    e.lo, e.hi, name.c_str());
+                    "every light lies at θl %.1f°…%.1f°: no other elevation checks %s's %s, so "
+                    "its predictions there are unverified (on a real 45° ring, lobe fits missed "
+                    "held-out lights by 3-1600× lambert's error) and no error bound is claimed; "
+                    "use lambert, or add lights at other elevations",
+                    e.lo, e.hi, name.c_str(),
+                    lobe ? "specular lobe" : "interpolation across elevations");
       return why;
     }
   }

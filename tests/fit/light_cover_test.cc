@@ -67,6 +67,16 @@ TEST(LightCover, LobeModelsNeedMoreThanOneElevation) {
     EXPECT_EQ(LightCoverShortfall(Lights(two), *MakeMethod(name)), "") << name;
   }
   EXPECT_EQ(LightCoverShortfall(Lights(ring), *MakeMethod("lambert")), "");
+  // The learned basis interpolates between its lights: 40 on one ring are enough lights for its
+  // 9 coefficients, but say nothing of other elevations.
+  std::vector<std::pair<double, double>> ring40, two40;
+  for (int k = 0; k < 40; ++k)
+    ring40.push_back({45, 9.0 * k}), two40.push_back({40 + 5.0 * (k % 2), 9.0 * k});
+  for (const char* name : {"rbf", "rbf-srgb"}) {
+    const std::string why = LightCoverShortfall(Lights(ring40), *MakeMethod(name));
+    EXPECT_NE(why.find("interpolation across elevations"), std::string::npos) << why;
+    EXPECT_EQ(LightCoverShortfall(Lights(two40), *MakeMethod(name)), "") << name;
+  }
   const auto data = SynthData({.material = "plastic", .lights = "ring12", .size = 12});
   auto method = MakeMethod("blinn-phong");
   auto fit = method->Fit(data.stack, {});
