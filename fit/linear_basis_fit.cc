@@ -106,6 +106,17 @@ StatusOr<FitResult> FitLinearBasis(const LightStack& s, const FitOptions& o,
   basis(Vec3(0, 0, 1), front);
 
   const bool clip = StackMayBeClipped(s);
+  // srgb on an integer stack under unit intensities: each sample's encode depends on its code
+  // alone, so one table per code (enc[code] = encode(lut[code]); for an 8-bit sRGB file, code /
+  // 255 up to the curve table's 2e-5) replaces the decode, scale and encode per sample.
+  bool unit = true;
+  for (float v : inv) unit &= v == 1.0f;
+  std::vector<float> code_enc;
+  if (srgb && unit && !s.is_float()) {
+    code_enc.resize(s.lut().size());
+    for (size_t k = 0; k < code_enc.size(); ++k)
+      code_enc[k] = SrgbCurveLookup(SrgbCurves().encode, s.lut()[k]);
+  }
   // Per strip: coefficients_c = B⁺ · p_c, one row-kernel call per plane segment, accumulated
   // straight into the (zero-initialised) coefficient planes; the per-texel work after it runs
   // plane by plane over the strip, contiguously.
@@ -128,6 +139,34 @@ StatusOr<FitResult> FitLinearBasis(const LightStack& s, const FitOptions& o,
           const int i = i0 + q;
           for (int j = 0; j < K; ++j)
             w[q * K + j] = pinv[size_t(j) * n + i] * (srgb ? 1.0f : inv[i * C + c]);
+        }
+        if (!code_enc.empty()) {  // the code-table path: no decoded value is formed
+          auto run = [&](auto tag) {
+            using T = decltype(tag);
+            const T* codes[kMaxRowPlanes];
+            for (int q = 0; q < planes; ++q) codes[q] = s.Codes<T>(i0 + q, c).data() + first;
+            const float* lut = s.lut().data();
+            for (int64_t x0 = 0; x0 < m; x0 += StripReader::kChunk) {
+              const int64_t l = std::min<int64_t>(StripReader::kChunk, m - x0);
+              const float* e[kMaxRowPlanes];
+              float* pk = peak.data() + x0;
+              for (int q = 0; q < planes; ++q) {
+                const T* cq = codes[q] + x0;
+                float* out = enc.data() + size_t(q) * StripReader::kChunk;
+                for (int64_t u = 0; u < l; ++u)
+                  out[u] = code_enc[cq[u]], pk[u] = std::max(pk[u], lut[cq[u]]);
+                e[q] = out;
+              }
+              float* a[kMaxRowTerms];
+              for (int j = 0; j < K; ++j) a[j] = ap[j] + x0;
+              RowAccumulate(e, planes, l, K, w, a, enc_peak.data());
+            }
+          };
+          if (s.sample_type() == SampleType::kUint8)
+            run(uint8_t{});
+          else
+            run(uint16_t{});
+          continue;
         }
         reader.Group(i0, planes, c, first, m, [&](const float* const* src, int64_t x, int64_t len) {
           float* a[kMaxRowTerms];

@@ -66,8 +66,10 @@ TEST(NativeDepth, EightBitSrgbFitsEqualFloatFits) {
   int64_t sat = 0;
   for (int64_t v : q.saturated_pixels) sat += v;
   EXPECT_GT(sat, 0) << "the test needs clipped samples";
-  CompareMethods(
-      q, {"mean", "lambert", "lambert-robust", "heinrich", "ptm", "hsh2", "hsh3", "blinn-phong"});
+  // The sRGB-domain fits read 8-bit codes through one encode table per code (no per-sample
+  // decode and encode): the same values as the float path's encode of each decoded sample.
+  CompareMethods(q, {"mean", "lambert", "lambert-robust", "heinrich", "ptm", "hsh2", "hsh3",
+                     "blinn-phong", "ptm-srgb", "hsh2-srgb", "rbf", "rbf-srgb"});
 }
 
 TEST(NativeDepth, EightBitReferencesEqualFloat) {
@@ -84,7 +86,8 @@ TEST(NativeDepth, EightBitReferencesEqualFloat) {
 
 TEST(NativeDepth, SixteenBitLinearFitsEqualFloatFits) {
   auto data = SynthData({"granite", "bonn81", 40, 0.005});
-  CompareMethods(QuantiseStack(data.stack, 16), {"lambert", "ptm", "heinrich", "lambert-robust"});
+  CompareMethods(QuantiseStack(data.stack, 16),
+                 {"lambert", "ptm", "heinrich", "lambert-robust", "ptm-srgb", "rbf-srgb"});
 }
 
 TEST(NativeDepth, GreyStackAndMask) {
@@ -96,7 +99,8 @@ TEST(NativeDepth, GreyStackAndMask) {
       grey.Plane(i, 0)[p] = data.stack.Sample(i, 1, p);
   grey.mask.assign(size_t(grey.plane_size()), 1);
   for (int64_t p = 0; p < grey.plane_size(); p += 7) grey.mask[p] = 0;
-  CompareMethods(QuantiseStack(grey, 8), {"mean", "lambert", "ptm", "heinrich", "lambert-robust"});
+  CompareMethods(QuantiseStack(grey, 8),
+                 {"mean", "lambert", "ptm", "heinrich", "lambert-robust", "hsh3-srgb"});
 }
 
 TEST(NativeDepth, ConfidenceEqualsFloat) {
