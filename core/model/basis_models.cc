@@ -60,6 +60,22 @@ enum class BasisKind { kPtm, kHsh, kRbf };
 // The rbf table's limits: G nodes per side (RbfTableBasis needs ≥ 2; fits write 64).
 inline constexpr int kMinRbfTable = 2, kMaxRbfTable = 1024;
 
+// v ← decode(v) over a run (SrgbCurveLookup, written out so the clones vectorise it: clamp,
+// index, two gathers, one lerp).
+MATFIT_MODEL_CLONES
+void DecodeSrgbRun(float* __restrict v, size_t n) {
+  const float* decode = SrgbCurves().decode;
+  constexpr int kSteps = SrgbCurveTable::kSteps;
+  for (size_t q = 0; q < n; ++q) {
+    const float x = v[q] > 0.0f ? (v[q] < 1.0f ? v[q] : 1.0f) : 0.0f;
+    const float f = x * float(kSteps);
+    int i = int(f);
+    i = i < kSteps - 1 ? i : kSteps - 1;
+    const float a = decode[i], b = decode[i + 1];
+    v[q] = a + (f - float(i)) * (b - a);
+  }
+}
+
 template <BasisKind kKind>
 class BasisModel final : public ModelBase<BasisModel<kKind>> {
   static constexpr bool kPtm = kKind == BasisKind::kPtm, kRbf = kKind == BasisKind::kRbf;
@@ -146,11 +162,7 @@ class BasisModel final : public ModelBase<BasisModel<kKind>> {
       for (; l < count; ++l)
         BasisKernel(planes, lights[l].basis, k, p0, n, out + (size_t(l) * channels + c) * n);
     }
-    if (m.basis_srgb) {
-      const float* decode = SrgbCurves().decode;
-      for (size_t q = 0; q < size_t(count) * channels * n; ++q)
-        out[q] = SrgbCurveLookup(decode, out[q]);
-    }
+    if (m.basis_srgb) DecodeSrgbRun(out, size_t(count) * channels * n);
   }
   Status WritePackMaps(const MaterialMaps& m, const PutPackMapFn& put) const override {
     MATFIT_RETURN_IF_ERROR(put({"coefficients", "coefficients.exr", &m.coefficients,
