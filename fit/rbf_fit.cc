@@ -247,11 +247,18 @@ StatusOr<FitResult> FitRbf(const LightStack& s, const FitOptions& o, bool srgb) 
   // K components, fewer when the lights cannot carry them: beside the interpolation's linear part
   // (3 terms), K ≤ N − 3, and two lights per component, K ≤ N / 2 (psm, 12 lights, leave-one-out:
   // held-out RMSE 0.0355 → 0.0310 on gray, 0.0407 → 0.0363 on the cat against K = N − 3).
-  const int N = s.num_images(), K = std::min(kRbfComponents, std::min(N - 3, N / 2));
+  // Lights below the surface plane (a leaf lit from behind) have no place on the table's disc
+  // (lookups there clamp to the horizon): they are not interpolation nodes.
+  std::vector<int> above;
+  std::vector<Vec3> dirs;
+  for (int i = 0; i < s.num_images(); ++i)
+    if (const Vec3 d = Normalize(s.lights()[size_t(i)].direction); d.z > 1e-6)
+      above.push_back(i), dirs.push_back(d);
+  const int N = int(above.size()), K = std::min(kRbfComponents, std::min(N - 3, N / 2));
   if (K < 1)
     return InvalidArgument(name + ": " + std::to_string(N) +
-                           " light(s); the interpolation needs at least 4 light directions "
-                           "(capture more lights or use lambert)");
+                           " light(s) above the surface; the interpolation needs at least 4 light "
+                           "directions there (capture more lights or use lambert)");
   Eigen::MatrixXd moment;
   const int64_t vectors = SampleMoments(s, srgb, &moment);
   if (vectors < K)
@@ -265,9 +272,9 @@ StatusOr<FitResult> FitRbf(const LightStack& s, const FitOptions& o, bool srgb) 
   // Eigenvalues ascend: the K leading ones are the last columns.
   const Eigen::MatrixXd E = eig.eigenvectors().rightCols(K).rowwise().reverse();
   const Eigen::VectorXd weight = eig.eigenvalues().tail(K).reverse().cwiseMax(0.0);
-  std::vector<Vec3> dirs;
-  for (const LightSample& l : s.lights()) dirs.push_back(Normalize(l.direction));
-  auto f = ChooseInterpolant(dirs, E, weight);
+  Eigen::MatrixXd E_above(N, K);
+  for (int k = 0; k < N; ++k) E_above.row(k) = E.row(above[size_t(k)]);
+  auto f = ChooseInterpolant(dirs, E_above, weight);
   if (!f.ok()) return f.status();
   const Image table = Tabulate(dirs, *f, kRbfTableSize);
   auto r = FitLinearBasis(
@@ -278,7 +285,9 @@ StatusOr<FitResult> FitRbf(const LightStack& s, const FitOptions& o, bool srgb) 
       srgb);
   if (!r.ok()) return r.status();
   r->maps.basis_table = table;
-  r->maps.interpolation_error = InterpolationError(s, table, f->loo, srgb, *r);
+  Eigen::MatrixXd loo = Eigen::MatrixXd::Zero(s.num_images(), K);  // 0: not a node
+  for (int k = 0; k < N; ++k) loo.row(above[size_t(k)]) = f->loo.row(k);
+  r->maps.interpolation_error = InterpolationError(s, table, loo, srgb, *r);
   r->parameters["rbf_sigma"] = f->sigma;
   r->parameters["rbf_lambda"] = f->lambda;
   r->parameters["rbf_pca_vectors"] = double(vectors);

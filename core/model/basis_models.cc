@@ -187,7 +187,14 @@ class BasisModel final : public ModelBase<BasisModel<kKind>> {
     if (k == params.end())
       return DataError(std::string("model.parameters.basis_terms is missing for a ") + name() +
                        " pack");
-    m->basis_terms = int(k->second);
+    // Range first: converting NaN or a huge value to int is undefined.
+    const double terms = k->second;
+    if (!(std::isfinite(terms) && terms >= 1 && terms <= ModelLight::kMaxBasis &&
+          terms == std::floor(terms)))
+      return DataError(std::string("model.parameters.basis_terms is ") + std::to_string(terms) +
+                       " for a " + name() + " pack; it must be a whole number from 1 to " +
+                       std::to_string(ModelLight::kMaxBasis));
+    m->basis_terms = int(terms);
     if (auto e = params.find("basis_srgb"); e != params.end()) {
       if (e->second != 0 && e->second != 1)
         return DataError("model.parameters.basis_srgb is " + std::to_string(e->second) +
@@ -220,6 +227,11 @@ class BasisModel final : public ModelBase<BasisModel<kKind>> {
                          std::to_string(m->coefficients.height()) + ")");
       if (Status st = CheckTable(*m); !st.ok()) return st;
     }
+    if (m->coefficients.width() != m->width || m->coefficients.height() != m->height)
+      return DataError("the coefficients map is " + std::to_string(m->coefficients.width()) +
+                       " x " + std::to_string(m->coefficients.height()) +
+                       "; it must be the material's size (" + std::to_string(m->width) + " x " +
+                       std::to_string(m->height) + ")");
     const int ch = m->coefficients.channels();
     if (ch != m->basis_terms && ch != 3 * m->basis_terms)
       return DataError("the coefficients map has " + std::to_string(ch) + " channel(s); a " +

@@ -62,7 +62,9 @@ void RbfTableCoords(const Vec3& l, int G, double* fx, double* fy) {
   const double s = std::hypot(l.x, l.y);
   // ρ = θ / 90°, clamped to the horizon; (x, y) = ρ (l_x, l_y) / |(l_x, l_y)|.
   const double rho = std::min(1.0, theta / (std::numbers::pi / 2));
-  const double x = s > 0 ? rho * l.x / s : 0.0, y = s > 0 ? rho * l.y / s : 0.0;
+  // Straight up: the centre; straight down: the horizon at φ = 0 (as every other direction below
+  // the horizon, a point of the rim).
+  const double x = s > 0 ? rho * l.x / s : (l.z < 0 ? 1.0 : 0.0), y = s > 0 ? rho * l.y / s : 0.0;
   *fx = (x + 1) * 0.5 * (G - 1), *fy = (y + 1) * 0.5 * (G - 1);
 }
 

@@ -136,7 +136,7 @@ void RbfTableBasis(highp sampler2DArray table, int G, int k, vec3 l, out float b
   float theta = acos(clamp(l.z, -1.0, 1.0));
   float s = length(l.xy);
   float rho = min(1.0, theta / (0.5 * kPi));
-  vec2 xy = s > 0.0 ? rho * l.xy / s : vec2(0.0);
+  vec2 xy = s > 0.0 ? rho * l.xy / s : vec2(l.z < 0.0 ? 1.0 : 0.0, 0.0);
   vec2 f = (xy + 1.0) * 0.5 * float(G - 1);
   ivec2 i0 = clamp(ivec2(floor(f)), ivec2(0), ivec2(G - 2));
   vec2 t = f - vec2(i0);

@@ -221,7 +221,8 @@ TEST(ModelPack, ReaderRefusesInconsistentBasisTerms) {
   for (const auto& [terms, want] :
        std::vector<std::pair<std::string, std::string>>{{"5", "must be 1, 4, 9 or 16"},
                                                         {"4", "needs 4 (grey) or 12 (RGB)"},
-                                                        {"9.5", "must be 1, 4, 9 or 16"}}) {
+                                                        {"9.5", "a whole number from 1 to 16"},
+                                                        {"1e10", "a whole number from 1 to 16"}}) {
     std::string text = good;
     text.replace(text.find("\"basis_terms\": 9"), 17, "\"basis_terms\": " + terms);
     testing::WriteText(mj, text);
@@ -250,7 +251,7 @@ TEST(ModelPack, ReaderRefusesAMissingOrMismatchedRbfTable) {
     testing::WriteText(mj, text);
     auto back = ReadPack(out);
     ASSERT_FALSE(back.ok());
-    EXPECT_NE(back.status().message().find("must be 1 to 16"), std::string::npos)
+    EXPECT_NE(back.status().message().find("a whole number from 1 to 16"), std::string::npos)
         << back.status().message();
   }
   {  // a table with the wrong number of channels
@@ -263,6 +264,19 @@ TEST(ModelPack, ReaderRefusesAMissingOrMismatchedRbfTable) {
     EXPECT_NE(back.status().message().find("basis table is 9 x 9 with 4 channel(s)"),
               std::string::npos)
         << back.status().message();
+  }
+  {  // coefficients of another size than the material (a hostile pack): refused, not read past
+    testing::WriteText(mj, good);
+    ImageWriteOptions exr;
+    exr.format = PixelFormat::kFloat;
+    ASSERT_TRUE(WriteImage(out + "/maps/basis_table.exr", m.basis_table, exr).ok());
+    ASSERT_TRUE(WriteImage(out + "/maps/coefficients.exr", Image(3, 2, 27, 0.1f), exr).ok());
+    auto back = ReadPack(out);
+    ASSERT_FALSE(back.ok());
+    EXPECT_NE(back.status().message().find("must be the material's size (6 x 5)"),
+              std::string::npos)
+        << back.status().message();
+    ASSERT_TRUE(WriteImage(out + "/maps/coefficients.exr", m.coefficients, exr).ok());
   }
   {  // no table listed
     std::string text = good;

@@ -94,8 +94,8 @@ TEST(Rbf, ComponentsFollowTheLightCount) {
   o.material = "plaster";
   o.size = 8;
   o.layout = Layout::kLp;
-  for (const auto& [lights, want] :
-       std::vector<std::pair<std::string, int>>{{"dome:18", 9}, {"dome:12", 6}, {"dome:8", 4}, {"dome:4", 1}}) {
+  for (const auto& [lights, want] : std::vector<std::pair<std::string, int>>{
+           {"dome:18", 9}, {"dome:12", 6}, {"dome:8", 4}, {"dome:4", 1}}) {
     o.lights = lights;
     auto data = synth::Synthesize(o);
     ASSERT_TRUE(data.ok()) << lights;
@@ -104,6 +104,18 @@ TEST(Rbf, ComponentsFollowTheLightCount) {
     EXPECT_EQ(fit->maps.basis_terms, want) << lights;
     EXPECT_EQ(fit->maps.basis_table.channels(), want) << lights;
   }
+  // Lights below the surface plane (from behind) are not interpolation nodes: 12 lights of which
+  // 4 are flipped under the horizon count as 8.
+  o.lights = "dome:12";
+  auto flipped = synth::Synthesize(o);
+  ASSERT_TRUE(flipped.ok());
+  for (int i = 0; i < 4; ++i) {
+    Vec3& d = flipped->stack.lights()[size_t(i)].direction;
+    d.z = -d.z;
+  }
+  auto fit_flipped = FitRbf(flipped->stack, {});
+  ASSERT_TRUE(fit_flipped.ok()) << fit_flipped.status().ToString();
+  EXPECT_EQ(fit_flipped->maps.basis_terms, 4);
   o.lights = "dome:3";
   auto data = synth::Synthesize(o);
   ASSERT_TRUE(data.ok());
