@@ -39,8 +39,8 @@ StatusOr<FitResult> FitPtm(const LightStack& stack, const FitOptions& options, b
 StatusOr<FitResult> FitHsh(const LightStack& stack, const FitOptions& options, int order,
                            bool srgb = false);
 
-// rbf (fit/rbf_fit.cc): kRbfComponents PCA components (at most N − 3 and N / 2 for N lights) of the samples
-// over the lights, each interpolated over light directions by Gaussian RBFs (width and
+// rbf (fit/rbf_fit.cc): kRbfComponents PCA components (at most N − 3 and N / 2 for N lights) of the
+// samples over the lights, each interpolated over light directions by Gaussian RBFs (width and
 // regularisation by leave-one-light-out), tabulated on a kRbfTableSize² grid
 // (MaterialMaps::basis_table), and per-texel coefficients fitted against that table like ptm/hsh.
 // srgb as for FitPtm.
