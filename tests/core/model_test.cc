@@ -245,50 +245,29 @@ TEST(ModelPack, ReaderRefusesAMissingOrMismatchedRbfTable) {
   const std::string mj = out + "/material.json";
   std::ifstream in(mj);
   const std::string good((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
-  {  // 5 terms: the 27-plane coefficients map no longer fits either
-    std::string text = good;
-    text.replace(text.find("\"basis_terms\": 9"), 17, "\"basis_terms\": 17");
+  ImageWriteOptions exr;
+  exr.format = PixelFormat::kFloat;
+  // Writes the pack's material.json and two maps, then expects ReadPack to refuse it with `want`.
+  auto refused = [&](const std::string& text, const Image& table, const Image& coefficients,
+                     const std::string& want) {
     testing::WriteText(mj, text);
+    ASSERT_TRUE(WriteImage(out + "/maps/basis_table.exr", table, exr).ok());
+    ASSERT_TRUE(WriteImage(out + "/maps/coefficients.exr", coefficients, exr).ok());
     auto back = ReadPack(out);
-    ASSERT_FALSE(back.ok());
-    EXPECT_NE(back.status().message().find("a whole number from 1 to 16"), std::string::npos)
-        << back.status().message();
-  }
-  {  // a table with the wrong number of channels
-    testing::WriteText(mj, good);
-    ImageWriteOptions exr;
-    exr.format = PixelFormat::kFloat;
-    ASSERT_TRUE(WriteImage(out + "/maps/basis_table.exr", Image(9, 9, 4, 0.5f), exr).ok());
-    auto back = ReadPack(out);
-    ASSERT_FALSE(back.ok());
-    EXPECT_NE(back.status().message().find("basis table is 9 x 9 with 4 channel(s)"),
-              std::string::npos)
-        << back.status().message();
-  }
-  {  // coefficients of another size than the material (a hostile pack): refused, not read past
-    testing::WriteText(mj, good);
-    ImageWriteOptions exr;
-    exr.format = PixelFormat::kFloat;
-    ASSERT_TRUE(WriteImage(out + "/maps/basis_table.exr", m.basis_table, exr).ok());
-    ASSERT_TRUE(WriteImage(out + "/maps/coefficients.exr", Image(3, 2, 27, 0.1f), exr).ok());
-    auto back = ReadPack(out);
-    ASSERT_FALSE(back.ok());
-    EXPECT_NE(back.status().message().find("must be the material's size (6 x 5)"),
-              std::string::npos)
-        << back.status().message();
-    ASSERT_TRUE(WriteImage(out + "/maps/coefficients.exr", m.coefficients, exr).ok());
-  }
-  {  // no table listed
-    std::string text = good;
-    const size_t at = text.find("\"name\": \"basis_table\"");
-    ASSERT_NE(at, std::string::npos);
-    text.replace(at, 21, "\"name\": \"basis_tablX\"");
-    testing::WriteText(mj, text);
-    auto back = ReadPack(out);
-    ASSERT_FALSE(back.ok());
-    EXPECT_NE(back.status().message().find("needs its basis table"), std::string::npos)
-        << back.status().message();
-  }
+    ASSERT_FALSE(back.ok()) << want;
+    EXPECT_NE(back.status().message().find(want), std::string::npos) << back.status().message();
+  };
+  std::string terms17 = good;
+  terms17.replace(terms17.find("\"basis_terms\": 9"), 16, "\"basis_terms\": 17");
+  refused(terms17, m.basis_table, m.coefficients, "a whole number from 1 to 16");
+  refused(good, Image(9, 9, 4, 0.5f), m.coefficients, "basis table is 9 x 9 with 4 channel(s)");
+  // Coefficients of another size than the material (a hostile pack): refused, not read past.
+  refused(good, m.basis_table, Image(3, 2, 27, 0.1f), "must be the material's size (6 x 5)");
+  std::string unlisted = good;  // the table not listed in material.json
+  const size_t at = unlisted.find("\"name\": \"basis_table\"");
+  ASSERT_NE(at, std::string::npos);
+  unlisted.replace(at, 21, "\"name\": \"basis_tablX\"");
+  refused(unlisted, m.basis_table, m.coefficients, "needs its basis table");
 }
 
 // Every model's shader planes pack; a missing parameter map is named in the error.

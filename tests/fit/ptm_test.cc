@@ -1,33 +1,16 @@
 #include <gtest/gtest.h>
 
 #include "core/synth/light_sets.h"
-#include "core/synth/random.h"
 #include "core/synth/render_stack.h"
 #include "core/synth/synth.h"
 #include "fit/holdout.h"
 #include "fit/method.h"
 #include "fit/methods.h"
 #include "fit/metrics.h"
+#include "tests/fit/ptm_maps.h"
 
 namespace matfit::fit {
 namespace {
-
-// A PTM material with random coefficients, rendered through the shared forward model.
-MaterialMaps RandomPtm(int size) {
-  MaterialMaps m;
-  m.width = m.height = size;
-  m.model = ShadingModel::kPtm;
-  m.normal = Image(size, size, 3);
-  m.albedo = Image(size, size, 3);
-  m.mask = Image(size, size, 1, 1.0f);
-  m.height_map = Image(size, size, 1);
-  m.coefficients = Image(size, size, 18);
-  m.basis_terms = 6;
-  for (int q = 0; q < 18; ++q)
-    for (int64_t p = 0; p < int64_t(size) * size; ++p)
-      m.coefficients.Plane(q)[p] = float(synth::HashUniform(9, q, p) - 0.3);
-  return m;
-}
 
 TEST(Ptm, ReconstructsDataFromItsOwnBasisExactly) {
   for (const char* lights : {"bonn81", "dome:30", "dome:240"}) {

@@ -6,13 +6,13 @@
 
 #include "core/shading/relight_basis.h"
 #include "core/synth/light_sets.h"
-#include "core/synth/random.h"
 #include "core/synth/render_stack.h"
 #include "core/synth/synth.h"
 #include "fit/holdout.h"
 #include "fit/method.h"
 #include "fit/methods.h"
 #include "synth_data.h"
+#include "tests/fit/ptm_maps.h"
 
 namespace matfit::fit {
 namespace {
@@ -42,21 +42,10 @@ TEST(RbfTable, LookupIsTheAzimuthalEquidistantPositionOfTheLight) {
 // quadratics, so the PCA finds that span and the interpolation of smooth functions over a dense
 // dome predicts held-out lights of noise-free data almost exactly.
 TEST(Rbf, PredictsHeldOutLightsOfDataInASmoothSpan) {
-  MaterialMaps truth;
-  const int size = 16;
-  truth.width = truth.height = size;
-  truth.model = ShadingModel::kPtm;
-  truth.normal = Image(size, size, 3), truth.albedo = Image(size, size, 3);
-  truth.mask = Image(size, size, 1, 1.0f);
-  truth.height_map = Image(size, size, 1);
-  truth.coefficients = Image(size, size, 18);
-  truth.basis_terms = 6;
+  // Coefficients scaled to [−0.1, 0.3) with a constant term of 0.4: data in [0, 1], none clipped.
+  MaterialMaps truth = RandomPtm(16);
   for (int q = 0; q < 18; ++q)
-    for (int64_t p = 0; p < int64_t(size) * size; ++p)
-      truth.coefficients.Plane(q)[p] = float(0.4 * synth::HashUniform(9, q, p) - 0.1);
-  for (int c = 0; c < 3; ++c)  // a positive constant term: data in [0, 1], none clipped
-    for (int64_t p = 0; p < int64_t(size) * size; ++p)
-      truth.coefficients.Plane(c * 6 + 5)[p] = 0.4f;
+    for (float& a : truth.coefficients.Plane(q)) a = q % 6 == 5 ? 0.4f : 0.4f * (a + 0.3f) - 0.1f;
   const LightStack s = synth::RenderStack(truth, *synth::MakeLightSet("dome:240", 1), {});
   auto fit = FitRbf(s, {});
   ASSERT_TRUE(fit.ok()) << fit.status().ToString();
