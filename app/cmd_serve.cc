@@ -63,6 +63,17 @@ void RegisterServe(CLI::App& app, int* exit_code) {
   sub->add_option("--data", o.data_dir, "data folder: job database, datasets, packs, caches")
       ->required();
   sub->add_option("--workers", o.workers, "jobs that run at once")->capture_default_str();
+  sub->add_option("--db", o.database_url,
+                  "job database of a cluster: postgresql://user@host:port/db, shared by every "
+                  "node with the same --data folder (default: DATA/jobs.db, SQLite)");
+  sub->add_option("--node-id", o.node_id,
+                  "this node's name in a cluster (default: host-port); one process per name");
+  sub->add_flag("--db-tokens", o.db_tokens,
+                "also accept the bearer tokens kept in the cluster's database (matfit tokens)");
+  sub->add_option("--lease-seconds", o.lease_seconds,
+                  "a running job's lease: another node re-runs it this long after its node "
+                  "stopped renewing it")
+      ->capture_default_str();
   sub->add_option("--threads", args->threads, "compute threads per process (0 = all cores)")
       ->capture_default_str();
   sub->add_option("--token-file", o.token_file,

@@ -60,6 +60,7 @@ int main(int argc, char** argv) {
   matfit::app::RegisterRender(app, &exit_code);
   matfit::app::RegisterLeaf(app, &exit_code);
   matfit::app::RegisterServe(app, &exit_code);
+  matfit::app::RegisterTokens(app, &exit_code);
   matfit::app::RegisterCapture(app, &exit_code);
   matfit::app::RegisterBench(app, &exit_code);
   try {

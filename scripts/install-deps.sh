@@ -21,6 +21,11 @@ PACKAGES=(
   libceres-dev libopencv-core-dev libopencv-imgproc-dev
   # server: HTTP, job store, upload archives (curl: the shell tests and the README session)
   libcpp-httplib-dev libsqlite3-dev libarchive-dev curl
+  # server cluster (issue 18): the PostgreSQL job store (libpqxx), and the server itself for its
+  # tests (each starts a throw-away cluster as the unprivileged postgres user)
+  libpqxx-dev postgresql-15
+  # server: SHA-256 of the tokens a cluster keeps in its database (OpenSSL's libcrypto)
+  libssl-dev
   # server tests: hand-made PNG headers (zlib)
   zlib1g-dev
   # material packs: zip archives

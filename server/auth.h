@@ -1,5 +1,6 @@
 // Bearer-token authorisation. Tokens come from a file, one per line: `TOKEN [write|read]`
-// (default write; `#` starts a comment). Comparison is constant-time in the token contents.
+// (default write; `#` starts a comment), and in a cluster also from the job database, which
+// keeps only their SHA-256. Comparison is constant-time in the token contents.
 #pragma once
 
 #include <string>
@@ -12,6 +13,10 @@ namespace matfit::server {
 
 // Equal strings; the time taken depends only on the lengths, not on where they differ.
 bool ConstantTimeEquals(std::string_view a, std::string_view b);
+// SHA-256 of `data` as 64 lowercase hex digits (how a cluster's database keeps tokens).
+std::string Sha256Hex(std::string_view data);
+// A new random token: 32 bytes from the OS's generator, as 43 base64url characters.
+StatusOr<std::string> NewToken();
 
 enum class Access { kRead, kWrite };
 enum class AuthResult {
@@ -24,9 +29,11 @@ enum class AuthResult {
 class TokenSet {
  public:
   TokenSet() = default;
-  // Errors name the file and line (tokens must be ≥ 16 characters of [A-Za-z0-9._~+/=-]).
+  // Errors name the file and line (tokens must be ≥ 16 characters of [A-Za-z0-9._~+/=_-]).
   static StatusOr<TokenSet> Load(const std::string& path);
   static TokenSet FromList(std::vector<std::pair<std::string, bool>> tokens);  // token, write
+  // Adds a token known only by its SHA-256 (Sha256Hex), e.g. from the cluster's database.
+  void AddHashed(const std::string& sha256_hex, bool write);
   bool empty() const { return tokens_.empty(); }
   size_t size() const { return tokens_.size(); }
   // `authorization` is the raw header value ("Bearer abc…"), possibly empty.
@@ -34,8 +41,9 @@ class TokenSet {
 
  private:
   struct Entry {
-    std::string token;
+    std::string token;  // the token, or its SHA-256 hex when `hashed`
     bool write = true;
+    bool hashed = false;
   };
   std::vector<Entry> tokens_;
 };

@@ -104,6 +104,7 @@ json Server::Impl::JobJson(const JobRecord& j) {
           {"progress", {{"fraction", fraction}, {"stage", stage}, {"eta_seconds", eta}}},
           {"timings", {{"queued_seconds", std::max(0.0, queued_s)}, {"run_seconds", run_s}}},
           {"attempts", j.attempts},
+          {"node", OrNull(j.node)},
           {"cancel_requested", j.cancel_requested},
           {"error", OrNull(j.error)},
           {"summary", json::parse(j.summary_json, nullptr, false)},
@@ -326,7 +327,7 @@ void Server::Impl::RegisterJobRoutes() {
     {
       std::lock_guard<std::mutex> lock(pending_mutex);
       for (const auto& [id, f] : pending)
-        if (!state || f.state == *state) pending_ids.push_back(id);
+        if (!state || f.final_state.state == *state) pending_ids.push_back(id);
     }
     for (auto& j : list) ApplyPending(&j);
     std::erase_if(list, [&](const JobRecord& j) { return state && j.state != *state; });

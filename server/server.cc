@@ -6,6 +6,7 @@
 #include <unistd.h>
 
 #include <algorithm>
+#include <cctype>
 #include <cerrno>
 #include <chrono>
 #include <cmath>
@@ -37,6 +38,36 @@ thread_local std::chrono::steady_clock::time_point t_request_start;
 
 bool IsTemporary(const std::string& name) {
   return name.size() > 1 && name[0] == '.' && name.find(".tmp-") != std::string::npos;
+}
+
+bool ValidNodeId(const std::string& id) {
+  if (id.empty() || id.size() > 64 || id[0] == '.') return false;
+  for (const char c : id)
+    if (!std::isalnum(static_cast<unsigned char>(c)) && c != '.' && c != '_' && c != '-')
+      return false;
+  return true;
+}
+
+// This node's id when --node-id is not given: the host name and the port (a restarted node
+// keeps it and re-queues its own jobs at once), or the process id for an ephemeral port.
+std::string DefaultNodeId(int port) {
+  char host[256] = {0};
+  if (::gethostname(host, sizeof host - 1) != 0) host[0] = 0;
+  std::string id;
+  for (const char* p = host; *p && id.size() < 40; ++p)
+    id += std::isalnum(static_cast<unsigned char>(*p)) || *p == '-' ? *p : '_';
+  if (id.empty()) id = "node";
+  return id + "-" + std::to_string(port != 0 ? port : int(::getpid()));
+}
+
+// Shared folders of a cluster hold other nodes' work in progress (an upload between its move
+// and its row, a pack being staged): a node sweeps there only what is this old.
+constexpr auto kSharedSweepAge = std::chrono::hours(1);
+
+bool OlderThan(const fs::path& p, std::filesystem::file_time_type::duration age) {
+  std::error_code ec;
+  const auto t = fs::last_write_time(p, ec);
+  return !ec && t < fs::file_time_type::clock::now() - age;
 }
 
 }  // namespace
@@ -98,10 +129,26 @@ bool ServerOptions::Check(std::string* why) const {
     return *why = "--preview-cache-mib must be ≥ 0 (0: previews are rendered every time)", false;
   if (preview_queue < 1 || preview_queue > 1000)
     return *why = "--preview-queue must be in [1, 1000]", false;
-  if (token_file.empty() && !IsLoopback(bind))
-    return *why =
-               "--bind " + bind + " is not loopback: give --token-file so that writes need a token",
+  if (token_file.empty() && !db_tokens && !IsLoopback(bind))
+    return *why = "--bind " + bind +
+                  " is not loopback: give --token-file (or, in a cluster, --db-tokens) so that "
+                  "writes need a token",
            false;
+  if (db_tokens && database_url.empty())
+    return *why =
+               "--db-tokens needs --db postgresql://… (the tokens live in the cluster's "
+               "database); a single server takes --token-file",
+           false;
+  if (!database_url.empty() && !IsPostgresUrl(database_url))
+    return *why =
+               "--db takes a postgresql://user@host:port/database URL (without --db the jobs "
+               "live in DATA/jobs.db, SQLite)",
+           false;
+  if (!node_id.empty() && !ValidNodeId(node_id))
+    return *why = "--node-id must be 1-64 characters of A-Z a-z 0-9 . _ - (got '" + node_id + "')",
+           false;
+  if (!(lease_seconds >= 1 && lease_seconds <= 3600))
+    return *why = "--lease-seconds must be in [1, 3600]", false;
   for (const auto& r : allow_roots) {
     std::error_code ec;
     if (!fs::is_directory(r, ec)) return *why = "--allow-root '" + r + "' is not a folder", false;
@@ -126,47 +173,60 @@ StatusOr<std::unique_ptr<Server>> Server::Create(const ServerOptions& options) {
   impl->data = fs::weakly_canonical(fs::absolute(options.data_dir, ec), ec).string();
   if (ec || !fs::is_directory(impl->data))
     return IoError("cannot use data folder '" + options.data_dir + "'");
-  // One server per data folder: a second one would sweep the first one's uploads.
-  const std::string lock = impl->data + "/lock";
+  const bool cluster = !options.database_url.empty();
+  impl->node = !options.node_id.empty() ? options.node_id
+               : cluster                ? DefaultNodeId(options.port)
+                                        : "local";
+  impl->node_dir = cluster ? impl->data + "/nodes/" + impl->node : impl->data;
+  fs::create_directories(impl->node_dir, ec);
+  // One server per data folder (per node folder in a cluster): a second one would sweep the
+  // first one's uploads.
+  const std::string lock = impl->node_dir + "/lock";
   impl->lock_fd = ::open(lock.c_str(), O_RDWR | O_CREAT | O_CLOEXEC, 0644);
   if (impl->lock_fd < 0) return IoError("cannot create '" + lock + "'");
   if (::flock(impl->lock_fd, LOCK_EX | LOCK_NB) != 0)
     return Status(StatusCode::kUnavailable,
-                  "data folder '" + impl->data +
-                      "' is in use by another matfit serve; stop it or choose another --data");
-  for (const char* sub : {"uploads", "datasets", "packs", "cache/zips", "cache/previews"}) {
+                  cluster ? "node '" + impl->node + "' already runs on data folder '" + impl->data +
+                                "'; give each node its own --node-id"
+                          : "data folder '" + impl->data +
+                                "' is in use by another matfit serve; stop it or choose another "
+                                "--data");
+  for (const std::string sub : {"datasets", "packs"}) {
     fs::create_directories(impl->data + "/" + sub, ec);
     if (ec) return IoError("cannot create '" + impl->data + "/" + sub + "': " + ec.message());
+  }
+  for (const std::string sub : {"uploads", "cache/zips", "cache/previews"}) {
+    fs::create_directories(impl->node_dir + "/" + sub, ec);
+    if (ec) return IoError("cannot create '" + impl->node_dir + "/" + sub + "': " + ec.message());
   }
   if (!options.token_file.empty()) {
     auto t = TokenSet::Load(options.token_file);
     if (!t.ok()) return t.status();
-    impl->tokens = std::move(*t);
+    impl->file_tokens = std::move(*t);
   }
-  auto store = JobStore::Open(impl->data + "/jobs.db");
+  impl->auth_on = !options.token_file.empty() || options.db_tokens;
+  auto store = cluster ? OpenPostgresJobStore(options.database_url)
+                       : OpenSqliteJobStore(impl->data + "/jobs.db");
   if (!store.ok()) return store.status();
   impl->store = std::move(*store);
+  MATFIT_RETURN_IF_ERROR(impl->RefreshTokens());
   SetLogQuiet(options.quiet);
 
-  // Start-up sweep: partial uploads, temporaries of interrupted writes, files of deleted jobs.
   int swept = 0;
-  for (const auto& e : fs::directory_iterator(impl->UploadsDir(), ec))
-    swept += fs::remove_all(e.path(), ec) > 0;
-  std::set<std::string> ids;
-  for (const auto& id : impl->store->AllIds()) ids.insert(id);
-  for (const char* sub : {"datasets", "packs", "cache/zips", "cache/previews"})
-    for (const auto& e : fs::directory_iterator(impl->data + "/" + sub, ec)) {
-      const std::string name = e.path().filename().string();
-      const std::string id = e.path().stem().string();  // "<id>.zip" → "<id>"
-      if (IsTemporary(name) || !ids.count(id)) swept += fs::remove_all(e.path(), ec) > 0;
-    }
-  const int requeued = impl->store->RequeueRunning();
+  size_t jobs = 0;
+  impl->Sweep(&swept, &jobs);
+  const int requeued = impl->store->RequeueNode(impl->node);
   LogEvent("info", "startup",
            {{"data", impl->data},
+            {"node", impl->node},
+            {"database", cluster ? RedactDatabaseUrl(options.database_url) : "sqlite"},
             {"requeued", requeued},
             {"swept", swept},
-            {"jobs", ids.size()},
-            {"auth", impl->tokens.empty() ? "off" : "bearer"}});
+            {"jobs", jobs},
+            {"auth", !impl->auth_on      ? "off"
+                     : options.db_tokens ? "bearer (file and database)"
+                                         : "bearer"},
+            {"tokens", impl->Tokens()->size()}});
   PreviewOptions po;
   po.backend = options.render_backend, po.max_queued = options.preview_queue;
   impl->previews = std::make_unique<PreviewRenderer>(po);
@@ -174,6 +234,97 @@ StatusOr<std::unique_ptr<Server>> Server::Create(const ServerOptions& options) {
       std::make_unique<PreviewCache>(impl->data + "/cache/previews", options.preview_cache_bytes);
   impl->RegisterRoutes();
   return std::unique_ptr<Server>(new Server(std::move(impl)));
+}
+
+void Server::Impl::Sweep(int* swept, size_t* jobs) {
+  std::error_code ec;
+  for (const auto& e : fs::directory_iterator(UploadsDir(), ec))  // this node's own
+    *swept += fs::remove_all(e.path(), ec) > 0;
+  std::set<std::string> ids;
+  for (const auto& id : store->AllIds()) ids.insert(id);
+  *jobs = ids.size();
+  // In a cluster, another node's temporaries and not-yet-queued uploads are left alone unless
+  // they are old; this node's own staged packs are dead (it is starting).
+  const bool shared = store->Shared();
+  const std::string own = ".tmp-run-" + node + "-";
+  auto sweep_dir = [&](const std::string& dir, bool node_own) {
+    for (const auto& e : fs::directory_iterator(dir, ec)) {
+      const std::string name = e.path().filename().string();
+      const std::string id = e.path().stem().string();  // "<id>.zip" → "<id>"
+      if (!IsTemporary(name) && ids.count(id)) continue;
+      if (shared && !node_own && name.find(own) == std::string::npos &&
+          !OlderThan(e.path(), kSharedSweepAge))
+        continue;
+      *swept += fs::remove_all(e.path(), ec) > 0;
+    }
+  };
+  sweep_dir(DatasetsDir(), false);
+  sweep_dir(data + "/packs", false);
+  sweep_dir(node_dir + "/cache/zips", true);
+  sweep_dir(node_dir + "/cache/previews", true);
+}
+
+Status Server::Impl::PublishPack(const std::string& id, const std::string& staging) {
+  std::error_code ec;
+  const std::string dest = PackDir(id);
+  if (!fs::exists(staging, ec)) {
+    // Moved by an earlier try of this attempt whose commit failed.
+    if (fs::is_directory(dest, ec)) return Status::Ok();
+    return IoError("the pack of job " + id + " is missing (" + staging + ")");
+  }
+  if (fs::exists(dest, ec)) {  // unpublished: its attempt died between the move and the commit
+    const std::string old = staging + "-replaced";
+    fs::rename(dest, old, ec);
+    if (ec)
+      return IoError("cannot replace the unpublished pack of job " + id + ": " + ec.message());
+    fs::remove_all(old, ec);
+  }
+  fs::rename(staging, dest, ec);
+  if (ec) return IoError("cannot move the pack of job " + id + " into place: " + ec.message());
+  return Status::Ok();
+}
+
+Status Server::Impl::RefreshTokens() {
+  auto set = std::make_shared<TokenSet>(file_tokens);
+  if (options.db_tokens) {
+    auto stored = store->ListTokens();
+    if (!stored.ok()) return stored.status();
+    for (const auto& t : *stored) set->AddHashed(t.sha256_hex, t.write);
+  }
+  std::lock_guard<std::mutex> lock(tokens_mutex);
+  tokens = std::move(set);
+  return Status::Ok();
+}
+
+void Server::Impl::HeartbeatLoop() {
+  const auto period = std::chrono::duration<double>(options.lease_seconds / 3);
+  std::unique_lock<std::mutex> lock(mutex);
+  while (!heartbeat_stop) {
+    // Only jobs claimed before the renewal are judged by it (a claim lands in `live` after its
+    // row is written).
+    std::map<std::string, std::shared_ptr<LiveJob>> before = live;
+    lock.unlock();
+    auto held = store->Heartbeat(node, options.lease_seconds);
+    lock.lock();
+    if (!held.ok()) {
+      LogEvent("warn", "heartbeat_failed", {{"error", held.status().message()}});
+    } else {
+      // A live job this node no longer holds was taken over after its lease ran out (this node
+      // was cut off from the database, or stalled): stop it, its result would be dropped.
+      for (auto& [id, j] : before)
+        if (!held->count(id) && !j->finishing && !j->lease_lost.exchange(true)) {
+          j->cancel = true;
+          LogEvent("warn", "lease_lost", {{"id", id}, {"node", node}});
+        }
+    }
+    if (options.db_tokens) {  // a revoked token stops working within one period
+      lock.unlock();
+      if (Status st = RefreshTokens(); !st.ok())
+        LogEvent("warn", "tokens_not_refreshed", {{"error", st.message()}});
+      lock.lock();
+    }
+    heartbeat_cv.wait_for(lock, period, [&] { return heartbeat_stop; });
+  }
 }
 
 void Server::Impl::RegisterRoutes() {
@@ -186,7 +337,7 @@ void Server::Impl::RegisterRoutes() {
   http.set_pre_routing_handler([this](const httplib::Request& req, httplib::Response& res) {
     t_request_start = std::chrono::steady_clock::now();
     if (RejectMalformedTarget(req, res)) return httplib::Server::HandlerResponse::Handled;
-    if (tokens.empty()) return httplib::Server::HandlerResponse::Unhandled;
+    if (!auth_on) return httplib::Server::HandlerResponse::Unhandled;
     const std::string& p = req.path;
     const bool open = p == "/healthz" || p == "/metrics" || p == "/api/v1/healthz" ||
                       p == "/api/v1/metrics" || p.rfind("/api/v1/viewer/static/", 0) == 0;
@@ -197,7 +348,7 @@ void Server::Impl::RegisterRoutes() {
     // Browsers cannot set headers on <img> or page loads: ?token= is accepted for reads.
     if (auth.empty() && !write && req.has_param("token"))
       auth = "Bearer " + req.get_param_value("token");
-    switch (tokens.Check(auth, write ? Access::kWrite : Access::kRead)) {
+    switch (Tokens()->Check(auth, write ? Access::kWrite : Access::kRead)) {
       case AuthResult::kOk: return httplib::Server::HandlerResponse::Unhandled;
       // The body (if any) is not read: the reply closes the connection (SendErrorAndClose), so
       // that the unread bytes can never be parsed as a next request.
@@ -265,9 +416,17 @@ void Server::Impl::RegisterRoutes() {
 
   auto health = [this](const httplib::Request&, httplib::Response& res) {
     const auto counts = CountByState();
-    SendJson(res, 200,
-             {{"status", draining ? "draining" : "ok"},
+    const Status db = store->Ping();
+    SendJson(res, db.ok() ? 200 : 503,
+             {{"status", draining  ? "draining"
+                         : db.ok() ? "ok"
+                                   : "database unreachable"},
               {"version", kMatfitVersion},
+              {"node", node},
+              {"database",
+               {{"engine", store->Engine()},
+                {"reachable", db.ok()},
+                {"error", db.ok() ? json(nullptr) : json(ForClients(db.message()))}}},
               {"workers", options.workers},
               {"queued", counts.at(JobState::kQueued)},
               {"running", counts.at(JobState::kRunning)},
@@ -284,6 +443,26 @@ void Server::Impl::RegisterRoutes() {
       busy = int(live.size());
     }
     std::string page = metrics.Render(jobs, jobs["queued"], options.workers, busy);
+    if (const auto counters = store->Counters(); !counters.empty()) {
+      page +=
+          "# HELP matfit_cluster_jobs_finished_total Jobs finished by any node, by state.\n"
+          "# TYPE matfit_cluster_jobs_finished_total counter\n";
+      for (const char* st : {"succeeded", "failed", "cancelled"}) {
+        const auto it = counters.find(std::string("jobs_finished_total:") + st);
+        page += std::string("matfit_cluster_jobs_finished_total{state=\"") + st + "\"} " +
+                std::to_string(it == counters.end() ? 0 : it->second) + "\n";
+      }
+      const auto it = counters.find("lease_takeovers_total");
+      page +=
+          "# HELP matfit_cluster_lease_takeovers_total Running jobs re-run by another node after "
+          "their node's lease ran out.\n# TYPE matfit_cluster_lease_takeovers_total counter\n"
+          "matfit_cluster_lease_takeovers_total " +
+          std::to_string(it == counters.end() ? 0 : it->second) + "\n";
+    }
+    page +=
+        "# HELP matfit_node_info This node (the job counts above are the whole cluster's).\n"
+        "# TYPE matfit_node_info gauge\nmatfit_node_info{node=\"" +
+        node + "\",database=\"" + store->Engine() + "\"} 1\n";
     RenderGateStats(http.Stats(), &page);
     res.set_content(page, "text/plain; version=0.0.4");
   };
@@ -321,6 +500,7 @@ Status Server::Start() {
   // stop() is a no-op until the listener runs: wait, so that an early Shutdown cannot hang.
   while (!m.http.is_running()) std::this_thread::sleep_for(std::chrono::milliseconds(1));
   for (int i = 0; i < m.options.workers; ++i) m.workers.emplace_back([&m] { m.WorkerLoop(); });
+  if (m.store->Shared()) m.heartbeat = std::thread([&m] { m.HeartbeatLoop(); });
   LogEvent("info", "listening",
            {{"bind", m.options.bind}, {"port", m.port}, {"workers", m.options.workers}});
   return Status::Ok();
@@ -355,6 +535,12 @@ void Server::Shutdown() {
   m.wake.notify_all();
   for (auto& w : m.workers) w.join();
   m.workers.clear();
+  {
+    std::lock_guard<std::mutex> lock(m.mutex);
+    m.heartbeat_stop = true;
+  }
+  m.heartbeat_cv.notify_all();
+  if (m.heartbeat.joinable()) m.heartbeat.join();
   // A last try for final states the database has not taken (left "running", a job would be
   // re-queued at the next start).
   if (Status st = m.RetryPending(true); !st.ok())
@@ -369,17 +555,31 @@ void Server::Shutdown() {
 
 void Server::Impl::RecordFinal(const std::string& id, PendingFinal f) {
   Status st;
+  auto publish = [&] { return PublishPack(id, f.staging); };
   for (const int ms : {0, 50, 200, 800}) {  // a busy or briefly failing database
     std::this_thread::sleep_for(std::chrono::milliseconds(ms));
-    st = store->Finish(id, f.state, f.error, f.summary_json, f.finished, f.run_seconds);
+    st = store->Finish(id, f.lease, f.final_state, publish);
     if (st.ok()) return;
+    if (IsLeaseLost(st)) return DropAttempt(id, f, st);
   }
-  // The database cannot take it (disk full, I/O error): keep it, show it, write it later.
+  // The database cannot take it (disk full, I/O error): keep it, show it, write it later. A
+  // single process shows the pending success itself, so its pack goes in place now (the retry
+  // finds it there); a cluster's other nodes see only the database, so there it waits.
   LogEvent("error", "job_state_unsaved",
-           {{"id", id}, {"state", JobStateName(f.state)}, {"error", st.message()}});
+           {{"id", id}, {"state", JobStateName(f.final_state.state)}, {"error", st.message()}});
+  if (!store->Shared() && f.final_state.state == JobState::kSucceeded)
+    if (Status moved = PublishPack(id, f.staging); !moved.ok())
+      LogEvent("error", "pack_not_published", {{"id", id}, {"error", moved.message()}});
   f.tries = 4, f.next_try = NowSeconds() + f.delay;
   std::lock_guard<std::mutex> lock(pending_mutex);
   pending[id] = std::move(f);
+}
+
+void Server::Impl::DropAttempt(const std::string& id, const PendingFinal& f, const Status& why) {
+  std::error_code ec;
+  if (!f.staging.empty()) fs::remove_all(f.staging, ec);
+  LogEvent("warn", "attempt_dropped",
+           {{"id", id}, {"attempt", f.lease.attempt}, {"reason", why.message()}});
 }
 
 Status Server::Impl::RetryPending(bool force, const std::string& only) {
@@ -392,14 +592,19 @@ Status Server::Impl::RetryPending(bool force, const std::string& only) {
   }
   Status result;
   for (const auto& [id, f] : due) {
-    const Status st =
-        store->Finish(id, f.state, f.error, f.summary_json, f.finished, f.run_seconds);
+    const Status st = store->Finish(id, f.lease, f.final_state,
+                                    [&, id = id] { return PublishPack(id, f.staging); });
     std::lock_guard<std::mutex> lock(pending_mutex);
     const auto it = pending.find(id);
     if (it == pending.end()) continue;  // written meanwhile by another thread
-    if (st.ok()) {
-      LogEvent("info", "job_state_saved",
-               {{"id", id}, {"state", JobStateName(f.state)}, {"tries", it->second.tries + 1}});
+    if (st.ok() || IsLeaseLost(st)) {
+      if (st.ok())
+        LogEvent("info", "job_state_saved",
+                 {{"id", id},
+                  {"state", JobStateName(f.final_state.state)},
+                  {"tries", it->second.tries + 1}});
+      else
+        DropAttempt(id, f, st);
       pending.erase(it);
     } else {
       PendingFinal& p = it->second;
@@ -416,7 +621,7 @@ bool Server::Impl::ApplyPending(JobRecord* j) {
   std::lock_guard<std::mutex> lock(pending_mutex);
   const auto it = pending.find(j->id);
   if (it == pending.end()) return false;
-  const PendingFinal& f = it->second;
+  const JobFinal& f = it->second.final_state;
   j->state = f.state, j->error = f.error, j->finished = f.finished;
   j->run_seconds = f.run_seconds;
   j->summary_json = f.summary_json.empty() ? "{}" : f.summary_json;
@@ -428,7 +633,7 @@ std::map<JobState, int64_t> Server::Impl::CountByState() {
   auto counts = store->CountByState();
   std::lock_guard<std::mutex> lock(pending_mutex);
   for (const auto& [id, f] : pending)  // their rows still say "running"
-    if (counts[JobState::kRunning] > 0) --counts[JobState::kRunning], ++counts[f.state];
+    if (counts[JobState::kRunning] > 0) --counts[JobState::kRunning], ++counts[f.final_state.state];
   return counts;
 }
 
@@ -441,7 +646,7 @@ std::optional<JobRecord> Server::Impl::GetJob(const std::string& id) {
 void Server::Impl::WorkerLoop() {
   while (!draining) {
     (void)RetryPending(false);  // final states the database could not take yet
-    auto job = store->ClaimNext(NowSeconds());
+    auto job = store->ClaimNext(node, NowSeconds(), options.lease_seconds);
     if (!job) {
       std::unique_lock<std::mutex> lock(mutex);
       wake.wait_for(lock, std::chrono::seconds(1));
@@ -461,8 +666,11 @@ void Server::Impl::RunOne(const JobRecord& job) {
   }
   LogEvent("info", "job_started",
            {{"id", job.id},
+            {"node", node},
             {"attempt", job.attempts},
             {"spec", json::parse(job.spec_json, nullptr, false)}});
+  const JobLease lease{node, job.attempts};
+  const std::string staging = StagingDir(job.id, job.attempts);
   const auto t0 = std::chrono::steady_clock::now();
   auto last_persist = t0;
   auto progress = [&](double f, const std::string& stage) {
@@ -473,7 +681,7 @@ void Server::Impl::RunOne(const JobRecord& job) {
     }
     if (now - last_persist > std::chrono::seconds(1)) {  // persisted about once a second
       last_persist = now;
-      (void)store->UpdateProgress(job.id, f, stage);  // best effort; the final state must land
+      (void)store->UpdateProgress(job.id, lease, f, stage);  // best effort; the final must land
       if (auto r = store->Get(job.id); r && r->cancel_requested) lj->cancel = true;
       (void)RetryPending(false);  // other jobs' final states, while this one runs
     }
@@ -484,7 +692,7 @@ void Server::Impl::RunOne(const JobRecord& job) {
     if (job.cancel_requested) lj->cancel = true;
     try {  // a job must never take the server down (or, re-queued, take it down again)
       r = lj->cancel ? StatusOr<std::string>(Status(StatusCode::kCancelled, "cancelled"))
-                     : RunJob(*spec, job.dataset, PackDir(job.id), progress, SourceLabel(job),
+                     : RunJob(*spec, job.dataset, staging, progress, SourceLabel(job),
                               options.max_stack_samples);
     } catch (const std::exception& e) {
       r = Status(StatusCode::kInternal, std::string("internal error: ") + e.what());
@@ -493,16 +701,26 @@ void Server::Impl::RunOne(const JobRecord& job) {
   const double seconds =
       std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   std::string final_state;
-  if (r.status().code() == StatusCode::kCancelled && hard_stop) {
+  lj->finishing = true;
+  if (lj->lease_lost) {
+    final_state = "dropped";  // another node runs it now (HeartbeatLoop)
+    std::error_code ec;
+    fs::remove_all(staging, ec);
+  } else if (r.status().code() == StatusCode::kCancelled && hard_stop) {
     final_state = "requeued";
+    std::error_code ec;
+    fs::remove_all(staging, ec);
     // A failed write leaves the row "running": the next start-up re-queues it the same way.
-    if (Status st = store->Requeue(job.id); !st.ok())
+    if (Status st = store->Requeue(job.id, lease); !st.ok())
       LogEvent("error", "job_state_unsaved", {{"id", job.id}, {"error", st.message()}});
   } else {
-    PendingFinal f;
+    PendingFinal p;
+    p.lease = lease;
+    JobFinal& f = p.final_state;
     f.finished = NowSeconds(), f.run_seconds = seconds;
     if (r.ok()) {
       f.state = JobState::kSucceeded, f.summary_json = *r;
+      p.staging = staging;
     } else if (r.status().code() == StatusCode::kCancelled) {
       f.state = JobState::kCancelled, f.error = "cancelled while running";
     } else {
@@ -511,8 +729,12 @@ void Server::Impl::RunOne(const JobRecord& job) {
       if (f.error.find(std::strerror(ENOSPC)) != std::string::npos)
         f.error = "the server's disk is full (ENOSPC); free space and submit again: " + f.error;
     }
+    if (!r.ok()) {
+      std::error_code ec;
+      fs::remove_all(staging, ec);
+    }
     final_state = JobStateName(f.state);
-    RecordFinal(job.id, std::move(f));
+    RecordFinal(job.id, std::move(p));
     metrics.ObserveJob(final_state, seconds);
   }
   LogEvent(final_state == "failed" ? "warn" : "info", "job_finished",

@@ -35,6 +35,18 @@ struct ServerOptions {
   int preview_queue = 8;
   bool quiet = false;  // no request log lines (errors are still logged)
 
+  // A cluster of nodes (docs/scale-out.md): a postgresql:// URL puts the jobs in PostgreSQL,
+  // shared by every node started with the same URL and the same --data folder (a shared
+  // filesystem). Empty: SQLite at DATA/jobs.db, one process.
+  std::string database_url;
+  std::string node_id;  // this node's name ([A-Za-z0-9._-], ≤ 64); empty: host-port
+  // A running job's lease: renewed every third of it; a node that stops renewing (killed, cut
+  // off) loses its jobs to the other nodes this long after its last renewal.
+  double lease_seconds = 30;
+  // Accept the bearer tokens kept in the cluster's database (`matfit tokens add`), re-read
+  // every lease/3 seconds, besides --token-file's. Needs database_url.
+  bool db_tokens = false;
+
   // Connections (server/http_gate.h). Open connections wait for their request head in one
   // event loop, not in a thread; only complete heads reach the request workers.
   int http_threads = 16;             // workers for requests without a body (reads, polls, deletes)

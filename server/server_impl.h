@@ -29,6 +29,8 @@ double NowSeconds();  // Unix time
 // A job a worker is running: its cancel flags and live progress (persisted ~1/s).
 struct LiveJob {
   std::atomic<bool> cancel{false};
+  std::atomic<bool> lease_lost{false};  // another node took the job over: drop the result
+  std::atomic<bool> finishing{false};   // its final state is being written
   std::mutex mutex;
   double fraction = 0, started = 0;
   std::string stage;
@@ -37,17 +39,29 @@ struct LiveJob {
 // A job's final state that the database has not taken yet (disk full, I/O error). GET and
 // DELETE show it; it is written again, with backoff, until it lands.
 struct PendingFinal {
-  JobState state = JobState::kFailed;
-  std::string error, summary_json;
-  double finished = 0, run_seconds = 0;
+  JobFinal final_state;
+  JobLease lease;
+  std::string staging;  // the pack of a success, to publish (PublishPack)
   int tries = 0;
   double delay = 0.5, next_try = 0;  // seconds; Unix time of the next write
 };
 
 struct Server::Impl {
   ServerOptions options;
-  std::string data;  // absolute data folder
-  TokenSet tokens;
+  std::string data;      // absolute data folder (shared by the nodes of a cluster)
+  std::string node;      // this node's id ("local" for a single process without --node-id)
+  std::string node_dir;  // this node's own files: `data`, or data/nodes/<node> in a cluster
+  bool auth_on = false;  // --token-file or --db-tokens: every request outside the open set
+                         // needs a token (an empty set then refuses them all)
+  TokenSet file_tokens;  // from --token-file
+  std::mutex tokens_mutex;
+  std::shared_ptr<const TokenSet> tokens;  // file tokens + the database's (refreshed)
+  std::shared_ptr<const TokenSet> Tokens() {
+    std::lock_guard<std::mutex> lock(tokens_mutex);
+    return tokens;
+  }
+  // Rebuilds `tokens` from the file's and, with --db-tokens, the database's.
+  Status RefreshTokens();
   std::unique_ptr<JobStore> store;
   Metrics metrics;
   std::unique_ptr<PreviewRenderer> previews;
@@ -55,6 +69,7 @@ struct Server::Impl {
   GatedHttpServer http;  // httplib parses and routes; server/http_gate.h holds connections
   std::thread http_thread;
   std::vector<std::thread> workers;
+  std::thread heartbeat;  // renews the leases of this node's jobs (shared stores only)
   int port = 0;
   int lock_fd = -1;  // flock on DATA/lock: one server per data folder
   ~Impl();
@@ -63,6 +78,8 @@ struct Server::Impl {
   std::condition_variable wake, idle;
   std::map<std::string, std::shared_ptr<LiveJob>> live;
   std::atomic<bool> draining{false}, hard_stop{false}, stopped{false};
+  bool heartbeat_stop = false;  // guarded by mutex
+  std::condition_variable heartbeat_cv;
   std::mutex pending_mutex;  // guards pending
   std::map<std::string, PendingFinal> pending;
   std::mutex shutdown_mutex;
@@ -70,20 +87,35 @@ struct Server::Impl {
   bool shutdown_done = false;
 
   // Folders under `data`.
-  std::string UploadsDir() const { return data + "/uploads"; }
+  // Folders: datasets and packs are shared by a cluster's nodes; uploads in progress and the
+  // caches are each node's own.
+  std::string UploadsDir() const { return node_dir + "/uploads"; }
   std::string DatasetsDir() const { return data + "/datasets"; }
   std::string PackDir(const std::string& id) const { return data + "/packs/" + id; }
-  std::string ZipPath(const std::string& id) const { return data + "/cache/zips/" + id + ".zip"; }
-  std::string PreviewDir(const std::string& id) const { return data + "/cache/previews/" + id; }
+  // Where an attempt writes its pack before PublishPack moves it to PackDir.
+  std::string StagingDir(const std::string& id, int attempt) const {
+    return data + "/packs/." + id + ".tmp-run-" + node + "-" + std::to_string(attempt);
+  }
+  std::string ZipPath(const std::string& id) const {
+    return node_dir + "/cache/zips/" + id + ".zip";
+  }
+  std::string PreviewDir(const std::string& id) const { return node_dir + "/cache/previews/" + id; }
 
   void RegisterRoutes();
   void RegisterJobRoutes();
   void RegisterPackRoutes();
   void WorkerLoop();
   void RunOne(const JobRecord& job);
+  void HeartbeatLoop();
+  // Moves an attempt's staged pack to PackDir(id), replacing an unpublished one left by an
+  // attempt that died between its move and its commit. Runs inside the store's Finish.
+  Status PublishPack(const std::string& id, const std::string& staging);
+  void Sweep(int* swept, size_t* jobs);  // start-up: partial uploads, temporaries, orphans
   // The one way a job's final state is recorded: written at once (retrying briefly); when the
   // database cannot take it, kept in `pending` and written again by RetryPending.
   void RecordFinal(const std::string& id, PendingFinal final_state);
+  // An attempt whose lease was lost: its staged pack is removed, nothing is recorded.
+  void DropAttempt(const std::string& id, const PendingFinal& f, const Status& why);
   // Writes the pending final states that are due (all of them with force); returns the status
   // of writing `only` when given (only that one is tried then).
   Status RetryPending(bool force, const std::string& only = "");

@@ -17,6 +17,7 @@ declare -A flags=(
   [render]="out force threads quiet"
   [leaf]="out force threads quiet"
   [serve]="threads quiet"
+  [tokens]=""
   [capture]="out force quiet"
   [calibrate-lights]="out force quiet"
   [devices]=""
