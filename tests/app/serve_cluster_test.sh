@@ -39,7 +39,7 @@ start_node() { # i (its log: $tmp/log<i>, this start's own lines)
   local i=$1 p=""
   : >"$tmp/log$i"
   "$bin" serve --port 0 --data "$tmp/data" --db "$url" --node-id "node$i" --lease-seconds 3 \
-    --workers 1 --threads 1 --allow-root "$tmp" --db-tokens --public-read --quiet 2>"$tmp/log$i" &
+    --workers 1 --threads 1 --allow-root "$tmp" --db-tokens --public-read 2>"$tmp/log$i" &
   pid[$i]=$!
   for _ in $(seq 1 150); do
     p=$(sed -n 's|.*listening on http://127.0.0.1:\([0-9]*\)/api/v1.*|\1|p' "$tmp/log$i" | tail -1)
@@ -160,10 +160,50 @@ curl -s "${auth[@]}" -o /dev/null -X DELETE "$(api 1)/jobs/${ids[1]}"
 code=$(curl -s -o /dev/null -w '%{http_code}' "$(api 2)/jobs/${ids[1]}")
 [ "$code" = 404 ] && [ ! -e "$tmp/data/packs/${ids[1]}" ] && ok || bad "delete across nodes: $code"
 
+# Two nodes race for one job: the node running it is paused (SIGSTOP) past its lease, another
+# node takes the job over, then the paused node resumes. Its attempt must not publish: the job
+# succeeds once, by the node that took it over, and the resumed node drops its result.
+sub=$(curl -s "${auth[@]}" -H 'Content-Type: application/json' \
+  -d "{\"dataset\": \"$tmp/slow\", \"model\": \"cook-torrance\", \"holdout\": 8}" "$(api 1)/jobs")
+race=$(field "$sub" id)
+paused=""; t0=$SECONDS
+while [ $((SECONDS - t0)) -lt 120 ]; do
+  paused=$(sql "SELECT substr(node, 5) FROM jobs WHERE id = '$race' AND state = 'running' AND progress > 0.1")
+  [ -n "$paused" ] && break
+  sleep 0.2
+done
+if [ -z "$paused" ]; then bad "the race job never ran"; else
+  kill -STOP "${pid[$paused]}"
+  t0=$SECONDS
+  while [ $((SECONDS - t0)) -lt 30 ]; do
+    [ "$(sql "SELECT attempts FROM jobs WHERE id = '$race'")" = 2 ] && break
+    sleep 0.2
+  done
+  kill -CONT "${pid[$paused]}"
+  taker=$(sql "SELECT node FROM jobs WHERE id = '$race'")
+  [ "$taker" != "node$paused" ] && ok || bad "the paused node's job was not taken over ($taker)"
+  t0=$SECONDS
+  while [ $((SECONDS - t0)) -lt 180 ]; do
+    [ "$(sql "SELECT state FROM jobs WHERE id = '$race'")" = succeeded ] && break
+    sleep 0.5
+  done
+  sleep 2  # the resumed node's attempt ends (dropped) meanwhile
+  [ "$(sql "SELECT state || ' ' || attempts || ' ' || node FROM jobs WHERE id = '$race'")" = "succeeded 2 $taker" ] &&
+    [ "$(sql "SELECT COUNT(*) || ' ' || MIN(node) FROM publications WHERE job_id = '$race'")" = "1 $taker" ] && ok ||
+    bad "race: $(sql "SELECT state, attempts, node FROM jobs WHERE id = '$race'") / $(sql "SELECT * FROM publications WHERE job_id = '$race'")"
+  grep -qE '"(lease_lost|attempt_dropped)"' "$tmp/log$paused" && ok ||
+    bad "the resumed node did not drop its attempt: $(tail -5 "$tmp/log$paused")"
+  t0=$SECONDS
+  while [ $((SECONDS - t0)) -lt 60 ] && ls -A "$tmp/data/packs" | grep -q "^\.$race\.tmp-run-node$paused-"; do sleep 0.5; done
+  ! ls -A "$tmp/data/packs" | grep -q "^\.$race\.tmp-run-node$paused-" && ok ||
+    bad "the dropped attempt left its staged pack"
+  echo "race: node$paused paused, $taker took the job over and published it once"
+fi
+
 # Cluster-wide counters, and a revoked token stops working on every node within lease/3 s.
 m=$(curl -s "$(api 2)/metrics")
-grep -q 'matfit_cluster_jobs_finished_total{state="succeeded"} 50' <<<"$m" &&
-  grep -q 'matfit_cluster_lease_takeovers_total 1' <<<"$m" &&
+grep -q 'matfit_cluster_jobs_finished_total{state="succeeded"} 51' <<<"$m" &&
+  grep -q 'matfit_cluster_lease_takeovers_total 2' <<<"$m" &&
   grep -q 'matfit_node_info{node="node2",database="postgresql"} 1' <<<"$m" && ok ||
   bad "cluster metrics: $(grep -E 'cluster|node_info' <<<"$m")"
 "$bin" tokens revoke --db "$url" --label cluster-test 2>/dev/null && ok || bad "matfit tokens revoke"
