@@ -87,15 +87,19 @@ class JobStore {
   // shared store also hands out running jobs whose lease has run out (their node died).
   virtual std::optional<JobRecord> ClaimNext(const std::string& node, double now,
                                              double lease_seconds) = 0;
-  // Extends the leases of the node's running jobs; returns the ids it still holds.
-  virtual StatusOr<std::set<std::string>> Heartbeat(const std::string& node,
-                                                    double lease_seconds) = 0;
+  // Extends the leases of the given attempts (the jobs this node's workers run, and finished
+  // ones whose state is still to be written); returns the ids among them it still holds. A row
+  // of this node that no worker runs is not renewed: its lease runs out and it is re-run.
+  virtual StatusOr<std::set<std::string>> Heartbeat(
+      const std::string& node, const std::vector<std::pair<std::string, int>>& attempts,
+      double lease_seconds) = 0;
   virtual Status UpdateProgress(const std::string& id, const JobLease& lease, double progress,
                                 const std::string& stage) = 0;
   // Records the final state of the lease's attempt. For a success, `publish` (which moves the
   // pack into place) runs first, inside the same transaction, and a unique publication row is
   // written with the state: the pack of a job is published exactly once. Lease lost:
-  // IsLeaseLost(status), and `publish` was not called.
+  // IsLeaseLost(status), and `publish` was not called. When this attempt's final state is
+  // already recorded (a commit whose answer was lost), Ok without calling `publish`.
   virtual Status Finish(const std::string& id, const JobLease& lease, const JobFinal& final_state,
                         const std::function<Status()>& publish) = 0;
   virtual Status Requeue(const std::string& id, const JobLease& lease) = 0;  // running → queued

@@ -85,14 +85,18 @@ class PostgresJobStore final : public JobStore {
   const char* Engine() const override { return "postgresql"; }
   bool Shared() const override { return true; }
   Status Ping() override {
-    return Run("ping", true, [](pqxx::connection& c) { pqxx::nontransaction(c).exec("SELECT 1"); });
+    return Run(
+        "ping", true, [](pqxx::connection& c) { pqxx::nontransaction(c).exec("SELECT 1"); },
+        kControl);
   }
   Status Insert(JobRecord* job) override;
   std::optional<JobRecord> Get(const std::string& id) override;
   std::vector<JobRecord> List(std::optional<JobState> state, int limit) override;
   std::optional<JobRecord> ClaimNext(const std::string& node, double now,
                                      double lease_seconds) override;
-  StatusOr<std::set<std::string>> Heartbeat(const std::string& node, double lease_seconds) override;
+  StatusOr<std::set<std::string>> Heartbeat(
+      const std::string& node, const std::vector<std::pair<std::string, int>>& attempts,
+      double lease_seconds) override;
   Status UpdateProgress(const std::string& id, const JobLease& lease, double progress,
                         const std::string& stage) override;
   Status Finish(const std::string& id, const JobLease& lease, const JobFinal& f,
@@ -113,11 +117,19 @@ class PostgresJobStore final : public JobStore {
  private:
   // Runs `fn` on the connection (opened first when there is none). A broken connection is
   // dropped and, when `retry` (the call is idempotent), opened again for one more try.
-  Status Run(const std::string& what, bool retry, const std::function<void(pqxx::connection&)>& fn);
+  // Two connections: the workers' and HTTP handlers' (kMain), and the heartbeats', health
+  // checks' and token refreshes' (kControl), so that a slow job transaction never delays a
+  // lease renewal or /healthz.
+  enum Slot { kMain = 0, kControl = 1 };
+  Status Run(const std::string& what, bool retry, const std::function<void(pqxx::connection&)>& fn,
+             Slot slot = kMain);
 
   std::string url_;
-  std::unique_ptr<pqxx::connection> conn_;
-  std::mutex mutex_;
+  struct Conn {
+    std::unique_ptr<pqxx::connection> c;
+    std::mutex m;
+  };
+  Conn conns_[2];
 };
 
 // A status that Finish returns from inside its transaction (the fence or the publish step).
@@ -125,18 +137,43 @@ struct Abort {
   Status status;
 };
 
+// `url` with bounded waits, unless it sets them itself: connecting (10 s), a dead peer (TCP
+// keepalives, 30 s unacknowledged data) and a statement (60 s). Without them a half-open
+// connection would hold the store for the kernel's ~15-minute retransmission timeout.
+std::string WithTimeouts(std::string url) {
+  const char* defaults[][2] = {{"connect_timeout", "10"},
+                               {"keepalives", "1"},
+                               {"keepalives_idle", "15"},
+                               {"keepalives_interval", "5"},
+                               {"keepalives_count", "3"},
+                               {"tcp_user_timeout", "30000"},
+                               {"options", "-c%20statement_timeout%3D60000"}};
+  for (const auto& [key, value] : defaults) {
+    if (url.find(std::string(key) + "=") != std::string::npos) continue;
+    url += (url.find('?') == std::string::npos ? "?" : "&") + std::string(key) + "=" + value;
+  }
+  return url;
+}
+
 Status PostgresJobStore::Run(const std::string& what, bool retry,
-                             const std::function<void(pqxx::connection&)>& fn) {
-  std::lock_guard<std::mutex> lock(mutex_);
+                             const std::function<void(pqxx::connection&)>& fn, Slot slot) {
+  Conn& conn = conns_[slot];
+  std::lock_guard<std::mutex> lock(conn.m);
   for (int attempt = 0;; ++attempt) {
     try {
-      if (!conn_ || !conn_->is_open()) conn_ = std::make_unique<pqxx::connection>(url_);
-      fn(*conn_);
+      if (!conn.c || !conn.c->is_open())
+        conn.c = std::make_unique<pqxx::connection>(WithTimeouts(url_));
+      fn(*conn.c);
       return Status::Ok();
     } catch (const Abort& a) {
       return a.status;
+    } catch (const pqxx::in_doubt_error& e) {  // the commit's outcome is unknown
+      conn.c.reset();
+      return Status(
+          StatusCode::kUnavailable,
+          "job database: " + what + ": the connection broke during the commit (" + e.what() + ")");
     } catch (const pqxx::broken_connection& e) {
-      conn_.reset();
+      conn.c.reset();
       if (!retry || attempt > 0)
         return Status(StatusCode::kUnavailable, "job database (" + RedactDatabaseUrl(url_) +
                                                     ") unreachable: " + what + ": " + e.what());
@@ -231,18 +268,25 @@ std::optional<JobRecord> PostgresJobStore::ClaimNext(const std::string& node, do
   return out;
 }
 
-StatusOr<std::set<std::string>> PostgresJobStore::Heartbeat(const std::string& node,
-                                                            double lease_seconds) {
+StatusOr<std::set<std::string>> PostgresJobStore::Heartbeat(
+    const std::string& node, const std::vector<std::pair<std::string, int>>& attempts,
+    double lease_seconds) {
   std::set<std::string> held;
-  MATFIT_RETURN_IF_ERROR(Run("heartbeat", true, [&](pqxx::connection& c) {
-    held.clear();
-    pqxx::work w(c);
-    const auto r = w.exec_params(std::string("UPDATE jobs SET lease_until = ") + kDbNow +
-                                     " + $2 WHERE state = 'running' AND node = $1 RETURNING id",
-                                 node, lease_seconds);
-    w.commit();
-    for (const auto& row : r) held.insert(row[0].as<std::string>());
-  }));
+  MATFIT_RETURN_IF_ERROR(Run(
+      "heartbeat", true,
+      [&](pqxx::connection& c) {
+        held.clear();
+        pqxx::work w(c);
+        for (const auto& [id, attempt] : attempts) {
+          const auto r = w.exec_params(std::string("UPDATE jobs SET lease_until = ") + kDbNow +
+                                           " + $4 WHERE id = $1 AND state = 'running' AND node "
+                                           "= $2 AND attempts = $3",
+                                       id, node, attempt, lease_seconds);
+          if (r.affected_rows() > 0) held.insert(id);
+        }
+        w.commit();
+      },
+      kControl));
   return held;
 }
 
@@ -265,11 +309,14 @@ Status PostgresJobStore::Finish(const std::string& id, const JobLease& lease, co
   return Run("finish " + id, false, [&](pqxx::connection& c) {
     pqxx::work w(c);
     // The fence: the row is locked until commit, so no other node claims it meanwhile.
-    const auto held = w.exec_params(
-        "SELECT 1 FROM jobs WHERE id = $1 AND state = 'running' AND node = $2 AND attempts = $3 "
-        "FOR UPDATE",
-        id, lease.node, lease.attempt);
-    if (held.empty())
+    const auto row =
+        w.exec_params("SELECT state, node, attempts FROM jobs WHERE id = $1 FOR UPDATE", id);
+    JobState now = JobState::kQueued;
+    const bool mine = !row.empty() && row[0][1].as<std::string>() == lease.node &&
+                      row[0][2].as<int>() == lease.attempt;
+    if (!row.empty()) ParseJobState(row[0][0].as<std::string>(), &now);
+    if (mine && IsFinished(now)) throw Abort{Status::Ok()};  // recorded by an earlier try
+    if (!mine || now != JobState::kRunning)
       throw Abort{Status(StatusCode::kCancelled, "job " + id + ": the lease of attempt " +
                                                      std::to_string(lease.attempt) + " on node " +
                                                      lease.node + " is no longer held")};
@@ -307,10 +354,12 @@ int PostgresJobStore::RequeueNode(const std::string& node) {
   int n = 0;
   (void)Run("requeue node " + node, true, [&](pqxx::connection& c) {
     pqxx::work w(c);
-    w.exec_params(
+    const auto cancelled = w.exec_params(
         "UPDATE jobs SET state = 'cancelled', error = 'cancelled' WHERE state = 'running' AND "
         "node = $1 AND cancel_requested",
         node);
+    for (size_t i = 0; i < cancelled.affected_rows(); ++i)
+      w.exec_params(kCount, std::string("jobs_finished_total:cancelled"));
     const auto r = w.exec_params(
         "UPDATE jobs SET state = 'queued', progress = 0, stage = '', started = 0, "
         "lease_until = 0 WHERE state = 'running' AND node = $1",
@@ -329,7 +378,9 @@ bool PostgresJobStore::RequestCancel(const std::string& id, double now, Status* 
         "UPDATE jobs SET state = 'cancelled', error = 'cancelled before it started', "
         "finished = $1 WHERE id = $2 AND state = 'queued'",
         now, id);
-    if (r.affected_rows() == 0)
+    if (r.affected_rows() > 0)
+      w.exec_params(kCount, std::string("jobs_finished_total:cancelled"));
+    else
       r = w.exec_params(
           "UPDATE jobs SET cancel_requested = true WHERE id = $1 AND state = 'running'", id);
     w.commit();
@@ -396,24 +447,30 @@ int64_t PostgresJobStore::Publications(const std::string& id) {
 
 std::map<std::string, int64_t> PostgresJobStore::Counters() {
   std::map<std::string, int64_t> out;
-  (void)Run("counters", true, [&](pqxx::connection& c) {
-    pqxx::nontransaction w(c);
-    for (const auto& row : w.exec("SELECT name, value FROM counters"))
-      out[row[0].as<std::string>()] = row[1].as<int64_t>();
-  });
+  (void)Run(
+      "counters", true,
+      [&](pqxx::connection& c) {
+        pqxx::nontransaction w(c);
+        for (const auto& row : w.exec("SELECT name, value FROM counters"))
+          out[row[0].as<std::string>()] = row[1].as<int64_t>();
+      },
+      kControl);
   return out;
 }
 
 StatusOr<std::vector<StoredToken>> PostgresJobStore::ListTokens() {
   std::vector<StoredToken> out;
-  MATFIT_RETURN_IF_ERROR(Run("tokens", true, [&](pqxx::connection& c) {
-    out.clear();
-    pqxx::nontransaction w(c);
-    for (const auto& row : w.exec("SELECT sha256, write, label, created FROM tokens ORDER BY "
-                                  "created"))
-      out.push_back({row[0].as<std::string>(), row[1].as<bool>(), row[2].as<std::string>(),
-                     row[3].as<double>()});
-  }));
+  MATFIT_RETURN_IF_ERROR(Run(
+      "tokens", true,
+      [&](pqxx::connection& c) {
+        out.clear();
+        pqxx::nontransaction w(c);
+        for (const auto& row : w.exec("SELECT sha256, write, label, created FROM tokens ORDER BY "
+                                      "created"))
+          out.push_back({row[0].as<std::string>(), row[1].as<bool>(), row[2].as<std::string>(),
+                         row[3].as<double>()});
+      },
+      kControl));
   return out;
 }
 

@@ -103,7 +103,9 @@ class SqliteJobStore final : public JobStore {
   std::vector<JobRecord> List(std::optional<JobState> state, int limit) override;
   std::optional<JobRecord> ClaimNext(const std::string& node, double now,
                                      double lease_seconds) override;
-  StatusOr<std::set<std::string>> Heartbeat(const std::string& node, double lease_seconds) override;
+  StatusOr<std::set<std::string>> Heartbeat(
+      const std::string& node, const std::vector<std::pair<std::string, int>>& attempts,
+      double lease_seconds) override;
   Status UpdateProgress(const std::string& id, const JobLease& lease, double progress,
                         const std::string& stage) override;
   Status Finish(const std::string& id, const JobLease& lease, const JobFinal& f,
@@ -237,14 +239,20 @@ std::optional<JobRecord> SqliteJobStore::ClaimNext(const std::string& node, doub
   return j;
 }
 
-StatusOr<std::set<std::string>> SqliteJobStore::Heartbeat(const std::string& node, double) {
+StatusOr<std::set<std::string>> SqliteJobStore::Heartbeat(
+    const std::string& node, const std::vector<std::pair<std::string, int>>& attempts, double) {
   std::lock_guard<std::mutex> lock(mutex_);
-  Stmt s(db_, "SELECT id FROM jobs WHERE state = 'running' AND node = ?");
-  s.Bind(1, node);
   std::set<std::string> out;
-  int rc;
-  while ((rc = s.Step()) == SQLITE_ROW) out.insert(s.Text(0));
-  if (rc != SQLITE_DONE) return SqlError(db_, "heartbeat");
+  for (const auto& [id, attempt] : attempts) {
+    Stmt s(db_,
+           "SELECT 1 FROM jobs WHERE id = ? AND state = 'running' AND node = ? AND attempts = ?");
+    s.Bind(1, id).Bind(2, node).Bind(3, int64_t(attempt));
+    const int rc = s.Step();
+    if (rc == SQLITE_ROW)
+      out.insert(id);
+    else if (rc != SQLITE_DONE)
+      return SqlError(db_, "heartbeat");
+  }
   return out;
 }
 
@@ -269,16 +277,18 @@ Status SqliteJobStore::Finish(const std::string& id, const JobLease& lease, cons
     return st;
   };
   {
-    Stmt q(db_,
-           "SELECT 1 FROM jobs WHERE id = ? AND state = 'running' AND node = ? AND "
-           "attempts = ?");
-    q.Bind(1, id).Bind(2, lease.node).Bind(3, int64_t(lease.attempt));
+    Stmt q(db_, "SELECT state, node, attempts FROM jobs WHERE id = ?");
+    q.Bind(1, id);
     const int rc = q.Step();
-    if (rc == SQLITE_DONE)
+    if (rc != SQLITE_ROW && rc != SQLITE_DONE) return rollback(SqlError(db_, "finish " + id));
+    const bool mine = rc == SQLITE_ROW && q.Text(1) == lease.node && q.Int(2) == lease.attempt;
+    JobState now = JobState::kQueued;
+    if (rc == SQLITE_ROW) ParseJobState(q.Text(0), &now);
+    if (mine && IsFinished(now)) return rollback(Status::Ok());  // recorded by an earlier try
+    if (!mine || now != JobState::kRunning)
       return rollback(Status(StatusCode::kCancelled, "job " + id + ": the lease of attempt " +
                                                          std::to_string(lease.attempt) +
                                                          " is no longer held"));
-    if (rc != SQLITE_ROW) return rollback(SqlError(db_, "finish " + id));
   }
   const std::string name = JobStateName(f.state);
   if (f.state == JobState::kSucceeded) {

@@ -230,8 +230,8 @@ StatusOr<std::unique_ptr<Server>> Server::Create(const ServerOptions& options) {
   PreviewOptions po;
   po.backend = options.render_backend, po.max_queued = options.preview_queue;
   impl->previews = std::make_unique<PreviewRenderer>(po);
-  impl->preview_cache =
-      std::make_unique<PreviewCache>(impl->data + "/cache/previews", options.preview_cache_bytes);
+  impl->preview_cache = std::make_unique<PreviewCache>(impl->node_dir + "/cache/previews",
+                                                       options.preview_cache_bytes);
   impl->RegisterRoutes();
   return std::unique_ptr<Server>(new Server(std::move(impl)));
 }
@@ -246,15 +246,23 @@ void Server::Impl::Sweep(int* swept, size_t* jobs) {
   // In a cluster, another node's temporaries and not-yet-queued uploads are left alone unless
   // they are old; this node's own staged packs are dead (it is starting).
   const bool shared = store->Shared();
-  const std::string own = ".tmp-run-" + node + "-";
+  // This node's staging names: ".ID.tmp-run-NODE-N", and temporaries made beside them
+  // ("..ID.tmp-run-NODE-N.tmp-…"). Exactly NODE: node "gpu" must not match "gpu-2"'s.
+  auto own = [&](const std::string& name) {
+    const size_t at = name.find(".tmp-run-");
+    if (at == std::string::npos) return false;
+    const std::string rest = name.substr(at + 9);
+    if (rest.compare(0, node.size() + 1, node + "-") != 0) return false;
+    size_t i = node.size() + 1, digits = 0;
+    while (i < rest.size() && std::isdigit(static_cast<unsigned char>(rest[i]))) ++i, ++digits;
+    return digits > 0 && (i == rest.size() || rest[i] == '.');
+  };
   auto sweep_dir = [&](const std::string& dir, bool node_own) {
     for (const auto& e : fs::directory_iterator(dir, ec)) {
       const std::string name = e.path().filename().string();
       const std::string id = e.path().stem().string();  // "<id>.zip" → "<id>"
       if (!IsTemporary(name) && ids.count(id)) continue;
-      if (shared && !node_own && name.find(own) == std::string::npos &&
-          !OlderThan(e.path(), kSharedSweepAge))
-        continue;
+      if (shared && !node_own && !own(name) && !OlderThan(e.path(), kSharedSweepAge)) continue;
       *swept += fs::remove_all(e.path(), ec) > 0;
     }
   };
@@ -270,7 +278,7 @@ Status Server::Impl::PublishPack(const std::string& id, const std::string& stagi
   if (!fs::exists(staging, ec)) {
     // Moved by an earlier try of this attempt whose commit failed.
     if (fs::is_directory(dest, ec)) return Status::Ok();
-    return IoError("the pack of job " + id + " is missing (" + staging + ")");
+    return NotFound("the pack of job " + id + " is missing (" + staging + ")");
   }
   if (fs::exists(dest, ec)) {  // unpublished: its attempt died between the move and the commit
     const std::string old = staging + "-replaced";
@@ -303,8 +311,14 @@ void Server::Impl::HeartbeatLoop() {
     // Only jobs claimed before the renewal are judged by it (a claim lands in `live` after its
     // row is written).
     std::map<std::string, std::shared_ptr<LiveJob>> before = live;
+    std::vector<std::pair<std::string, int>> attempts;
+    for (const auto& [id, j] : before) attempts.emplace_back(id, j->attempt);
+    {
+      std::lock_guard<std::mutex> p(pending_mutex);  // finished, state not written yet
+      for (const auto& [id, f] : pending) attempts.emplace_back(id, f.lease.attempt);
+    }
     lock.unlock();
-    auto held = store->Heartbeat(node, options.lease_seconds);
+    auto held = store->Heartbeat(node, attempts, options.lease_seconds);
     lock.lock();
     if (!held.ok()) {
       LogEvent("warn", "heartbeat_failed", {{"error", held.status().message()}});
@@ -417,6 +431,7 @@ void Server::Impl::RegisterRoutes() {
   auto health = [this](const httplib::Request&, httplib::Response& res) {
     const auto counts = CountByState();
     const Status db = store->Ping();
+    if (!db.ok()) LogEvent("error", "database_unreachable", {{"error", db.message()}});
     SendJson(res, db.ok() ? 200 : 503,
              {{"status", draining  ? "draining"
                          : db.ok() ? "ok"
@@ -426,7 +441,7 @@ void Server::Impl::RegisterRoutes() {
               {"database",
                {{"engine", store->Engine()},
                 {"reachable", db.ok()},
-                {"error", db.ok() ? json(nullptr) : json(ForClients(db.message()))}}},
+                {"error", db.ok() ? json(nullptr) : json("the job database does not answer")}}},
               {"workers", options.workers},
               {"queued", counts.at(JobState::kQueued)},
               {"running", counts.at(JobState::kRunning)},
@@ -555,10 +570,9 @@ void Server::Shutdown() {
 
 void Server::Impl::RecordFinal(const std::string& id, PendingFinal f) {
   Status st;
-  auto publish = [&] { return PublishPack(id, f.staging); };
   for (const int ms : {0, 50, 200, 800}) {  // a busy or briefly failing database
     std::this_thread::sleep_for(std::chrono::milliseconds(ms));
-    st = store->Finish(id, f.lease, f.final_state, publish);
+    st = TryFinish(id, &f);
     if (st.ok()) return;
     if (IsLeaseLost(st)) return DropAttempt(id, f, st);
   }
@@ -573,6 +587,20 @@ void Server::Impl::RecordFinal(const std::string& id, PendingFinal f) {
   f.tries = 4, f.next_try = NowSeconds() + f.delay;
   std::lock_guard<std::mutex> lock(pending_mutex);
   pending[id] = std::move(f);
+}
+
+Status Server::Impl::TryFinish(const std::string& id, PendingFinal* f) {
+  Status st =
+      store->Finish(id, f->lease, f->final_state, [&] { return PublishPack(id, f->staging); });
+  if (st.code() == StatusCode::kNotFound && f->final_state.state == JobState::kSucceeded) {
+    LogEvent("error", "pack_lost", {{"id", id}, {"error", st.message()}});
+    f->final_state.state = JobState::kFailed;
+    f->final_state.error = "the job's pack was lost before it was published; submit it again";
+    f->final_state.summary_json = "{}";
+    f->staging.clear();
+    st = store->Finish(id, f->lease, f->final_state, nullptr);
+  }
+  return st;
 }
 
 void Server::Impl::DropAttempt(const std::string& id, const PendingFinal& f, const Status& why) {
@@ -591,9 +619,8 @@ Status Server::Impl::RetryPending(bool force, const std::string& only) {
       if (only.empty() ? force || now >= f.next_try : id == only) due.emplace_back(id, f);
   }
   Status result;
-  for (const auto& [id, f] : due) {
-    const Status st = store->Finish(id, f.lease, f.final_state,
-                                    [&, id = id] { return PublishPack(id, f.staging); });
+  for (auto& [id, f] : due) {
+    const Status st = TryFinish(id, &f);
     std::lock_guard<std::mutex> lock(pending_mutex);
     const auto it = pending.find(id);
     if (it == pending.end()) continue;  // written meanwhile by another thread
@@ -618,6 +645,9 @@ Status Server::Impl::RetryPending(bool force, const std::string& only) {
 }
 
 bool Server::Impl::ApplyPending(JobRecord* j) {
+  // A cluster's nodes show what the database holds: another node cannot see this one's
+  // pending state, and a pending success has no published pack yet.
+  if (store->Shared()) return false;
   std::lock_guard<std::mutex> lock(pending_mutex);
   const auto it = pending.find(j->id);
   if (it == pending.end()) return false;
@@ -631,6 +661,7 @@ bool Server::Impl::ApplyPending(JobRecord* j) {
 
 std::map<JobState, int64_t> Server::Impl::CountByState() {
   auto counts = store->CountByState();
+  if (store->Shared()) return counts;  // as ApplyPending
   std::lock_guard<std::mutex> lock(pending_mutex);
   for (const auto& [id, f] : pending)  // their rows still say "running"
     if (counts[JobState::kRunning] > 0) --counts[JobState::kRunning], ++counts[f.final_state.state];
@@ -659,8 +690,15 @@ void Server::Impl::WorkerLoop() {
 void Server::Impl::RunOne(const JobRecord& job) {
   auto lj = std::make_shared<LiveJob>();
   lj->started = NowSeconds();
+  lj->attempt = job.attempts;
   {
     std::lock_guard<std::mutex> lock(mutex);
+    // An older attempt of the same job on this node (its lease ran out while the database was
+    // out of reach, and this node took the job back): it is stale, stop it.
+    if (auto old = live.find(job.id); old != live.end()) {
+      old->second->lease_lost = true;
+      old->second->cancel = true;
+    }
     live[job.id] = lj;
     if (hard_stop) lj->cancel = true;  // claimed just as a shutdown gave up waiting
   }
@@ -744,7 +782,7 @@ void Server::Impl::RunOne(const JobRecord& job) {
             {"error", r.ok() ? "" : r.status().message()}});
   {
     std::lock_guard<std::mutex> lock(mutex);
-    live.erase(job.id);
+    if (auto it = live.find(job.id); it != live.end() && it->second == lj) live.erase(it);
   }
   idle.notify_all();
 }

@@ -31,6 +31,7 @@ struct LiveJob {
   std::atomic<bool> cancel{false};
   std::atomic<bool> lease_lost{false};  // another node took the job over: drop the result
   std::atomic<bool> finishing{false};   // its final state is being written
+  int attempt = 0;                      // the attempt this worker runs (its lease's fence)
   std::mutex mutex;
   double fraction = 0, started = 0;
   std::string stage;
@@ -116,6 +117,9 @@ struct Server::Impl {
   void RecordFinal(const std::string& id, PendingFinal final_state);
   // An attempt whose lease was lost: its staged pack is removed, nothing is recorded.
   void DropAttempt(const std::string& id, const PendingFinal& f, const Status& why);
+  // One try at writing a final state. A success whose staged pack has gone (NotFound from
+  // PublishPack) cannot be published: it is recorded as failed instead of retried forever.
+  Status TryFinish(const std::string& id, PendingFinal* f);
   // Writes the pending final states that are due (all of them with force); returns the status
   // of writing `only` when given (only that one is tried then).
   Status RetryPending(bool force, const std::string& only = "");

@@ -140,9 +140,14 @@ for id in "${ids[@]}"; do [ -f "$tmp/data/packs/$id/report.json" ] || incomplete
 hidden=$(ls -A "$tmp/data/packs" | grep '^\.' | grep -v "tmp-run-node$victim-" || true)
 [ -z "$hidden" ] && ok || bad "temporaries of live nodes left in packs/: $hidden"
 
-# The killed node comes back: it sweeps its own staged leftovers and serves every pack.
+# The killed node comes back: it sweeps its own staged leftovers (only its own: a fresh staged
+# pack of a node whose id merely starts with this one's stays) and serves every pack.
+other=".0123456789abcdef.tmp-run-node$victim-b-3"
+mkdir "$tmp/data/packs/$other"
 start_node "$victim"
-[ -z "$(ls -A "$tmp/data/packs" | grep '^\.')" ] && ok || bad "restart did not sweep: $(ls -A "$tmp/data/packs" | grep '^\.')"
+[ -z "$(ls -A "$tmp/data/packs" | grep '^\.' | grep -vxF -- "$other")" ] && ok || bad "restart did not sweep: $(ls -A "$tmp/data/packs" | grep '^\.')"
+[ -d "$tmp/data/packs/$other" ] && ok || bad "the restart swept node$victim-b's staged pack"
+rmdir "$tmp/data/packs/$other"
 for i in 1 2 3; do
   bad_fetch=0
   for id in "${ids[@]}"; do

@@ -170,13 +170,18 @@ TEST_P(StoreContract, FencedWritesAndExactlyOncePublication) {
   EXPECT_FALSE(IsLeaseLost(failed));
   EXPECT_EQ(s->Get("p")->state, JobState::kRunning);
   EXPECT_EQ(s->Publications("p"), 0);
-  // The holder publishes once; a second try with the same token finds the job finished.
+  // The holder publishes once. A second try with the same token (its first commit's answer
+  // was lost) finds its own state recorded: Ok, nothing published again. Another token after
+  // the finish is refused.
   ASSERT_TRUE(s->Finish("p", {"n1", 1}, Succeeded(6), publish).ok());
   EXPECT_EQ(published, 1);
   EXPECT_EQ(s->Publications("p"), 1);
   EXPECT_EQ(s->Get("p")->state, JobState::kSucceeded);
-  EXPECT_TRUE(IsLeaseLost(s->Finish("p", {"n1", 1}, Succeeded(7), publish)));
+  EXPECT_TRUE(s->Finish("p", {"n1", 1}, Succeeded(7), publish).ok());
+  EXPECT_TRUE(IsLeaseLost(s->Finish("p", {"n2", 1}, Succeeded(7), publish)));
   EXPECT_EQ(published, 1);
+  EXPECT_EQ(s->Publications("p"), 1);
+  EXPECT_EQ(s->Get("p")->finished, 6);
   // Requeue is fenced too.
   InsertJobs(s, {"q"});
   ASSERT_TRUE(s->ClaimNext("n1", 8, 30));
@@ -192,11 +197,13 @@ TEST_P(StoreContract, HeartbeatNamesTheJobsTheNodeHolds) {
   InsertJobs(s, {"h1", "h2", "h3"});
   ASSERT_TRUE(s->ClaimNext("a", 1, 30));
   ASSERT_TRUE(s->ClaimNext("b", 1, 30));
-  auto held = s->Heartbeat("a", 30);
+  // Only the named attempts that the node holds are renewed and returned.
+  auto held = s->Heartbeat("a", {{"h1", 1}, {"h2", 1}, {"h3", 1}}, 30);
   ASSERT_TRUE(held.ok()) << held.status().message();
   EXPECT_EQ(*held, std::set<std::string>{"h1"});
-  EXPECT_EQ(*s->Heartbeat("b", 30), std::set<std::string>{"h2"});
-  EXPECT_TRUE(s->Heartbeat("c", 30)->empty());
+  EXPECT_TRUE(s->Heartbeat("a", {{"h1", 2}}, 30)->empty());  // another attempt of h1
+  EXPECT_EQ(*s->Heartbeat("b", {{"h2", 1}}, 30), std::set<std::string>{"h2"});
+  EXPECT_TRUE(s->Heartbeat("c", {}, 30)->empty());
 }
 
 INSTANTIATE_TEST_SUITE_P(Engines, StoreContract, testing::Values("sqlite", "postgresql"),
@@ -213,12 +220,15 @@ TEST(SharedStore, AnExpiredLeaseIsTakenOverAndTheOldAttemptIsFenced) {
   ASSERT_TRUE((*a)->Insert(&j).ok());
   ASSERT_TRUE((*a)->ClaimNext("a", 1, 1.0));
   EXPECT_FALSE((*b)->ClaimNext("b", 1, 30));  // the lease is live
+  // Node a's heartbeat names no worker for it (its worker died with the claim's answer lost):
+  // the row is not renewed.
+  EXPECT_TRUE((*a)->Heartbeat("a", {}, 30)->empty());
   std::this_thread::sleep_for(std::chrono::milliseconds(1300));
   auto taken = (*b)->ClaimNext("b", 2, 30);
   ASSERT_TRUE(taken);
   EXPECT_EQ(taken->attempts, 2);
   EXPECT_EQ(taken->node, "b");
-  EXPECT_TRUE((*a)->Heartbeat("a", 30)->empty());  // node a learns it lost the job
+  EXPECT_TRUE((*a)->Heartbeat("a", {{"t", 1}}, 30)->empty());  // node a learns it lost the job
   int published = 0;
   auto publish = [&] { return ++published, Status::Ok(); };
   EXPECT_TRUE(IsLeaseLost((*a)->Finish("t", {"a", 1}, Succeeded(3), publish)));
