@@ -1,5 +1,9 @@
 #include "server/job_store.h"
 
+#include <algorithm>
+#include <cctype>
+#include <cstdint>
+
 namespace matfit::server {
 namespace {
 
@@ -27,12 +31,31 @@ std::string RedactDatabaseUrl(const std::string& url) {
   const size_t colon = at == std::string::npos ? at : out.find(':', scheme + 3);
   if (colon != std::string::npos && colon < at)
     out = out.substr(0, colon + 1) + "***" + out.substr(at);
-  // ...?password=pw&... → ...?password=***&...
-  for (size_t p = out.find("password="); p != std::string::npos; p = out.find("password=", p + 1)) {
-    const size_t v = p + 9, end = out.find('&', v);
-    out.replace(v, (end == std::string::npos ? out.size() : end) - v, "***");
+  // ...?password=pw&... → ...?password=***&... (libpq decodes %xx in names too: pass%77ord)
+  const size_t query = out.find('?');
+  if (query == std::string::npos) return out;
+  std::string redacted = out.substr(0, query + 1);
+  size_t p = query + 1;
+  while (p <= out.size()) {
+    const size_t end = std::min(out.find('&', p), out.size());
+    const std::string param = out.substr(p, end - p);
+    const size_t eq = param.find('=');
+    std::string key;
+    for (size_t i = 0; i < std::min(eq, param.size()); ++i) {
+      if (param[i] == '%' && i + 2 < param.size() && std::isxdigit(uint8_t(param[i + 1])) &&
+          std::isxdigit(uint8_t(param[i + 2]))) {
+        key += char(std::stoi(param.substr(i + 1, 2), nullptr, 16));
+        i += 2;
+      } else {
+        key += param[i];
+      }
+    }
+    for (char& c : key) c = char(std::tolower(uint8_t(c)));
+    redacted += key == "password" && eq != std::string::npos ? param.substr(0, eq) + "=***" : param;
+    if (end < out.size()) redacted += '&';
+    p = end + 1;
   }
-  return out;
+  return redacted;
 }
 
 namespace {

@@ -417,7 +417,7 @@ void Server::Impl::RegisterRoutes() {
         std::chrono::duration<double>(std::chrono::steady_clock::now() - t_request_start).count();
     metrics.ObserveRequest(RouteOf(req.path), req.method, res.status, s);
   });
-  http.set_logger([this](const httplib::Request& req, const httplib::Response& res) {
+  http.set_logger([](const httplib::Request& req, const httplib::Response& res) {
     const double s =
         std::chrono::duration<double>(std::chrono::steady_clock::now() - t_request_start).count();
     LogEvent("info", "request",

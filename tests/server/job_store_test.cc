@@ -313,6 +313,10 @@ TEST(DatabaseUrl, PasswordsAreRedacted) {
   EXPECT_EQ(RedactDatabaseUrl("postgresql://u@h:5432/db"), "postgresql://u@h:5432/db");
   EXPECT_EQ(RedactDatabaseUrl("postgresql://h:5432/db?password=pw&x=1"),
             "postgresql://h:5432/db?password=***&x=1");
+  EXPECT_EQ(RedactDatabaseUrl("postgresql://h/db?sslmode=require&pass%77ord=pw"),
+            "postgresql://h/db?sslmode=require&pass%77ord=***");
+  EXPECT_EQ(RedactDatabaseUrl("postgresql://h/db?PASSWORD=pw&x=pass"),
+            "postgresql://h/db?PASSWORD=***&x=pass");
   EXPECT_TRUE(IsPostgresUrl("postgres://h/db"));
   EXPECT_FALSE(IsPostgresUrl("mysql://h/db"));
 }
