@@ -54,6 +54,15 @@ run_binary() {  # binary → 0 when clean
   (cd "$build/$(dirname "$1")" && "./$(basename "$1")" --gtest_filter="${filter[$1]}" \
     --gtest_brief=1 >"$build/$(basename "$1").san.log" 2>&1)
 }
+# The job store's PostgreSQL code runs under the sanitizers too: server_tests' store contract
+# and lease tests take a throw-away cluster's URL (they skip without one).
+pg_dir=$(mktemp -d)
+trap 'bash "$root/scripts/pg-test-cluster.sh" stop "$pg_dir"' EXIT
+if url=$(bash "$root/scripts/pg-test-cluster.sh" start "$pg_dir" 2>/dev/null); then
+  export MATFIT_TEST_PG_URL=$url
+else
+  echo "sanitizers: no PostgreSQL server here; the PostgreSQL store tests skip"
+fi
 failed=0
 for b in $(printf '%s\n' "${!filter[@]}" | sort); do
   start=$(date +%s)
