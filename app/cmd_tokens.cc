@@ -74,10 +74,15 @@ int Revoke(const TokensArgs& a) {
   if (!store.ok()) return Fail("tokens", store.status().message().c_str());
   auto n = (*store)->RevokeTokens(a.hash, a.label);
   if (!n.ok()) return Fail("tokens", n.status().message().c_str());
+  if (*n == 0) {
+    const std::string what = a.hash.empty() ? "label '" + a.label + "'" : "hash prefix " + a.hash;
+    return Fail("tokens",
+                ("no token has " + what + "; `matfit tokens list --db URL` shows them").c_str());
+  }
   std::fprintf(stderr,
                "matfit tokens: revoked %d token%s (nodes stop accepting within lease/3 s)\n", *n,
                *n == 1 ? "" : "s");
-  return *n > 0 ? 0 : Fail("tokens", "no token matched");
+  return 0;
 }
 
 }  // namespace
