@@ -11,6 +11,7 @@
 #include "fit/diagnostics.h"
 #include "fit/fit_job.h"
 #include "fit/method.h"
+#include "mpi/session.h"
 
 namespace matfit::app {
 namespace {
@@ -58,9 +59,17 @@ int RunFit(FitArgs& a) {
     PrintModels();
     return 0;
   }
+  // Started by mpirun/srun: one band of rows per rank; rank 0 reports and writes the pack.
+  std::string mpi_error;
+  const std::unique_ptr<mpi::Session> session = mpi::JoinIfLaunched(&mpi_error);
+  if (!session && !mpi_error.empty()) return Fail("fit", mpi_error.c_str());
+  const Comm* world = session ? &session->world() : nullptr;
+  const bool root = !world || world->rank() == 0;
+  a.job.comm = world;
+  if (!root) a.quiet = true;
   if (int rc = ApplyReadArgs("fit", a.layout, a.view, a.color_space, &a.job.read)) return rc;
   std::string why;
-  if (!a.job.Check(&why)) return Fail("fit", why.c_str());
+  if (!a.job.Check(&why)) return root ? Fail("fit", why.c_str()) : 1;
   SetNumThreads(a.threads);
 
   std::unique_ptr<ProgressReporter> bar;
@@ -76,7 +85,13 @@ int RunFit(FitArgs& a) {
   };
   auto r = fit::RunFitJob(a.job, progress);
   bar.reset();
-  if (!r.ok()) return Fail("fit", r.status().message().c_str());
+  // Rank 0 prints every error the ranks agreed on (a file that failed on another rank's rows is
+  // named in it) and the summary; the other ranks print nothing.
+  if (!r.ok()) return root ? Fail("fit", r.status().message().c_str()) : 1;
+  if (!root) return 0;
+  if (world && world->size() > 1)
+    std::printf("ranks       %d MPI ranks, one band of rows each, %d thread%s per rank\n",
+                world->size(), NumThreads(), NumThreads() == 1 ? "" : "s");
   if (a.job.decode_only) {
     std::printf("decoded     %d images of %dx%d, %d channel%s, %d thread%s\n", r->images, r->width,
                 r->height, r->channels, r->channels == 1 ? "" : "s", NumThreads(),

@@ -88,20 +88,21 @@ class ExrReader : public Reader {
 
   const Header& header() const override { return h_; }
 
-  bool Read(void* dst) override {
+  bool ReadRows(int y0, int y1, void* dst) override {
     try {
       const Imath::Box2i dw = file_->header().dataWindow();
       const size_t px = sizeof(float) * size_t(h_.channels);
       const size_t row = px * size_t(h_.width);
-      // Slice bases are addressed by absolute pixel coordinates: shift by the window origin.
+      // Slice bases are addressed by absolute pixel coordinates: shift by the window origin and
+      // the band's first row.
       char* base = static_cast<char*>(dst) - ptrdiff_t(dw.min.x) * ptrdiff_t(px) -
-                   ptrdiff_t(dw.min.y) * ptrdiff_t(row);
+                   ptrdiff_t(dw.min.y + y0) * ptrdiff_t(row);
       Imf::FrameBuffer fb;
       for (int c = 0; c < h_.channels; ++c)
         fb.insert(channels_[size_t(c)],
                   Imf::Slice(Imf::FLOAT, base + sizeof(float) * size_t(c), px, row));
       file_->setFrameBuffer(fb);
-      file_->readPixels(dw.min.y, dw.max.y);
+      file_->readPixels(dw.min.y + y0, dw.min.y + y1 - 1);  // only the band's rows
       return true;
     } catch (const std::exception& e) {
       error_ = e.what();

@@ -99,16 +99,22 @@ class JpegReader : public Reader {
 
   const Header& header() const override { return h_; }
 
-  bool Read(void* dst) override {
+  bool ReadRows(int y0, int y1, void* dst) override {
     auto* out = static_cast<unsigned char*>(dst);
     if (setjmp(err_.jump)) return false;
     jpeg_start_decompress(&cinfo_);
     const size_t row_bytes = size_t(h_.width) * h_.channels;
-    while (cinfo_.output_scanline < cinfo_.output_height) {
-      JSAMPROW row = out + row_bytes * cinfo_.output_scanline;
+    // The rows above the band are entropy-decoded only (libjpeg-turbo skips their IDCT).
+    if (y0 > 0 && jpeg_skip_scanlines(&cinfo_, JDIMENSION(y0)) != JDIMENSION(y0))
+      err_.truncated = true;
+    while (!err_.truncated && cinfo_.output_scanline < JDIMENSION(y1)) {
+      JSAMPROW row = out + row_bytes * (cinfo_.output_scanline - JDIMENSION(y0));
       jpeg_read_scanlines(&cinfo_, &row, 1);
     }
-    jpeg_finish_decompress(&cinfo_);
+    if (y1 == int(cinfo_.output_height) && !err_.truncated)
+      jpeg_finish_decompress(&cinfo_);
+    else
+      jpeg_abort_decompress(&cinfo_);  // the rows below the band are not decoded
     if (err_.truncated) {
       std::strcpy(err_.message, "premature end of JPEG data (truncated file)");
       return false;

@@ -43,7 +43,7 @@ class OiioReader : public Reader {
   }
   ~OiioReader() override { in_->close(); }
   const Header& header() const override { return h_; }
-  bool Read(void* dst) override {
+  bool ReadRows(int y0, int y1, void* dst) override {
     const OIIO::ImageSpec& s = in_->spec();
     const OIIO::TypeDesc want = h_.sample == Sample::kUint8    ? OIIO::TypeDesc::UINT8
                                 : h_.sample == Sample::kUint16 ? OIIO::TypeDesc::UINT16
@@ -51,8 +51,10 @@ class OiioReader : public Reader {
     // The file's own type is asked for as "native" (TypeDesc::UNKNOWN): OpenImageIO 2.4 then
     // decodes straight into dst, where an explicit type, even the same one, goes through a
     // 64 MiB staging buffer that is mapped, faulted in and unmapped for every image.
-    const bool ok = in_->read_image(0, 0, 0, s.nchannels,
-                                    want == s.format ? OIIO::TypeDesc::UNKNOWN : want, dst);
+    const OIIO::TypeDesc type = want == s.format ? OIIO::TypeDesc::UNKNOWN : want;
+    const bool ok = y0 == 0 && y1 == s.height ? in_->read_image(0, 0, 0, s.nchannels, type, dst)
+                                              : in_->read_scanlines(0, 0, s.y + y0, s.y + y1, 0, 0,
+                                                                    s.nchannels, type, dst);
     return ok && !in_->has_error();
   }
   std::string error() const override { return LastError(in_.get()); }

@@ -89,19 +89,33 @@ class PngReader : public Reader {
 
   const Header& header() const override { return h_; }
 
-  bool Read(void* dst) override {
+  bool ReadRows(int y0, int y1, void* dst) override {
     auto* out = static_cast<png_bytep>(dst);
     const size_t row_bytes =
         size_t(h_.width) * h_.channels * (h_.sample == Sample::kUint16 ? 2 : 1);
-    rows_.resize(size_t(h_.height));
-    for (int y = 0; y < h_.height; ++y) rows_[size_t(y)] = out + row_bytes * size_t(y);
+    const bool whole = y0 == 0 && y1 == h_.height;
     // Trouble after the last row (a missing IEND, a bad trailing chunk) keeps the image, as
     // OpenImageIO reads such files too.
     if (setjmp(png_jmpbuf(png_))) return pixels_done_;
     if (h_.sample == Sample::kUint16) png_set_swap(png_);  // big-endian file → host order
-    png_set_interlace_handling(png_);
+    const int passes = png_set_interlace_handling(png_);
     png_read_update_info(png_, info_);
+    if (passes == 1) {
+      // Row by row: the rows above the band go through one scratch row, none below is read.
+      skip_.resize(row_bytes);
+      for (int y = 0; y < y1; ++y)
+        png_read_row(png_, y < y0 ? skip_.data() : out + row_bytes * size_t(y - y0), nullptr);
+      pixels_done_ = true;
+      if (y1 == h_.height) png_read_end(png_, nullptr);
+      return true;
+    }
+    // Interlaced (Adam7): every pass spans the image, so it is decoded whole.
+    if (!whole) skip_.resize(row_bytes * size_t(h_.height));
+    png_bytep base = whole ? out : skip_.data();
+    rows_.resize(size_t(h_.height));
+    for (int y = 0; y < h_.height; ++y) rows_[size_t(y)] = base + row_bytes * size_t(y);
     png_read_image(png_, rows_.data());
+    if (!whole) std::memcpy(out, base + row_bytes * size_t(y0), row_bytes * size_t(y1 - y0));
     pixels_done_ = true;
     png_read_end(png_, nullptr);
     return true;
@@ -123,6 +137,7 @@ class PngReader : public Reader {
   ErrorState err_;
   Header h_;
   std::vector<png_bytep> rows_;
+  std::vector<png_byte> skip_;         // rows above the band, or a whole interlaced image
   volatile bool pixels_done_ = false;  // read after a longjmp
 };
 

@@ -34,9 +34,14 @@ class Reader {
  public:
   virtual ~Reader() = default;
   virtual const Header& header() const = 0;
-  // Every pixel, interleaved: uint8/uint16 codes for integer files, float for half/float ones.
-  // false on a decoding error (error() says why). Called at most once.
-  virtual bool Read(void* dst) = 0;
+  // Rows [y0, y1) (0 ≤ y0 < y1 ≤ height), interleaved: uint8/uint16 codes for integer files,
+  // float for half/float ones. false on a decoding error (error() says why). Called at most once
+  // (this or Read). EXR and OpenImageIO read only those rows; JPEG skips the rows above y0
+  // (Huffman-decoded, no IDCT) and PNG decodes and drops them; neither decodes below y1, except
+  // an interlaced PNG, which is decoded whole (docs/scale-out.md).
+  virtual bool ReadRows(int y0, int y1, void* dst) = 0;
+  // Every pixel.
+  bool Read(void* dst) { return ReadRows(0, header().height, dst); }
   virtual std::string error() const = 0;
 };
 

@@ -191,9 +191,15 @@ StatusOr<NativeImage> ReadImageNative(const std::string& path, const ImageReadOp
   fi.file_channels = file_ch;
   fi.encoding = ChooseEncoding(h, options, &fi.encoding_reason);
 
+  const int row0 = options.rows > 0 ? options.row0 : 0;
+  const int rows = options.rows > 0 ? options.rows : h.height;
+  if (row0 < 0 || row0 + rows > h.height)
+    return DataError("image '" + shown + "' has " + std::to_string(h.height) + " rows; rows " +
+                     std::to_string(row0) + ".." + std::to_string(row0 + rows - 1) +
+                     " were asked for: all images of a stack must have the same size");
   NativeImage img;
-  img.width = h.width, img.height = h.height, img.channels = keep_ch;
-  const int64_t n = int64_t(h.width) * h.height;
+  img.width = h.width, img.height = rows, img.channels = keep_ch;
+  const int64_t n = int64_t(h.width) * rows;
   bool ok = false;
   int bytes_per_sample = 4;
   // Integer files keep their codes (native depth): read as T, split into planes.
@@ -203,7 +209,7 @@ StatusOr<NativeImage> ReadImageNative(const std::string& path, const ImageReadOp
     img.type = sample;
     bytes_per_sample = int(sizeof(T));
     std::vector<T> raw(size_t(n) * file_ch);
-    ok = in->Read(raw.data());
+    ok = in->ReadRows(row0, row0 + rows, raw.data());
     if (ok) *planes = Deinterleave(raw, n, file_ch, keep_ch, &fi.saturated_pixels);
   };
   try {  // a header within the caps can still ask for more memory than there is
@@ -214,9 +220,9 @@ StatusOr<NativeImage> ReadImageNative(const std::string& path, const ImageReadOp
     } else {
       fi.pixel_format = h.sample == codec::Sample::kHalf ? "half" : "float";
       img.type = SampleType::kFloat32;
-      img.floats = Image(h.width, h.height, keep_ch);
+      img.floats = Image(h.width, rows, keep_ch);
       std::vector<float> raw(size_t(n) * file_ch);
-      ok = in->Read(raw.data());
+      ok = in->ReadRows(row0, row0 + rows, raw.data());
       if (ok) {
         for (int64_t p = 0; p < n; ++p)
           for (int c = 0; c < keep_ch; ++c) {
@@ -227,7 +233,7 @@ StatusOr<NativeImage> ReadImageNative(const std::string& path, const ImageReadOp
       }
     }
   } catch (const std::bad_alloc&) {
-    return OutOfMemory(shown, h.width, h.height, file_ch, bytes_per_sample);
+    return OutOfMemory(shown, h.width, rows, file_ch, bytes_per_sample);
   }
   if (!ok) {
     std::string e = in->error();

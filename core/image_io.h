@@ -25,6 +25,9 @@ struct ImageReadOptions {
   // When set, a file that resolves (symlinks, `..`) outside this folder is refused and never
   // opened (ResolveInDataset): the server confines a job to its dataset.
   std::string confine_to;
+  // Only rows [row0, row0 + rows) (rows 0: every row): a rank's band of a distributed stack.
+  // The image returned has `rows` rows; saturation and non-finite counts are the band's.
+  int row0 = 0, rows = 0;
 };
 
 // What reading a file found out, for `matfit info` and warnings.

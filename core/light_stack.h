@@ -23,6 +23,18 @@
 
 namespace matfit {
 
+class Comm;
+
+// A stack split into row bands across the ranks of a distributed fit (docs/scale-out.md): this
+// process holds rows [row0, row0 + height()) of a stack of full_height rows. Stack-wide figures
+// (sums, medians, sampled grids) reduce over `comm` (core/stack_band.h). comm null: the stack is
+// whole (every single-process run).
+struct StackBand {
+  const Comm* comm = nullptr;
+  int row0 = 0;
+  int full_height = 0;  // 0: the stack's own height
+};
+
 struct LightSample {
   Vec3 direction{0, 0, 1};            // unit, toward the light
   Vec3 intensity{1, 1, 1};            // relative RGB intensity (1 = nominal)
@@ -53,6 +65,10 @@ class LightStack {
   int num_images() const { return num_images_; }
   int64_t plane_size() const { return int64_t(width_) * height_; }
   int64_t texels() const { return plane_size(); }
+  // The whole stack's rows and texels when this is one band of it (else height(), plane_size()).
+  int full_height() const { return band.full_height > 0 ? band.full_height : height_; }
+  int64_t full_plane_size() const { return int64_t(width_) * full_height(); }
+  bool is_band() const { return band.comm != nullptr; }
   SampleType sample_type() const { return type_; }
   bool is_float() const { return type_ == SampleType::kFloat32; }
   // Code → linear value (256 or 65536 entries); empty for float stacks.
@@ -154,6 +170,7 @@ class LightStack {
   std::vector<std::string> read_warnings;
 
   bool has_mask() const { return !mask.empty(); }
+  StackBand band;  // which rows of a distributed stack these are (default: the whole stack)
   int64_t MaskedTexels() const;  // texels inside the mask (all when no mask)
   // Bytes held by the samples (at their native size), the lookup table and the mask.
   size_t MemoryBytes() const;

@@ -1,5 +1,6 @@
 #include "core/parallel.h"
 
+#include <sched.h>
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
 #include <tbb/task_arena.h>
@@ -18,7 +19,14 @@ std::mutex g_arena_mutex;
 std::shared_ptr<tbb::task_arena> g_arena;
 int g_arena_threads = 0;
 
-int HardwareThreads() { return std::max(1u, std::thread::hardware_concurrency()); }
+// The CPUs this process may run on: its affinity mask (an MPI launcher binds each rank to its
+// cores; taskset, cgroups), else every core.
+int HardwareThreads() {
+  cpu_set_t set;
+  CPU_ZERO(&set);
+  if (sched_getaffinity(0, sizeof set, &set) == 0 && CPU_COUNT(&set) > 0) return CPU_COUNT(&set);
+  return std::max(1u, std::thread::hardware_concurrency());
+}
 
 std::shared_ptr<tbb::task_arena> Arena(int threads) {
   std::lock_guard<std::mutex> lock(g_arena_mutex);

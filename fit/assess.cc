@@ -4,6 +4,7 @@
 #include <cstdio>
 #include <limits>
 
+#include "core/stack_band.h"
 #include "core/warnings.h"
 #include "fit/fit_common.h"
 #include "fit/light_cover.h"
@@ -40,6 +41,7 @@ FitAssessment AssessFit(const LightStack& stack, const FitMethod& method, FitRes
         ++a.confidence.unverifiable;
       }
   }
+  SumOverBands(stack, &a.confidence.unverifiable, 1);  // the whole stack's count
   if (a.confidence.unverifiable > 0) {
     char why[400];
     std::snprintf(why, sizeof why,
@@ -58,13 +60,7 @@ FitAssessment AssessFit(const LightStack& stack, const FitMethod& method, FitRes
     r->warnings.push_back(Warning(WarningCode::kUnboundedError, why));
   }
   // The fit's own "N texel(s) flagged" summary is stale now: count again.
-  r->warnings.erase(std::remove_if(r->warnings.begin(), r->warnings.end(),
-                                   [](const std::string& w) {
-                                     return w.find(" texel(s) flagged, mostly '") !=
-                                            std::string::npos;
-                                   }),
-                    r->warnings.end());
-  SummariseStatus(r);
+  ResummariseStatus(r);
   return a;
 }
 

@@ -7,6 +7,7 @@
 
 #include "core/model/model.h"
 #include "core/parallel.h"
+#include "core/stack_band.h"
 
 #include "fit/fit_common.h"
 #include "fit/fit_types.h"
@@ -135,6 +136,9 @@ Confidence ComputeConfidence(const LightStack& s, const MaterialMaps& maps, Mode
   double pooled_rss = 0, pooled_dof = 0;
   for (int64_t p = 0; p < T; ++p)
     if (ok(p) && samples[p] > P) pooled_rss += rss[p], pooled_dof += samples[p] - P;
+  double pooled[2] = {pooled_rss, pooled_dof};  // over every band of a distributed stack
+  SumOverBands(s, pooled, 2);
+  pooled_rss = pooled[0], pooled_dof = pooled[1];
   const double sigma2 = pooled_dof > 0 ? pooled_rss / pooled_dof : inf;
   out.pooled_sigma = std::sqrt(sigma2);
   const Image& ie = maps.interpolation_error;

@@ -9,6 +9,7 @@
 #include <limits>
 
 #include "core/color.h"
+#include "core/comm.h"
 #include "core/parallel.h"
 #include "core/simd_clones.h"
 #include "core/warnings.h"
@@ -35,8 +36,58 @@ struct SampledTexels {
   // linear files had been decoded as sRGB).
   std::vector<float> lx, ly, lz, log2p, log2p_decoded, log2p_encoded;
   std::vector<Eigen::LDLT<Eigen::Matrix3d>> ldlt;
+  std::vector<Eigen::Matrix3d> gram;  // what each ldlt factors (to rebuild it after a transfer)
   size_t size() const { return count.size(); }
 };
+
+// The sampled rows as bytes and back (the bands of a distributed stack gather them).
+template <typename T>
+void PutVector(const std::vector<T>& v, std::string* out) {
+  const uint64_t n = v.size();
+  out->append(reinterpret_cast<const char*>(&n), sizeof n);
+  out->append(reinterpret_cast<const char*>(v.data()), n * sizeof(T));
+}
+template <typename T>
+bool GetVector(const std::string& in, size_t* at, std::vector<T>* v) {
+  uint64_t n = 0;
+  if (in.size() - *at < sizeof n) return false;
+  std::memcpy(&n, in.data() + *at, sizeof n);
+  *at += sizeof n;
+  if ((in.size() - *at) / sizeof(T) < n) return false;
+  v->resize(size_t(n));
+  std::memcpy(v->data(), in.data() + *at, size_t(n) * sizeof(T));
+  *at += size_t(n) * sizeof(T);
+  return true;
+}
+std::string PackRows(const std::vector<SampledTexels>& rows) {
+  std::string out;
+  for (const SampledTexels& r : rows) {
+    PutVector(r.begin, &out), PutVector(r.count, &out);
+    for (const auto* v : {&r.lx, &r.ly, &r.lz, &r.log2p, &r.log2p_decoded, &r.log2p_encoded})
+      PutVector(*v, &out);
+    std::vector<double> gram;  // 9 per texel, column-major
+    for (const Eigen::Matrix3d& A : r.gram) gram.insert(gram.end(), A.data(), A.data() + 9);
+    PutVector(gram, &out);
+  }
+  return out;
+}
+void UnpackRows(const std::string& in, std::vector<SampledTexels>* rows) {
+  size_t at = 0;
+  while (at < in.size()) {
+    SampledTexels r;
+    bool ok = GetVector(in, &at, &r.begin) && GetVector(in, &at, &r.count);
+    for (auto* v : {&r.lx, &r.ly, &r.lz, &r.log2p, &r.log2p_decoded, &r.log2p_encoded})
+      ok = ok && GetVector(in, &at, v);
+    std::vector<double> gram;
+    ok = ok && GetVector(in, &at, &gram) && gram.size() == 9 * r.count.size();
+    MATFIT_CHECK(ok, "DiagnoseStack: a band's sampled rows are truncated");
+    for (size_t k = 0; k < r.count.size(); ++k) {
+      r.gram.push_back(Eigen::Map<const Eigen::Matrix3d>(gram.data() + 9 * k));
+      r.ldlt.emplace_back(r.gram.back());
+    }
+    rows->push_back(std::move(r));
+  }
+}
 
 // 2^x for x ≤ 0 (relative error < 3e-7), 0 below −125: 2^x = 2^n · e^{f ln 2} with n the
 // nearest integer, f ∈ [−½, ½], e^t by its degree-6 Taylor polynomial (|t| ≤ 0.35).
@@ -164,6 +215,7 @@ struct TexelCollector {
     out->begin.push_back(int64_t(padded));
     out->count.push_back(int(hi - lo));
     out->ldlt.emplace_back(A);
+    out->gram.push_back(A);
     return true;
   }
 };
@@ -174,15 +226,18 @@ StackDiagnostics DiagnoseStack(const LightStack& s, int max_texels) {
   StackDiagnostics d;
   const int n = s.num_images(), C = s.channels(), W = s.width();
   if (n < 6) return d;
-  const int64_t T = s.plane_size();
+  const int64_t T = s.full_plane_size();
   // A regular 2-D grid of about max_texels texels (a 1-D stride would pick a few columns),
   // gathered row by row (sequential reads of each plane), rows in parallel, kept in row order.
+  // The grid is the whole stack's: a band samples its rows of it, and the bands' rows are
+  // gathered in order below.
   const int step = std::max(1, int(std::sqrt(double(T) / std::max(1, max_texels))));
   const bool clip = StackMayBeClipped(s);
   const std::vector<float> inv = InverseIntensities(s);
   std::vector<int> xs, ys;
   for (int x = step / 2; x < W; x += step) xs.push_back(x);
-  for (int y = step / 2; y < s.height(); y += step) ys.push_back(y);
+  for (int y = step / 2; y < s.full_height(); y += step)
+    if (y >= s.band.row0 && y < s.band.row0 + s.height()) ys.push_back(y - s.band.row0);
   const int X = int(xs.size());
   std::vector<SampledTexels> texels(ys.size());  // per sampled row
   static const CurveTable decode(&SrgbToLinear), encode(&LinearToSrgb);
@@ -230,6 +285,11 @@ StackDiagnostics DiagnoseStack(const LightStack& s, int max_texels) {
       }
     }
   });
+  if (s.is_band()) {
+    const std::vector<std::string> bands = s.band.comm->AllGather(PackRows(texels));
+    texels.clear();
+    for (const std::string& b : bands) UnpackRows(b, &texels);
+  }
   for (const SampledTexels& r : texels) d.texels_used += int(r.size());
   if (d.texels_used < 16) return d;
   d.residual_linear = LambertResidual(texels, 1.0);

@@ -160,6 +160,16 @@ void SummariseStatus(FitResult* r) {
   }
 }
 
+void ResummariseStatus(FitResult* r) {
+  r->warnings.erase(std::remove_if(r->warnings.begin(), r->warnings.end(),
+                                   [](const std::string& w) {
+                                     return w.find(" texel(s) flagged, mostly '") !=
+                                            std::string::npos;
+                                   }),
+                    r->warnings.end());
+  SummariseStatus(r);
+}
+
 StatusOr<FitResult> FinishFit(bool completed, std::chrono::steady_clock::time_point t0,
                               FitResult r) {
   if (!completed) return Status(StatusCode::kCancelled, r.method + ": fit cancelled");

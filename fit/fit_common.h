@@ -81,6 +81,8 @@ class StripReader {
 // Counts status entries other than ok/masked into result->flagged_texels and adds a warning
 // naming the most common reason.
 void SummariseStatus(FitResult* result);
+// The same after the status changed: the earlier summary warning is replaced.
+void ResummariseStatus(FitResult* result);
 
 // Common epilogue: cancelled → kCancelled; else summarise the status plane, stamp the time
 // since t0 and return the result.

@@ -6,15 +6,19 @@
 #include <fstream>
 #include <sstream>
 #include "core/atomic_file.h"
+#include "core/comm.h"
 #include "core/dataset/info.h"
 #include "core/output_marker.h"
 #include "core/pack/pack.h"
 #include "core/pack/pack_reader.h"
 #include "core/path_util.h"
+#include "core/stack_band.h"
 #include "core/stack_ops.h"
 #include "core/synth/truth_io.h"
 #include "core/warnings.h"
 #include "fit/assess.h"
+#include "fit/bands.h"
+#include "fit/fit_common.h"
 #include "fit/method.h"
 #include "fit/report.h"
 #include "fit/score.h"
@@ -72,6 +76,94 @@ class Stages {
 
 Status Cancelled() { return Status(StatusCode::kCancelled, "cancelled"); }
 
+// The steps after scoring, on the whole stack's maps (rank 0 of a distributed fit): truth,
+// report.json and the pack.
+Status FinishJob(const FitJobOptions& o, const LightStack& stack, const FitMethod& method,
+                 const std::optional<Selection>& selection, const SceneSpec& scene,
+                 const std::vector<uint8_t>& fitted_status, FitResult fit, Stages* stages,
+                 FitJobResult* out) {
+  FitJobResult& r = *out;
+  const std::string truth_dir = synth::FindTruthFolder(o.input);
+  if (!truth_dir.empty()) {
+    if (!stages->Begin("truth")) return Cancelled();
+    auto truth = synth::ReadTruth(truth_dir, o.read.confine_to);
+    if (truth.ok() && truth->width == stack.width() && truth->height == stack.full_height()) {
+      r.truth = CompareToTruth(fit.maps, *truth, fitted_status);
+      // The bound claims the supported cone: scored there, as the stability matrix does. Only
+      // where relighting the truth maps gives the true appearance (not micro-geometry truth).
+      const Confidence& c = r.assessment.confidence;
+      if (synth::TruthMapsAreTheAppearance(truth_dir, o.read.confine_to))
+        r.bound_ratio_truth = BoundToActualRatio(
+            c.bound,
+            RelightingError(fit.maps, *truth,
+                            DomeDirections(48, c.supported_theta_deg, c.supported_axis),
+                            stack.view_direction),
+            fit.status);
+    } else
+      fit.warnings.push_back(
+          Warning(WarningCode::kTruthUnusable,
+                  "truth folder '" + DatasetRelative(truth_dir, o.read.confine_to) +
+                      "' could not be used: " +
+                      (truth.ok() ? std::string("size differs") : truth.status().message())));
+    stages->End();
+  }
+  r.fit = std::move(fit);
+
+  if (!stages->Begin("write")) return Cancelled();
+  FitReportInputs ri;
+  ri.result = &r.fit;
+  ri.parameters_per_texel = method.parameters_per_texel();
+  ri.bytes_per_texel = method.bytes_per_texel();
+  ri.images = r.images;
+  ri.reconstruction = r.reconstruction;
+  ri.reconstruction_common = r.reconstruction_common;
+  ri.heldout = r.heldout;
+  ri.truth = r.truth;
+  ri.assessment = &r.assessment;
+  ri.tone = r.tone ? &*r.tone : nullptr;
+  ri.read_encoding = r.read_encoding;
+  ri.bound_ratio_heldout = r.bound_ratio_heldout;
+  ri.bound_ratio_truth = r.bound_ratio_truth;
+  if (selection) ri.selection_json = SelectionJson(*selection, scene);
+  ri.source = o.source_label.empty() ? o.input : o.source_label;
+  r.report_json = MakeReportJson(ri);  // for material.json's summary; timed again below
+
+  PackInfo info;
+  info.method = r.fit.method;
+  info.source = ri.source;
+  info.report_json = r.report_json;
+  // report.json is the pack's last file: its timings include the write up to that point.
+  info.final_report_json = [&] {
+    r.timings = stages->Snapshot(/*running=*/true);
+    ri.timings = &r.timings;
+    r.report_json = MakeReportJson(ri);
+    return r.report_json;
+  };
+  info.model_parameters = r.fit.parameters;
+  info.mm_per_texel = stack.mm_per_texel;
+  info.warnings = r.fit.warnings;
+  Image bound(stack.width(), stack.full_height(), 1);
+  std::copy(r.assessment.confidence.bound.begin(), r.assessment.confidence.bound.end(),
+            bound.Plane(0).begin());
+  info.extra_maps.push_back({"confidence", "confidence.exr",
+                             "per-texel bound on the RMS relighting error (linear, per unit "
+                             "light; +inf = flagged), docs/stability.md",
+                             std::move(bound)});
+  if (!r.fit.dropped_lights.empty()) {
+    Image dropped(stack.width(), stack.full_height(), 1);
+    for (size_t p = 0; p < r.fit.dropped_lights.size(); ++p)
+      dropped.data()[p] = float(std::min<int>(r.fit.dropped_lights[p], 255)) / 255.0f;
+    info.extra_maps.push_back({"dropped", "dropped.png",
+                               "per texel, the lights whose clipped or non-finite samples the "
+                               "fit dropped (8-bit count, 255 = 255 or more)",
+                               std::move(dropped)});
+  }
+  MATFIT_RETURN_IF_ERROR(
+      WritePack(r.fit.maps, r.fit.status, info, {o.zip, o.overwrite, o.compact_maps}, o.out));
+  stages->End();
+  return Status::Ok();
+}
+
 }  // namespace
 
 bool FitJobOptions::Check(std::string* why) const {
@@ -96,6 +188,20 @@ bool FitJobOptions::Check(std::string* why) const {
     for (const auto& n : MethodNames()) list += (list.empty() ? "" : ", ") + n;
     return fail("--model '" + model + "' is not a method; choose one of: " + list + " (or auto)");
   }
+  if (comm && comm->size() > 1) {
+    const char* one = "; run it in one process (without mpirun)";
+    if (model == "auto")
+      return fail(std::string("--model auto is not run across MPI ranks (it downsamples the stack "
+                              "and compares models on it); name the model") +
+                  one);
+    if (!report_only.empty())
+      return fail(std::string("--report-only is not run across MPI ranks") + one);
+    if (model == "rbf" || model == "rbf-srgb")
+      return fail("--model " + model +
+                  " is not run across MPI ranks (its PCA components and kernel width are fitted "
+                  "to the whole stack at once)" +
+                  one);
+  }
   if (holdout == 1 || (holdout < 0 && holdout != kLeaveOneOut))
     return fail("--holdout must be 0 (off), ≥ 2 folds or loo (leave-one-out), got " +
                 std::to_string(holdout));
@@ -111,7 +217,25 @@ StatusOr<FitJobResult> RunFitJob(const FitJobOptions& o, const StageProgress& pr
   if (!stages.Begin("read")) return Cancelled();
   ReadOptions ro = o.read;
   ro.progress = stages.Callback();
+  // Distributed: this rank reads only its band of rows of every image (fit/bands.h).
+  const Comm* comm = o.comm && o.comm->size() > 1 ? o.comm : nullptr;
+  if (comm) {
+    ReadOptions headers = o.read;
+    headers.headers_only = true;
+    auto shape = ReadDataset(o.input, headers);
+    if (!shape.ok()) return shape.status();  // the same files, the same error on every rank
+    auto band = SplitRows(shape->width(), shape->height(), comm->rank(), comm->size());
+    if (!band.ok()) return band.status();
+    ro.row0 = band->row0, ro.rows = band->rows;
+  }
   auto stack = ReadDataset(o.input, ro);
+  if (comm) {
+    // A file that fails on one rank's rows fails the job on every rank, with its message.
+    std::string failed;
+    if (!AllOk(*comm, stack.ok(), stack.ok() ? "" : stack.status().message(), &failed))
+      return stack.ok() ? DataError(failed) : stack.status();
+    JoinBands(&*stack, comm);
+  }
   if (!stack.ok()) return stack.status();
   FitJobResult r;
   // --color-space auto: the tone curve the stack shows overrides a rule's guess (docs/data-model.md
@@ -135,7 +259,7 @@ StatusOr<FitJobResult> RunFitJob(const FitJobOptions& o, const StageProgress& pr
   stages.End();
   r.images = stack->num_images();
   r.read_encoding = DescribeReadEncoding(*stack);
-  r.width = stack->width(), r.height = stack->height(), r.channels = stack->channels();
+  r.width = stack->width(), r.height = stack->full_height(), r.channels = stack->channels();
   if (o.decode_only) {
     r.timings = stages.Snapshot();
     return r;
@@ -245,7 +369,7 @@ StatusOr<FitJobResult> RunFitJob(const FitJobOptions& o, const StageProgress& pr
                                 ? Reconstruction(*stack, fit->maps, CommonTexelStatus(fit->status))
                                 : r.reconstruction;
   stages.End();
-  const std::vector<uint8_t> fitted_status = fit->status;  // metrics describe what was fitted
+  std::vector<uint8_t> fitted_status = fit->status;  // metrics describe what was fitted
   if (!stages.Begin("confidence")) return Cancelled();
   r.assessment = AssessFit(*stack, *method, &*fit, {}, stages.Callback(), &score.residuals,
                            diagnosis ? &*diagnosis : nullptr);
@@ -262,90 +386,53 @@ StatusOr<FitJobResult> RunFitJob(const FitJobOptions& o, const StageProgress& pr
     ho.progress = stages.Callback();
     auto h = HeldOut(*method, *stack, o.holdout, ho);
     if (!h.ok()) return h.status();
-    r.bound_ratio_heldout =
-        BoundToActualRatio(r.assessment.confidence.bound, h->texel_rmse, fit->status);
     r.heldout = std::move(*h);
-    r.heldout->texel_rmse = {};  // not kept: the ratio is what the report needs
+    if (!comm) {  // distributed: once rank 0 has every band's texels (below)
+      r.bound_ratio_heldout =
+          BoundToActualRatio(r.assessment.confidence.bound, r.heldout->texel_rmse, fit->status);
+      r.heldout->texel_rmse = {};  // not kept: the ratio is what the report needs
+    }
     stages.End();
   }
-  const std::string truth_dir = synth::FindTruthFolder(o.input);
-  if (!truth_dir.empty()) {
-    if (!stages.Begin("truth")) return Cancelled();
-    auto truth = synth::ReadTruth(truth_dir, o.read.confine_to);
-    if (truth.ok() && truth->width == stack->width() && truth->height == stack->height()) {
-      r.truth = CompareToTruth(fit->maps, *truth, fitted_status);
-      // The bound claims the supported cone: scored there, as the stability matrix does. Only
-      // where relighting the truth maps gives the true appearance (not micro-geometry truth).
-      const Confidence& c = r.assessment.confidence;
-      if (synth::TruthMapsAreTheAppearance(truth_dir, o.read.confine_to))
-        r.bound_ratio_truth = BoundToActualRatio(
-            c.bound,
-            RelightingError(fit->maps, *truth,
-                            DomeDirections(48, c.supported_theta_deg, c.supported_axis),
-                            stack->view_direction),
-            fit->status);
-    } else
-      fit->warnings.push_back(
-          Warning(WarningCode::kTruthUnusable,
-                  "truth folder '" + DatasetRelative(truth_dir, o.read.confine_to) +
-                      "' could not be used: " +
-                      (truth.ok() ? std::string("size differs") : truth.status().message())));
-    stages.End();
+  if (comm) {
+    // Every figure so far is the whole stack's (each step reduced over the bands); the per-texel
+    // results go to rank 0, which scores against truth and writes the pack. The other ranks
+    // wait for its outcome.
+    GatherMaps(*comm, stack->full_height(), &fit->maps);
+    GatherPlane(*comm, &fit->status);
+    GatherPlane(*comm, &fitted_status);
+    GatherPlane(*comm, &r.assessment.confidence.bound);
+    if (r.heldout) GatherPlane(*comm, &r.heldout->texel_rmse);
+    int64_t counts[3] = {!fit->dropped_lights.empty(), fit->refit_texels, fit->dropped_samples};
+    SumAcross(*comm, counts, 3);
+    fit->refit_texels = counts[1], fit->dropped_samples = counts[2];
+    if (counts[0] > 0) {  // a band without refitted texels has no plane of its own
+      if (fit->dropped_lights.empty()) fit->dropped_lights.assign(size_t(stack->plane_size()), 0);
+      GatherPlane(*comm, &fit->dropped_lights);
+    }
+    if (comm->rank() != 0) {
+      std::string failed;
+      if (!AllOk(*comm, true, "", &failed))
+        return Status(StatusCode::kInternal, "rank 0: " + failed);
+      r.fit = std::move(*fit);
+      r.timings = stages.Snapshot();
+      return r;
+    }
+    ResummariseStatus(&*fit);  // the flagged count of the whole stack
+    if (r.heldout) {
+      r.bound_ratio_heldout =
+          BoundToActualRatio(r.assessment.confidence.bound, r.heldout->texel_rmse, fit->status);
+      r.heldout->texel_rmse = {};
+    }
   }
-  r.fit = std::move(*fit);
-
-  if (!stages.Begin("write")) return Cancelled();
-  FitReportInputs ri;
-  ri.result = &r.fit;
-  ri.parameters_per_texel = method->parameters_per_texel();
-  ri.bytes_per_texel = method->bytes_per_texel();
-  ri.images = r.images;
-  ri.reconstruction = r.reconstruction;
-  ri.reconstruction_common = r.reconstruction_common;
-  ri.heldout = r.heldout;
-  ri.truth = r.truth;
-  ri.assessment = &r.assessment;
-  ri.tone = r.tone ? &*r.tone : nullptr;
-  ri.read_encoding = r.read_encoding;
-  ri.bound_ratio_heldout = r.bound_ratio_heldout;
-  ri.bound_ratio_truth = r.bound_ratio_truth;
-  if (selection) ri.selection_json = SelectionJson(*selection, scene);
-  ri.source = o.source_label.empty() ? o.input : o.source_label;
-  r.report_json = MakeReportJson(ri);  // for material.json's summary; timed again below
-
-  PackInfo info;
-  info.method = r.fit.method;
-  info.source = ri.source;
-  info.report_json = r.report_json;
-  // report.json is the pack's last file: its timings include the write up to that point.
-  info.final_report_json = [&] {
-    r.timings = stages.Snapshot(/*running=*/true);
-    ri.timings = &r.timings;
-    r.report_json = MakeReportJson(ri);
-    return r.report_json;
-  };
-  info.model_parameters = r.fit.parameters;
-  info.mm_per_texel = stack->mm_per_texel;
-  info.warnings = r.fit.warnings;
-  Image bound(stack->width(), stack->height(), 1);
-  std::copy(r.assessment.confidence.bound.begin(), r.assessment.confidence.bound.end(),
-            bound.Plane(0).begin());
-  info.extra_maps.push_back({"confidence", "confidence.exr",
-                             "per-texel bound on the RMS relighting error (linear, per unit "
-                             "light; +inf = flagged), docs/stability.md",
-                             std::move(bound)});
-  if (!r.fit.dropped_lights.empty()) {
-    Image dropped(stack->width(), stack->height(), 1);
-    for (size_t p = 0; p < r.fit.dropped_lights.size(); ++p)
-      dropped.data()[p] = float(std::min<int>(r.fit.dropped_lights[p], 255)) / 255.0f;
-    info.extra_maps.push_back({"dropped", "dropped.png",
-                               "per texel, the lights whose clipped or non-finite samples the "
-                               "fit dropped (8-bit count, 255 = 255 or more)",
-                               std::move(dropped)});
+  // Rank 0 (or the only process) finishes; the other ranks learn its outcome.
+  const Status finished =
+      FinishJob(o, *stack, *method, selection, scene, fitted_status, std::move(*fit), &stages, &r);
+  if (comm) {
+    std::string failed;
+    AllOk(*comm, finished.ok(), finished.ok() ? "" : finished.message(), &failed);
   }
-  MATFIT_RETURN_IF_ERROR(
-      WritePack(r.fit.maps, r.fit.status, info, {o.zip, o.overwrite, o.compact_maps}, o.out));
-  stages.End();
+  if (!finished.ok()) return finished;
   r.timings = stages.Snapshot();
   return r;
 }

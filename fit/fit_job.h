@@ -15,6 +15,10 @@
 #include "fit/report.h"
 #include "fit/select.h"
 
+namespace matfit {
+class Comm;
+}
+
 namespace matfit::fit {
 
 struct FitJobOptions {
@@ -35,6 +39,11 @@ struct FitJobOptions {
   // What report.json and material.json name as the input (empty: `input`). The server passes
   // a name that does not reveal its own folders.
   std::string source_label;
+  // The ranks of a distributed fit (mpirun/srun; docs/scale-out.md); null or one rank: this
+  // process fits the whole stack. Each rank reads and fits one band of rows; every figure is
+  // reduced over the ranks, and rank 0 assembles the maps, scores against truth and writes the
+  // pack and report, which equal a single process's. Not with model auto, report_only or rbf.
+  const Comm* comm = nullptr;
 
   bool Check(std::string* why) const;
 };

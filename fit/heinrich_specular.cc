@@ -1,5 +1,7 @@
 #include "fit/heinrich_specular.h"
 
+#include "core/stack_band.h"
+
 #include <cmath>
 #include <limits>
 #include <mutex>
@@ -57,8 +59,10 @@ double HeinrichSquaredError(const LightStack& s, const FitResult& r, int64_t* sa
     total += local;
     count += local_count;
   });
-  if (samples) *samples = count;
-  return total;
+  double sums[2] = {total, double(count)};  // a band of a distributed stack: every band's
+  SumOverBands(s, sums, 2);
+  if (samples) *samples = int64_t(sums[1]);
+  return sums[0];
 }
 
 void AddHeinrichSpecular(const LightStack& s, const FitOptions& o, FitResult* r) {

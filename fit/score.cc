@@ -13,6 +13,7 @@
 #include "core/model/model.h"
 #include "core/parallel.h"
 #include "core/simd_clones.h"
+#include "core/stack_band.h"
 #include "fit/fit_common.h"
 #include "fit/fit_types.h"
 
@@ -272,8 +273,17 @@ StackScore ScoreStack(const LightStack& s, const std::vector<int>& images, const
         }
       },
       4);
-  if (reconstruction)
-    out.reconstruction = ReduceReconstruction(s, images, run_sum, run_count, run_srgb8, runs);
+  if (reconstruction) {
+    int64_t all_runs = runs;
+    if (s.is_band()) {
+      // Every band's runs after the ones above it: with bands that start on a run boundary
+      // (fit/fit_job.cc), the same runs and the same sums as the whole stack's.
+      run_sum = ConcatOverBands(s, run_sum), run_count = ConcatOverBands(s, run_count);
+      if (srgb8) run_srgb8 = ConcatOverBands(s, run_srgb8);
+      all_runs = n > 0 ? int64_t(run_sum.size()) / n : 0;
+    }
+    out.reconstruction = ReduceReconstruction(s, images, run_sum, run_count, run_srgb8, all_runs);
+  }
   return out;
 }
 

@@ -20,6 +20,7 @@
 #include <vector>
 
 #include "core/shading/shading.h"
+#include "core/stack_band.h"
 #include "core/warnings.h"
 #include "fit/fit_common.h"
 #include "fit/lobe_problem.h"
@@ -126,9 +127,12 @@ StatusOr<FitResult> FitLobe(const LightStack& s, const FitOptions& o, const std:
   };
   bool ok = stage(std::false_type{}, {});
   if (ok && !o.per_texel_lobe) {
+    // Quantiles over the whole stack: a band of a distributed one gathers every band's values
+    // (a quantile does not depend on their order).
     std::vector<float> strength;
     for (int64_t p = 0; p < s.plane_size(); ++p)
       if (r.status[p] == kTexelOk) strength.push_back(xs.Plane(5)[p]);
+    strength = ConcatOverBands(s, strength);
     std::array<double, S> shape{};
     bool have = false;
     if (!strength.empty()) {
@@ -140,6 +144,7 @@ StatusOr<FitResult> FitLobe(const LightStack& s, const FitOptions& o, const std:
         for (int64_t p = 0; p < s.plane_size(); ++p)
           if (r.status[p] == kTexelOk && xs.Plane(5)[p] > clear)
             v.push_back(xs.Plane(5 + A + k)[p]);
+        v = ConcatOverBands(s, v);
         if (v.empty()) break;
         std::nth_element(v.begin(), v.begin() + v.size() / 2, v.end());
         shape[k] = v[v.size() / 2];
@@ -166,10 +171,11 @@ StatusOr<FitResult> FitLobe(const LightStack& s, const FitOptions& o, const std:
     for (int k = 0; k < S; ++k) shape_maps.Plane(k)[p] = xs.Plane(5 + A + k)[p];
   }
   Lobe::StoreShape(std::move(shape_maps), &r.parameters, &m);
-  double it_sum = 0, count = 0;
+  double it[2] = {0, 0};  // Σ iterations, texels: integers, exact in any order
   for (size_t p = 0; p < iterations.size(); ++p)
-    if (r.status[p] == kTexelOk) it_sum += iterations[p], count += 1;
-  r.parameters["mean_lm_iterations"] = count > 0 ? it_sum / count : 0;
+    if (r.status[p] == kTexelOk) it[0] += iterations[p], it[1] += 1;
+  SumOverBands(s, it, 2);
+  r.parameters["mean_lm_iterations"] = it[1] > 0 ? it[0] / it[1] : 0;
   return FinishFit(ok, t0, std::move(r));
 }
 

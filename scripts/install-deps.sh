@@ -24,6 +24,8 @@ PACKAGES=(
   # server cluster (issue 18): the PostgreSQL job store (libpqxx), and the server itself for its
   # tests (each starts a throw-away cluster as the unprivileged postgres user)
   libpqxx-dev postgresql-15
+  # distributed fit (issue 18): OpenMPI, `mpirun … matfit fit` (tests/app/mpi_fit_test.sh)
+  libopenmpi-dev openmpi-bin
   # server: SHA-256 of the tokens a cluster keeps in its database (OpenSSL's libcrypto)
   libssl-dev
   # server tests: hand-made PNG headers (zlib)

@@ -58,6 +58,11 @@ bool ParseLayout(const std::string& name, Layout* out) {
 }
 
 bool ReadOptions::Check(std::string* why) const {
+  if (row0 < 0 || rows < 0) {
+    *why = "a band of rows needs row0 ≥ 0 and rows ≥ 0 (0 = all), got " + std::to_string(row0) +
+           " and " + std::to_string(rows);
+    return false;
+  }
   if (max_stack_samples < 0) {
     *why =
         "the stack sample limit must be ≥ 0 (0 = none), got " + std::to_string(max_stack_samples);

@@ -44,6 +44,9 @@ struct ReadOptions {
   // files, read the image and mask headers and apply max_stack_samples, decode no pixel. The
   // stack returned has the size, lights and image files but no images (num_images() == 0).
   bool headers_only = false;
+  // Only rows [row0, row0 + rows) of every image and mask (rows 0: all): a rank's band of a
+  // distributed fit. The stack holds those rows; its band records where they lie.
+  int row0 = 0, rows = 0;
 
   bool Check(std::string* why) const;
 };

@@ -11,6 +11,7 @@
 #include <span>
 
 #include "core/parallel.h"
+#include "core/stack_band.h"
 
 namespace matfit {
 namespace {
@@ -110,12 +111,15 @@ DatasetInfo ComputeDatasetInfo(const LightStack& s) {
   info.source = s.source;
   info.object_name = s.object_name;
   info.images = s.num_images();
-  info.width = s.width(), info.height = s.height(), info.channels = s.channels();
-  info.memory_bytes = s.MemoryBytes();
+  // A band of a distributed stack reports the whole stack (the ranks' figures summed).
+  info.width = s.width(), info.height = s.full_height(), info.channels = s.channels();
+  int64_t texel_counts[2] = {int64_t(s.MemoryBytes()), s.MaskedTexels()};
+  SumOverBands(s, texel_counts, 2);
+  info.memory_bytes = size_t(texel_counts[0]);
   info.sample_type = SampleTypeName(s.sample_type());
   info.view_theta_deg = s.view_theta_deg, info.view_phi_deg = s.view_phi_deg;
   info.has_mask = s.has_mask();
-  info.masked_texels = s.MaskedTexels();
+  info.masked_texels = texel_counts[1];
   const int n = s.num_images();
 
   // Light distribution.
@@ -164,13 +168,14 @@ DatasetInfo ComputeDatasetInfo(const LightStack& s) {
   int64_t sat = 0;
   for (size_t i = 0; i < s.saturated_pixels.size(); ++i) {
     sat += s.saturated_pixels[i];
-    const double f = double(s.saturated_pixels[i]) / double(std::max<int64_t>(1, s.plane_size()));
+    const double f =
+        double(s.saturated_pixels[i]) / double(std::max<int64_t>(1, s.full_plane_size()));
     if (f > info.worst_saturated_fraction) {
       info.worst_saturated_fraction = f;
       info.worst_saturated_file = i < s.image_files.size() ? s.image_files[i] : std::to_string(i);
     }
   }
-  info.saturated_fraction = double(sat) / double(std::max<int64_t>(1, s.plane_size() * n));
+  info.saturated_fraction = double(sat) / double(std::max<int64_t>(1, s.full_plane_size() * n));
   for (int64_t v : s.nonfinite_samples) info.nonfinite_samples += v;
 
   // Black images: no sample reaches kBlackLevel.
@@ -179,9 +184,12 @@ DatasetInfo ComputeDatasetInfo(const LightStack& s) {
   ParallelFor(0, n, [&](int64_t i0, int64_t i1) {
     for (int64_t i = i0; i < i1; ++i) is_black[size_t(i)] = IsBlackImage(s, int(i), first_bright);
   });
+  std::vector<int64_t> lit(static_cast<size_t>(n));  // bands in which image i is not black
+  for (int i = 0; i < n; ++i) lit[size_t(i)] = !is_black[size_t(i)];
+  SumOverBands(s, lit.data(), n);
   std::vector<int> black;
   for (int i = 0; i < n; ++i)
-    if (is_black[size_t(i)]) black.push_back(i);
+    if (lit[size_t(i)] == 0) black.push_back(i);
 
   // Warnings.
   auto& w = info.warnings;

@@ -92,7 +92,7 @@ StatusOr<LightStack> ReadLightsTxt(const std::string& dir_in, const ReadOptions&
   if (!stack.ok()) return stack.status();
   const std::string mask = FindNumbered(dir, name + ".mask");
   if (!mask.empty()) {
-    auto m = ReadMaskImage(mask, stack->width(), stack->height(), o);
+    auto m = ReadMaskImage(mask, stack->width(), stack->full_height(), o);
     if (!m.ok()) return m.status();
     stack->mask = std::move(*m);
   }

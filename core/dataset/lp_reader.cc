@@ -70,7 +70,7 @@ StatusOr<LightStack> ReadLp(const std::string& path, const ReadOptions& o) {
   const fs::path mask = base / "mask.png";
   std::error_code ec;
   if (fs::is_regular_file(mask, ec)) {
-    auto m = ReadMaskImage(mask.string(), stack->width(), stack->height(), o);
+    auto m = ReadMaskImage(mask.string(), stack->width(), stack->full_height(), o);
     if (!m.ok()) return m.status();
     stack->mask = std::move(*m);
   }

@@ -141,6 +141,7 @@ StatusOr<LightStack> LoadStack(const std::vector<std::string>& files,
   if (files.empty()) return DataError("the dataset lists no images");
   ImageReadOptions options = options_in;
   options.confine_to = o.confine_to;
+  if (!o.headers_only) options.row0 = o.row0, options.rows = o.rows;
   // Headers first: a decompression bomb (tiny files declaring huge images) is refused here,
   // before a pixel is decoded or a byte of the stack allocated.
   auto first = ReadImageHeader(files[0], options);
@@ -164,6 +165,9 @@ StatusOr<LightStack> LoadStack(const std::vector<std::string>& files,
                        std::to_string(h) + " with " + std::to_string(ch) +
                        ": all images of a stack must have the same size and channels");
   }
+  if (o.rows > 0 && (o.row0 < 0 || o.row0 + o.rows > h))
+    return DataError("rows " + std::to_string(o.row0) + ".." + std::to_string(o.row0 + o.rows - 1) +
+                     " were asked for but the images have " + std::to_string(h) + " rows");
   const std::string size_text = std::to_string(n) + " images of " + std::to_string(w) + "x" +
                                 std::to_string(h) + " with " + std::to_string(ch) + " channel(s)";
   const int64_t samples = int64_t(n) * w * h * ch;
@@ -196,6 +200,7 @@ StatusOr<LightStack> LoadStack(const std::vector<std::string>& files,
       stack = Load(files, std::move(lights), options, o.progress, /*as_float=*/true, &uniform);
     }
     if (stack.ok()) stack->read_warnings = std::move(warnings);
+    if (stack.ok() && o.rows > 0) stack->band.row0 = o.row0, stack->band.full_height = h;
     return stack;
   } catch (const std::bad_alloc&) {
     return DataError("the stack of " + size_text + " (" + std::to_string(samples) +
@@ -210,7 +215,7 @@ StatusOr<std::vector<uint8_t>> ReadMaskImage(const std::string& path, int width,
   ImageReadOptions opt;
   opt.color_space = ColorSpaceChoice::kLinear;  // masks are data, not colour
   opt.confine_to = o.confine_to;
-  if (o.headers_only) {
+  {  // the whole mask's size, also when only a band of its rows is read
     auto hd = ReadImageHeader(path, opt);
     if (!hd.ok()) return Status(hd.status().code(), "mask: " + hd.status().message());
     if (hd->width != width || hd->height != height)
@@ -218,8 +223,9 @@ StatusOr<std::vector<uint8_t>> ReadMaskImage(const std::string& path, int width,
                        std::to_string(hd->width) + "x" + std::to_string(hd->height) +
                        " but the images are " + std::to_string(width) + "x" +
                        std::to_string(height));
-    return std::vector<uint8_t>();
+    if (o.headers_only) return std::vector<uint8_t>();
   }
+  if (o.rows > 0) opt.row0 = o.row0, opt.rows = o.rows, height = o.rows;
   auto img = ReadImage(path, opt);
   if (!img.ok()) return Status(img.status().code(), "mask: " + img.status().message());
   if (img->width() != width || img->height() != height)

@@ -26,8 +26,9 @@ StatusOr<LightStack> LoadStack(const std::vector<std::string>& files,
                                const ReadOptions& o);
 
 // Reads a mask image (white = sample): first channel > 0.5 after linearisation. Its size
-// must be width × height. Confined to o.confine_to like every dataset file; with
-// o.headers_only only its header is checked (the mask returned is empty).
+// must be width × height (the whole images'). Confined to o.confine_to like every dataset file;
+// with o.headers_only only its header is checked (the mask returned is empty); with o.rows only
+// those rows are returned.
 StatusOr<std::vector<uint8_t>> ReadMaskImage(const std::string& path, int width, int height,
                                              const ReadOptions& o);
 

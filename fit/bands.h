@@ -1,0 +1,36 @@
+// A fit distributed over MPI ranks (docs/scale-out.md): how the rows are split into bands, and
+// how rank 0 collects the bands' per-texel results into the whole stack's.
+#pragma once
+
+#include <cstdint>
+#include <vector>
+
+#include "core/status.h"
+
+namespace matfit {
+class Comm;
+struct MaterialMaps;
+}  // namespace matfit
+
+namespace matfit::fit {
+
+struct RowBand {
+  int row0 = 0, rows = 0;
+};
+
+// Band `rank` of `ranks` over an image of width × height: contiguous rows, as even as the
+// granularity allows. Bands start on a boundary of the batched evaluation's texel runs
+// (kEvalRun texels) when every band can still get rows, so that the bands' run sums are the
+// whole stack's, bit for bit. An error when there are fewer rows than ranks.
+StatusOr<RowBand> SplitRows(int width, int height, int rank, int ranks);
+
+// Collectives over `comm` (every rank calls them): rank 0's vector becomes every band's values in
+// rank order (the whole stack's, row-major); the other ranks keep theirs.
+void GatherPlane(const Comm& comm, std::vector<float>* v);
+void GatherPlane(const Comm& comm, std::vector<uint8_t>* v);
+void GatherPlane(const Comm& comm, std::vector<uint16_t>* v);
+// The same for every texel-sized map of `maps` (rbf's basis table is not one); rank 0's maps
+// become full_height rows high.
+void GatherMaps(const Comm& comm, int full_height, MaterialMaps* maps);
+
+}  // namespace matfit::fit
