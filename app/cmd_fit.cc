@@ -6,12 +6,12 @@
 #include <memory>
 
 #include "app/commands.h"
+#include "app/mpi_join.h"
 #include "core/parallel.h"
 #include "core/progress.h"
 #include "fit/diagnostics.h"
 #include "fit/fit_job.h"
 #include "fit/method.h"
-#include "mpi/session.h"
 
 namespace matfit::app {
 namespace {
@@ -60,12 +60,10 @@ int RunFit(FitArgs& a) {
     return 0;
   }
   // Started by mpirun/srun: one band of rows per rank; rank 0 reports and writes the pack.
-  std::string mpi_error;
-  const std::unique_ptr<mpi::Session> session = mpi::JoinIfLaunched(&mpi_error);
-  if (!session && !mpi_error.empty()) return Fail("fit", mpi_error.c_str());
-  const Comm* world = session ? &session->world() : nullptr;
-  const bool root = !world || world->rank() == 0;
-  a.job.comm = world;
+  const MpiJoin mpi = JoinMpi();
+  if (!mpi.error.empty()) return Fail("fit", mpi.error.c_str());
+  const bool root = mpi.root;
+  a.job.comm = mpi.world;
   if (!root) a.quiet = true;
   if (int rc = ApplyReadArgs("fit", a.layout, a.view, a.color_space, &a.job.read)) return rc;
   std::string why;
@@ -89,9 +87,9 @@ int RunFit(FitArgs& a) {
   // named in it) and the summary; the other ranks print nothing.
   if (!r.ok()) return root ? Fail("fit", r.status().message().c_str()) : 1;
   if (!root) return 0;
-  if (world && world->size() > 1)
+  if (mpi.ranks() > 1)
     std::printf("ranks       %d MPI ranks, one band of rows each, %d thread%s per rank\n",
-                world->size(), NumThreads(), NumThreads() == 1 ? "" : "s");
+                mpi.ranks(), NumThreads(), NumThreads() == 1 ? "" : "s");
   if (a.job.decode_only) {
     std::printf("decoded     %d images of %dx%d, %d channel%s, %d thread%s\n", r->images, r->width,
                 r->height, r->channels, r->channels == 1 ? "" : "s", NumThreads(),

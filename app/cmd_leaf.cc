@@ -7,6 +7,7 @@
 #include <string>
 
 #include "app/commands.h"
+#include "app/mpi_join.h"
 #include "core/parallel.h"
 #include "core/progress.h"
 #include "core/warnings.h"
@@ -30,8 +31,13 @@ int RunLeaf(LeafArgs& a) {
   a.job.material.reference_precompute = a.precompute == "reference";
   if (a.preview_size < 16 || a.preview_size > 4096)
     return Fail("leaf", "--preview-size must be in 16..4096");
+  // Started by mpirun/srun: the leaves are split over the ranks; rank 0 prints and writes.
+  const MpiJoin mpi = JoinMpi();
+  if (!mpi.error.empty()) return Fail("leaf", mpi.error.c_str());
+  a.job.comm = mpi.world;
+  if (!mpi.root) a.quiet = true;
   std::string why;
-  if (!a.job.Check(&why)) return Fail("leaf", why.c_str());
+  if (!a.job.Check(&why)) return mpi.root ? Fail("leaf", why.c_str()) : 1;
   SetNumThreads(a.threads);
   if (!a.no_preview) {
     const int size = a.preview_size;
@@ -49,7 +55,11 @@ int RunLeaf(LeafArgs& a) {
   };
   auto r = leaf::RunLeafJob(a.job, progress);
   bar.reset();
-  if (!r.ok()) return Fail("leaf", r.status().message().c_str());
+  if (!r.ok()) return mpi.root ? Fail("leaf", r.status().message().c_str()) : 1;
+  if (!mpi.root) return 0;
+  if (mpi.ranks() > 1)
+    std::printf("ranks       %d MPI ranks, leaf k fitted by rank k mod %d, %d thread%s per rank\n",
+                mpi.ranks(), mpi.ranks(), NumThreads(), NumThreads() == 1 ? "" : "s");
   std::printf("found       %d leaves, %d twigs, %d markers (%d specks dropped)\n", r->leaves,
               r->twigs, r->markers, r->specks);
   std::printf("scale       %.4g mm/pixel (%s)\n", r->mm_per_pixel, r->scale_source.c_str());

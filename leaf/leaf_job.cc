@@ -8,6 +8,7 @@
 #include <nlohmann/json.hpp>
 
 #include "core/atomic_file.h"
+#include "core/comm.h"
 #include "core/image_io.h"
 #include "core/output_marker.h"
 #include "core/pack/pack.h"
@@ -187,15 +188,27 @@ StatusOr<LeafJobResult> RunLeafJob(const LeafJobOptions& o, const LeafProgress& 
     return InvalidArgument("--leaf " + std::to_string(o.only_leaf) + ": the sheet has leaves 1.." +
                            std::to_string(res.leaves));
 
+  // Distributed: leaf k (in sheet order) belongs to rank k mod N; rank 0 owns the folder, which
+  // every rank writes its leaves' packs into.
+  const Comm* comm = o.comm && o.comm->size() > 1 ? o.comm : nullptr;
+  const int rank = comm ? comm->rank() : 0, ranks = comm ? comm->size() : 1;
   AtomicDir dir(o.out, "leaf-pack");
-  MATFIT_RETURN_IF_ERROR(dir.Begin(o.overwrite));
-  const fs::path root(dir.temp_path());
+  const Status begun = rank == 0 ? dir.Begin(o.overwrite) : Status::Ok();
+  fs::path root = dir.temp_path();
+  if (comm) {
+    std::string failed;
+    if (!AllOk(*comm, begun.ok(), begun.ok() ? "" : begun.message(), &failed))
+      return begun.ok() ? Status(StatusCode::kIoError, failed) : begun;
+    root = comm->AllGather(rank == 0 ? dir.temp_path() : "")[0];
+  }
+  MATFIT_RETURN_IF_ERROR(begun);
   const auto t_leaves = std::chrono::steady_clock::now();
-  json leaves = json::array(), others = json::array();
-  int done = 0;
-  // Per leaf: the material's steps, then its pack (maps, previews) written.
-  const int64_t per_leaf = kLeafMaterialSteps + 1,
-                leaf_steps = per_leaf * (o.only_leaf ? 1 : res.leaves);
+  json others = json::array();
+  // One record per leaf this rank fits: its leaves.json entry, its summary and its leaf-flagged
+  // warning; merged in sheet order below (on rank 0, from every rank).
+  json records = json::array();
+  std::vector<const Component*> mine;
+  int leaf_index = 0;
   for (const auto& c : comps) {
     if (c.kind != ComponentKind::kLeaf) {
       if (c.kind != ComponentKind::kSpeck)
@@ -206,106 +219,161 @@ StatusOr<LeafJobResult> RunLeafJob(const LeafJobOptions& o, const LeafProgress& 
       continue;
     }
     if (o.only_leaf && c.id != o.only_leaf) continue;
-    auto L = MakeLeafMaterial(
-        *scan, *sheet, c, res.mm_per_pixel, o.material,
-        [&](int64_t d, int64_t) { return step("leaves", done * per_leaf + d, leaf_steps); });
-    if (!L.ok())
-      return Status(L.status().code(),
-                    "leaf " + std::to_string(c.id) + ": " + L.status().message());
-    char name[32];
-    std::snprintf(name, sizeof name, "leaf_%02d", c.id);
-    int64_t flagged = 0, inside = 0;
-    for (uint8_t s : L->status)
-      flagged += s != fit::kTexelOk && s != fit::kTexelMasked, inside += s != fit::kTexelMasked;
-    const double flagged_fraction = double(flagged) / double(std::max<int64_t>(1, inside));
-    if (flagged_fraction > kLeafFlaggedWarnFraction)
-      res.warnings.push_back(Warning(
-          WarningCode::kLeafFlagged,
-          std::string(name) + " has " + std::to_string(int(std::lround(100 * flagged_fraction))) +
-              " % of its texels flagged (" + std::to_string(flagged) + " of " +
-              std::to_string(inside) +
-              "): its maps there are the best estimate, not a fit; see its status map"));
-    if (c.touches_border)
-      L->warnings.push_back(Warning(WarningCode::kLeafAtBorder,
-                                    "the leaf touches the image border: it is probably cut off"));
-    PackInfo info;
-    info.method = "leaf";
-    info.source = o.source_label.empty() ? o.input : o.source_label;
-    info.mm_per_texel = scale_known ? res.mm_per_pixel : 0;
-    info.report_json = LeafReport(*L, o.material, flagged);
-    info.warnings = L->warnings;
-    info.model_parameters["leaf_id"] = c.id;
-    info.extra_maps.push_back({"thickness_variation", "thickness_variation.png",
-                               "2005: inverted transmission luminance", L->thickness_variation});
-    info.extra_maps.push_back(
-        {"absorption", "absorption.png", "2005: absorption modulation A(x)", L->absorption});
-    info.extra_maps.push_back(
-        {"bump", "bump.png", "2005: high-passed upper-side luminance (bump)", L->bump});
-    if (o.preview) {
-      for (bool behind : {false, true}) {
-        auto img = o.preview(L->maps, behind);
-        if (!img.ok()) return img.status();
-        info.previews.push_back(
-            {behind ? "preview_back.png" : "preview_front.png", std::move(*img)});
+    if (leaf_index++ % ranks == rank) mine.push_back(&c);
+  }
+  int done = 0;
+  // Per leaf: the material's steps, then its pack (maps, previews) written.
+  const int64_t per_leaf = kLeafMaterialSteps + 1, leaf_steps = per_leaf * int64_t(mine.size());
+  auto fit_leaves = [&]() -> Status {
+    for (const Component* leaf : mine) {
+      const Component& c = *leaf;
+      auto L = MakeLeafMaterial(
+          *scan, *sheet, c, res.mm_per_pixel, o.material,
+          [&](int64_t d, int64_t) { return step("leaves", done * per_leaf + d, leaf_steps); });
+      if (!L.ok())
+        return Status(L.status().code(),
+                      "leaf " + std::to_string(c.id) + ": " + L.status().message());
+      char name[32];
+      std::snprintf(name, sizeof name, "leaf_%02d", c.id);
+      int64_t flagged = 0, inside = 0;
+      for (uint8_t s : L->status)
+        flagged += s != fit::kTexelOk && s != fit::kTexelMasked, inside += s != fit::kTexelMasked;
+      const double flagged_fraction = double(flagged) / double(std::max<int64_t>(1, inside));
+      json warning;
+      if (flagged_fraction > kLeafFlaggedWarnFraction)
+        warning = Warning(
+            WarningCode::kLeafFlagged,
+            std::string(name) + " has " + std::to_string(int(std::lround(100 * flagged_fraction))) +
+                " % of its texels " + "flagged (" + std::to_string(flagged) + " of " +
+                std::to_string(inside) +
+                "): its maps there are the best estimate, not a fit; see its status map");
+      if (c.touches_border)
+        L->warnings.push_back(Warning(WarningCode::kLeafAtBorder,
+                                      "the leaf touches the image border: it is probably cut off"));
+      PackInfo info;
+      info.method = "leaf";
+      info.source = o.source_label.empty() ? o.input : o.source_label;
+      info.mm_per_texel = scale_known ? res.mm_per_pixel : 0;
+      info.report_json = LeafReport(*L, o.material, flagged);
+      info.warnings = L->warnings;
+      info.model_parameters["leaf_id"] = c.id;
+      info.extra_maps.push_back({"thickness_variation", "thickness_variation.png",
+                                 "2005: inverted transmission luminance", L->thickness_variation});
+      info.extra_maps.push_back(
+          {"absorption", "absorption.png", "2005: absorption modulation A(x)", L->absorption});
+      info.extra_maps.push_back(
+          {"bump", "bump.png", "2005: high-passed upper-side luminance (bump)", L->bump});
+      if (o.preview) {
+        for (bool behind : {false, true}) {
+          auto img = o.preview(L->maps, behind);
+          if (!img.ok()) return img.status();
+          info.previews.push_back(
+              {behind ? "preview_back.png" : "preview_front.png", std::move(*img)});
+        }
       }
+      MATFIT_RETURN_IF_ERROR(WritePack(L->maps, L->status, info, {}, (root / name).string()));
+      const double hl2 = (L->hl2_error[0].mean + L->hl2_error[1].mean + L->hl2_error[2].mean) / 3;
+      const double a_mm2 = c.area_px * res.mm_per_pixel * res.mm_per_pixel;
+      records.push_back({{"entry",
+                          {{"id", c.id},
+                           {"name", name},
+                           {"pack", name},
+                           {"bbox", Bbox(c)},
+                           {"crop", {L->crop_x, L->crop_y, L->maps.width, L->maps.height}},
+                           {"area_px", c.area_px},
+                           {"area_mm2", scale_known ? json(a_mm2) : json()},
+                           {"touches_border", c.touches_border},
+                           {"thickness_estimated", L->thickness_estimated},
+                           {"flagged_texels", flagged},
+                           {"flagged_fraction", flagged_fraction},
+                           {"hl2_error_percent", 100 * hl2}}},
+                         {"summary",
+                          {{"area_px", c.area_px},
+                           {"flagged", flagged},
+                           {"fraction", flagged_fraction},
+                           {"hl2", hl2}}},
+                         {"warning", warning}});
+      ++done;
+      if (!step("leaves", done * per_leaf, leaf_steps))
+        return Status(StatusCode::kCancelled, "cancelled");
     }
-    MATFIT_RETURN_IF_ERROR(WritePack(L->maps, L->status, info, {}, (root / name).string()));
+    return Status::Ok();
+  };
+  const Status fitted = fit_leaves();
+  if (comm) {
+    // Every rank's leaves, to rank 0; the others wait for its outcome.
+    std::string failed;
+    if (!AllOk(*comm, fitted.ok(), fitted.ok() ? "" : fitted.message(), &failed))
+      return fitted.ok() ? Status(StatusCode::kDataError, failed) : fitted;
+    const std::vector<std::string> all = comm->Gather(records.dump(), 0);
+    if (rank != 0) {
+      if (!AllOk(*comm, true, "", &failed))
+        return Status(StatusCode::kIoError, "rank 0: " + failed);
+      res.seconds_leaves = Since(t_leaves), res.seconds_total = Since(t0);
+      return res;
+    }
+    records = json::array();
+    for (const std::string& r : all)
+      for (auto& record : json::parse(r)) records.push_back(std::move(record));
+  }
+  MATFIT_RETURN_IF_ERROR(fitted);
+  // Sheet order (the ids increase along it), as one process fits them.
+  std::stable_sort(records.begin(), records.end(), [](const json& a, const json& b) {
+    return a["entry"]["id"].get<int>() < b["entry"]["id"].get<int>();
+  });
+  json leaves = json::array();
+  for (const json& r : records) {
+    leaves.push_back(r["entry"]);
     LeafSummary sm;
-    sm.id = c.id, sm.name = name, sm.area_px = c.area_px, sm.flagged_texels = flagged;
-    sm.flagged_fraction = flagged_fraction;
-    sm.mean_hl2_error = (L->hl2_error[0].mean + L->hl2_error[1].mean + L->hl2_error[2].mean) / 3;
+    sm.id = r["entry"]["id"], sm.name = r["entry"]["name"];
+    sm.area_px = r["summary"]["area_px"], sm.flagged_texels = r["summary"]["flagged"];
+    sm.flagged_fraction = r["summary"]["fraction"], sm.mean_hl2_error = r["summary"]["hl2"];
     res.summary.push_back(sm);
-    const double a_mm2 = c.area_px * res.mm_per_pixel * res.mm_per_pixel;
-    leaves.push_back({{"id", c.id},
-                      {"name", name},
-                      {"pack", name},
-                      {"bbox", Bbox(c)},
-                      {"crop", {L->crop_x, L->crop_y, L->maps.width, L->maps.height}},
-                      {"area_px", c.area_px},
-                      {"area_mm2", scale_known ? json(a_mm2) : json()},
-                      {"touches_border", c.touches_border},
-                      {"thickness_estimated", L->thickness_estimated},
-                      {"flagged_texels", flagged},
-                      {"flagged_fraction", flagged_fraction},
-                      {"hl2_error_percent", 100 * sm.mean_hl2_error}});
-    ++done;
-    if (!step("leaves", done * per_leaf, leaf_steps))
-      return Status(StatusCode::kCancelled, "cancelled");
+    if (!r["warning"].is_null()) res.warnings.push_back(r["warning"]);
   }
   res.seconds_leaves = Since(t_leaves);
-  if (!step("write", 0, 1)) return Status(StatusCode::kCancelled, "cancelled");
-  MATFIT_RETURN_IF_ERROR(WriteImage((root / "segmentation.png").string(), Overlay(*sheet),
-                                    {PixelFormat::kUint8, TransferFunction::kLinear}));
-  MATFIT_RETURN_IF_ERROR(WriteImage((root / "transmission.exr").string(), sheet->transmission,
-                                    {PixelFormat::kHalf, TransferFunction::kLinear}));
-  res.seconds_total = Since(t0);
-  json index = {
-      {"schema", "matfit.leaves/1"},
-      {"source", o.source_label.empty() ? o.input : o.source_label},
-      {"size", {{"width", sheet->width}, {"height", sheet->height}}},
-      {"scale", {{"mm_per_pixel", res.mm_per_pixel}, {"source", res.scale_source}}},
-      {"counts",
-       {{"leaves", res.leaves},
-        {"twigs", res.twigs},
-        {"markers", res.markers},
-        {"specks", res.specks}}},
-      {"leaves", leaves},
-      {"others", others},
-      {"segmentation", "segmentation.png"},
-      {"transmission", "transmission.exr"},
-      {"background_fit_rms_log",
-       {{"back_lit", sheet->back_rms_log}, {"top_lit", sheet->top_rms_log}}},
-      {"timings_seconds",
-       {{"sheet", res.seconds_sheet},
-        {"leaves", res.seconds_leaves},
-        {"total", res.seconds_total}}},
-      {"warnings", res.warnings},
-      {"version", std::string("matfit ") + kMatfitVersion},
+  // Rank 0 (or the only process) writes the sheet's files and leaves.json and commits.
+  auto write = [&]() -> Status {
+    if (!step("write", 0, 1)) return Status(StatusCode::kCancelled, "cancelled");
+    MATFIT_RETURN_IF_ERROR(WriteImage((root / "segmentation.png").string(), Overlay(*sheet),
+                                      {PixelFormat::kUint8, TransferFunction::kLinear}));
+    MATFIT_RETURN_IF_ERROR(WriteImage((root / "transmission.exr").string(), sheet->transmission,
+                                      {PixelFormat::kHalf, TransferFunction::kLinear}));
+    res.seconds_total = Since(t0);
+    json index = {
+        {"schema", "matfit.leaves/1"},
+        {"source", o.source_label.empty() ? o.input : o.source_label},
+        {"size", {{"width", sheet->width}, {"height", sheet->height}}},
+        {"scale", {{"mm_per_pixel", res.mm_per_pixel}, {"source", res.scale_source}}},
+        {"counts",
+         {{"leaves", res.leaves},
+          {"twigs", res.twigs},
+          {"markers", res.markers},
+          {"specks", res.specks}}},
+        {"leaves", leaves},
+        {"others", others},
+        {"segmentation", "segmentation.png"},
+        {"transmission", "transmission.exr"},
+        {"background_fit_rms_log",
+         {{"back_lit", sheet->back_rms_log}, {"top_lit", sheet->top_rms_log}}},
+        {"timings_seconds",
+         {{"sheet", res.seconds_sheet},
+          {"leaves", res.seconds_leaves},
+          {"total", res.seconds_total}}},
+        {"warnings", res.warnings},
+        {"version", std::string("matfit ") + kMatfitVersion},
+    };
+    MATFIT_RETURN_IF_ERROR(WriteFileAtomic(
+        (root / "leaves.json").string(),
+        index.dump(2, ' ', false, nlohmann::json::error_handler_t::replace) + "\n"));
+    return dir.Commit();
   };
-  MATFIT_RETURN_IF_ERROR(
-      WriteFileAtomic((root / "leaves.json").string(),
-                      index.dump(2, ' ', false, nlohmann::json::error_handler_t::replace) + "\n"));
-  MATFIT_RETURN_IF_ERROR(dir.Commit());
+  const Status written = write();
+  if (comm) {
+    std::string failed;
+    AllOk(*comm, written.ok(), written.ok() ? "" : written.message(), &failed);
+  }
+  MATFIT_RETURN_IF_ERROR(written);
   step("write", 1, 1);
   return res;
 }

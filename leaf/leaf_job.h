@@ -14,6 +14,10 @@
 #include "leaf/leaf_material.h"
 #include "leaf/sheet.h"
 
+namespace matfit {
+class Comm;
+}
+
 namespace matfit::leaf {
 
 struct LeafJobOptions {
@@ -34,6 +38,11 @@ struct LeafJobOptions {
   // What leaves.json and the packs name as the input (empty: `input`). The server passes a
   // name that does not reveal its own folders.
   std::string source_label;
+  // The ranks of a distributed run (mpirun/srun; docs/scale-out.md); null or one rank: this
+  // process does everything. Every rank reads the scan and analyses the sheet (the segmentation
+  // needs all of it); leaf k (in sheet order) is fitted and written by rank k mod N, and rank 0
+  // writes leaves.json and commits the folder, which equals a single process's.
+  const Comm* comm = nullptr;
   bool Check(std::string* why) const;
 };
 

@@ -12,6 +12,7 @@
 #          [--formats "png exr"] [--ranks "1 2 4"] [--out DIR] [--matfit BIN]
 # Writes DIR/mpi.md (default DIR: out/bench-mpi); the datasets stay in DIR/data until removed.
 set -euo pipefail
+shopt -s nullglob
 root=$(cd "$(dirname "$0")/.." && pwd)
 size=2048; runs=1; models="ptm blinn-phong"; formats="png exr"; rank_counts="1 2 4"
 out="$root/out/bench-mpi"; bin="$root/build/app/matfit"
@@ -44,7 +45,7 @@ done
 median() { sort -g | awk '{a[NR]=$1} END {print (NR%2 ? a[(NR+1)/2] : (a[NR/2]+a[NR/2+1])/2)}'; }
 table="$out/mpi.md"
 {
-  echo "| model | files | ranks | threads/rank | wall s | speed-up | peak RSS per rank MB (max) | RSS × ranks / 1-rank RSS | pack = 1 rank |"
+  echo "| model | files | ranks | threads/rank | wall s | speed-up | peak RSS rank 0 MB | peak RSS other ranks MB (max) | pack = 1 rank |"
   echo "|---|---|---|---|---|---|---|---|---|"
 } > "$table"
 for model in $models; do
@@ -54,31 +55,37 @@ for model in $models; do
     for n in $rank_counts; do
       threads=1; [ "$n" -eq 1 ] && threads=$cores
       over=""; [ "$n" -gt "$cores" ] && over=" (oversubscribed)"
-      walls=(); rss_max=()
+      walls=(); rss_root=(); rss_other=()
       for run in $(seq "$runs"); do
         pack="$out/raw/$model-$f-$n"
         rm -rf "$pack" "$out/raw/time.$model.$f.$n".*
         t0=$(date +%s.%N)
-        mpirun --allow-run-as-root --oversubscribe -n "$n" bash -c \
+        # --bind-to none: mpirun binds a rank to one core when ranks ≤ cores, which would leave the
+        # 1-rank baseline one core; --threads sets the threads each rank runs.
+        mpirun --allow-run-as-root --oversubscribe --bind-to none -n "$n" bash -c \
           "exec /usr/bin/time -v -o '$out/raw/time.$model.$f.$n.'\$OMPI_COMM_WORLD_RANK '$bin' fit '$lp' --model $model --threads $threads --quiet --out '$pack'" \
           > "$out/raw/log.$model.$f.$n" 2>&1
         t1=$(date +%s.%N)
         walls+=("$(awk -v a="$t0" -v b="$t1" 'BEGIN {print b - a}')")
-        rss_max+=("$(cat "$out/raw/time.$model.$f.$n".* | awk '/Maximum resident/ {if ($6 > m) m = $6} END {printf "%.0f", m / 1024}')")
+        # Rank 0 also assembles the maps and writes the pack; the others hold their band only.
+        rss_root+=("$(awk '/Maximum resident/ {printf "%.0f", $6 / 1024}' "$out/raw/time.$model.$f.$n.0")")
+        others=("$out/raw/time.$model.$f.$n".[1-9]*)
+        rss_other+=("$(awk '/Maximum resident/ {if ($6 > m) m = $6} END {printf "%.0f", m / 1024}' \
+          /dev/null "${others[@]}")")
       done
       wall=$(printf '%s\n' "${walls[@]}" | median)
-      rss=$(printf '%s\n' "${rss_max[@]}" | median)
+      rss=$(printf '%s\n' "${rss_root[@]}" | median)
+      other="—"; [ "$n" -gt 1 ] && other=$(printf '%s\n' "${rss_other[@]}" | median)
       same="—"
       if [ "$n" -eq 1 ]; then
-        base_wall=$wall; base_rss=$rss; rm -rf "$out/raw/base-$model-$f"; mv "$out/raw/$model-$f-1" "$out/raw/base-$model-$f"
+        base_wall=$wall; rm -rf "$out/raw/base-$model-$f"; mv "$out/raw/$model-$f-1" "$out/raw/base-$model-$f"
       else
         if "$diff_bin" "$out/raw/base-$model-$f" "$out/raw/$model-$f-$n" > "$out/raw/diff.$model.$f.$n" 2>&1; then same="yes"; else same="NO"; fi
         rm -rf "$out/raw/$model-$f-$n"
       fi
-      printf '| %s | %s | %d%s | %d | %.1f | %.2f× | %s | %.2f | %s |\n' "$model" "$f" "$n" "$over" "$threads" \
-        "$wall" "$(awk -v a="$base_wall" -v b="$wall" 'BEGIN {print a / b}')" "$rss" \
-        "$(awk -v r="$rss" -v n="$n" -v b="$base_rss" 'BEGIN {print r * n / b}')" "$same" >> "$table"
-      echo "bench-mpi: $model $f $n ranks: ${wall} s, ${rss} MB per rank ($same)" >&2
+      printf '| %s | %s | %d%s | %d | %.1f | %.2f× | %s | %s | %s |\n' "$model" "$f" "$n" "$over" "$threads" \
+        "$wall" "$(awk -v a="$base_wall" -v b="$wall" 'BEGIN {print a / b}')" "$rss" "$other" "$same" >> "$table"
+      echo "bench-mpi: $model $f $n ranks: ${wall} s, rank 0 ${rss} MB, others ${other} MB ($same)" >&2
     done
   done
 done

@@ -5,8 +5,9 @@
 # to 6 digits (matfit_pack_diff). Models: lambert, lambert-robust, ptm, hsh2, heinrich,
 # blinn-phong, cook-torrance, with held-out folds; layouts lp (16-bit PNG, clipped), bonn (8-bit
 # sRGB), lights-txt (32-bit EXR, a width whose bands cannot start on a run boundary) and diligent
-# (JPEG, mask). Also: the refusals (--model auto, rbf, more ranks than rows), and a build without
-# the launcher keeps working.
+# (JPEG, mask); a synthetic leaf under a dome; `matfit leaf` with its leaves split over the ranks
+# (the synthetic scan, and the real 23-leaf sheet when ../shared/data is present). Also: the
+# refusals (--model auto, rbf, more ranks than rows) and a truncated image in one rank's rows.
 # Usage: mpi_fit_test.sh MATFIT_BINARY PACK_DIFF_BINARY SOURCE_DIR
 set -u
 bin=$1; diff_bin=$2; src=$3
@@ -56,6 +57,28 @@ same wool_ptm wool 3 --model ptm --holdout loo
 same wool_lambert wool 2 --model lambert
 same ct ct 3 --model cook-torrance
 same ct_lambert ct 4 --model lambert --holdout 3
+
+# One leaf: the synthetic leaf material under a 24-light dome (fitted as a stack), and `matfit
+# leaf` with its leaves split over the ranks — the synthetic scan (one leaf) and, when the shared
+# data are present, the real 23-leaf sheet.
+same leaf_dome "$(ls "$src"/fixtures/leaf-dome24/*.lp)" 3 --model lambert --holdout 3
+same_leaf() { # name, scan folder, ranks
+  local name=$1 scan=$2 n=$3 out
+  "$bin" leaf "$scan" --out "$name.1" --quiet > "$name.1.txt" 2>&1 || { bad "$name: single process failed"; cat "$name.1.txt"; return; }
+  out=$(ranks "$n" "$bin" leaf "$scan" --out "$name.$n" --quiet 2>&1) || { bad "$name: $n ranks failed"; echo "$out" | tail -5; return; }
+  expect_contains "$name summary" "$out" "ranks       $n MPI ranks, leaf k fitted by rank k mod $n"
+  local keep="^found\|^scale\|^hl2\|^warning"
+  [ "$(grep "$keep" "$name.1.txt")" = "$(echo "$out" | grep "$keep")" ] && ok || {
+    bad "$name: summaries differ"; diff <(grep "$keep" "$name.1.txt") <(echo "$out" | grep "$keep") | head; }
+  if "$diff_bin" "$name.1" "$name.$n" > "$name.diff" 2>&1; then ok; else bad "$name: leaf folders differ"; cat "$name.diff"; fi
+}
+same_leaf leaf_scan "$src/fixtures/leaf-scan" 2
+sheet="${MATFIT_SHARED_DATA:-$src/../shared/data}/leaf-sheet"
+if [ -d "$sheet" ]; then
+  same_leaf leaf_sheet "$sheet" 3
+else
+  echo "note: $sheet absent (shared data): the 23-leaf sheet is not run across ranks"
+fi
 
 # Refused with a clear message on every rank, printed once.
 out=$(ranks 2 "$bin" fit "$lp" --model auto --out auto 2>&1); rc=$?

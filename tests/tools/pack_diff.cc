@@ -1,4 +1,5 @@
-// matfit_pack_diff A B: whether two material packs hold the same fit (the MPI tests compare a
+// matfit_pack_diff A B: whether two material packs (or two `matfit leaf` outputs: leaves.json, the
+// sheet images and every leaf pack) hold the same fit (the MPI tests compare a
 // distributed fit with a single process's). Float maps (EXR) agree within --tolerance (default
 // 1e-6, absolute, the same NaN/Inf positions); 8/16-bit maps (PNG) within one code, except the
 // status map, which must be identical; report.json and material.json have the same keys, strings
@@ -122,23 +123,15 @@ void CompareMap(const fs::path& a, const fs::path& b, double tolerance) {
   std::printf("map  %s\n", buf);
 }
 
-}  // namespace
-
-int main(int argc, char** argv) {
-  if (argc < 3) {
-    std::fprintf(stderr, "usage: matfit_pack_diff PACK_A PACK_B [--tolerance T]\n");
-    return 2;
-  }
-  const fs::path a = argv[1], b = argv[2];
-  const double tolerance =
-      argc >= 5 && std::string(argv[3]) == "--tolerance" ? std::strtod(argv[4], nullptr) : 1e-6;
+// Two material packs: their JSON files and every map.
+bool ComparePack(const fs::path& a, const fs::path& b, double tolerance) {
   for (const char* file : {"report.json", "material.json"}) {
     json x, y;
     if (!ReadJson(a / file, &x) || !ReadJson(b / file, &y)) {
-      std::fprintf(stderr, "cannot read %s in both packs\n", file);
-      return 2;
+      std::fprintf(stderr, "cannot read %s in both packs (%s, %s)\n", file, a.c_str(), b.c_str());
+      return false;
     }
-    CompareJson(x, y, file);
+    CompareJson(x, y, a.filename().string() + "/" + file);
   }
   std::set<std::string> maps;
   for (const auto& e : fs::directory_iterator(a / "maps")) maps.insert(e.path().filename());
@@ -146,6 +139,40 @@ int main(int argc, char** argv) {
     if (!maps.count(e.path().filename()))
       Differ(e.path().filename().string() + ": only in the second pack");
   for (const std::string& m : maps) CompareMap(a / "maps" / m, b / "maps" / m, tolerance);
+  return true;
+}
+
+// Two `matfit leaf` outputs: leaves.json, the sheet's images and every leaf's pack.
+bool CompareLeafFolders(const fs::path& a, const fs::path& b, double tolerance) {
+  json x, y;
+  if (!ReadJson(a / "leaves.json", &x) || !ReadJson(b / "leaves.json", &y)) {
+    std::fprintf(stderr, "cannot read leaves.json in both folders\n");
+    return false;
+  }
+  CompareJson(x, y, "leaves.json");
+  for (const char* f : {"segmentation.png", "transmission.exr"})
+    CompareMap(a / f, b / f, tolerance);
+  for (const json& leaf : x["leaves"]) {
+    const std::string pack = leaf.value("pack", "");
+    if (pack.empty() || pack.find('/') != std::string::npos) return false;
+    if (!ComparePack(a / pack, b / pack, tolerance)) return false;
+  }
+  return true;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  if (argc < 3) {
+    std::fprintf(stderr, "usage: matfit_pack_diff A B [--tolerance T]   (packs or leaf folders)\n");
+    return 2;
+  }
+  const fs::path a = argv[1], b = argv[2];
+  const double tolerance =
+      argc >= 5 && std::string(argv[3]) == "--tolerance" ? std::strtod(argv[4], nullptr) : 1e-6;
+  const bool read = fs::exists(a / "leaves.json") ? CompareLeafFolders(a, b, tolerance)
+                                                  : ComparePack(a, b, tolerance);
+  if (!read) return 2;
   std::printf("%s: %d difference(s)\n", differences ? "DIFFERENT" : "same", differences);
   return differences ? 1 : 0;
 }
