@@ -23,15 +23,7 @@ namespace {
 namespace fs = std::filesystem;
 using testing::TempDir;
 
-Image Wave(int w, int h, int ch) {
-  Image img(w, h, ch);
-  for (int c = 0; c < ch; ++c)
-    for (int y = 0; y < h; ++y)
-      for (int x = 0; x < w; ++x)
-        img.Plane(c)[size_t(y) * w + x] =
-            0.5f + 0.45f * std::sin(0.23f * x + 1.1f * c) * std::cos(0.19f * y - 0.3f * c);
-  return img;
-}
+using testing::WavePattern;
 
 size_t PixelBytes(const codec::Header& h) {
   const size_t s = h.sample == codec::Sample::kUint8    ? 1
@@ -89,7 +81,7 @@ void WriteInterlacedPng(const std::string& path, const Image& img) {
 TEST(BandRead, EveryCodecReadsExactlyTheBandsRows) {
   TempDir dir;
   const fs::path tmp = dir.path();
-  const Image img = Wave(67, 41, 3);
+  const Image img = WavePattern(67, 41, 3);
   ASSERT_TRUE(WriteImage(tmp / "a.jpg", img, {PixelFormat::kUint8, TransferFunction::kSrgb}).ok());
   ASSERT_TRUE(WriteImage(tmp / "a8.png", img, {PixelFormat::kUint8, TransferFunction::kSrgb}).ok());
   ASSERT_TRUE(
@@ -110,9 +102,9 @@ TEST(BandRead, EveryCodecReadsExactlyTheBandsRows) {
 TEST(BandRead, ImageRowsOutsideTheImageAreAnError) {
   TempDir dir;
   const fs::path tmp = dir.path();
-  ASSERT_TRUE(
-      WriteImage(tmp / "a.png", Wave(8, 6, 1), {PixelFormat::kUint8, TransferFunction::kSrgb})
-          .ok());
+  ASSERT_TRUE(WriteImage(tmp / "a.png", WavePattern(8, 6, 1),
+                         {PixelFormat::kUint8, TransferFunction::kSrgb})
+                  .ok());
   ImageReadOptions o;
   o.row0 = 4, o.rows = 3;
   auto r = ReadImage(tmp / "a.png", o);
@@ -126,7 +118,7 @@ fs::path WriteLpSet(const fs::path& dir) {
   std::ofstream lp(dir / "set.lp");
   lp << "6\n";
   for (int i = 0; i < 6; ++i) {
-    Image img = Wave(20, 13, 3);
+    Image img = WavePattern(20, 13, 3);
     for (float& v : img.data()) v *= 0.5f + 0.1f * i;
     if (i == 2) img.At(1, 12, 4) = 1.0f;  // saturated: counted for the band holding row 12
     const std::string name = "img" + std::to_string(i) + ".png";

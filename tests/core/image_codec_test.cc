@@ -73,15 +73,7 @@ void ExpectSameDecoding(const std::string& path) {
   EXPECT_TRUE(n.bytes == o.bytes) << "pixels differ";
 }
 
-Image Pattern(int w, int h, int ch) {
-  Image img(w, h, ch);
-  for (int c = 0; c < ch; ++c)
-    for (int y = 0; y < h; ++y)
-      for (int x = 0; x < w; ++x)
-        img.Plane(c)[size_t(y) * w + x] =
-            0.5f + 0.45f * std::sin(0.21f * x + 1.3f * c) * std::cos(0.17f * y - 0.4f * c);
-  return img;
-}
+Image Pattern(int w, int h, int ch) { return testing::WavePattern(w, h, ch); }
 
 // Writes `img` through OpenImageIO (as matfit wrote every file before the native codecs).
 void WriteWithOiio(const std::string& path, const Image& img, codec::Sample sample, bool srgb) {

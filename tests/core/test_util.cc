@@ -51,4 +51,14 @@ double MaxAbsDiff(const LightStack& a, const LightStack& b) {
 
 void WriteText(const std::string& path, const std::string& text) { std::ofstream(path) << text; }
 
+Image WavePattern(int w, int h, int ch) {
+  Image img(w, h, ch);
+  for (int c = 0; c < ch; ++c)
+    for (int y = 0; y < h; ++y)
+      for (int x = 0; x < w; ++x)
+        img.Plane(c)[size_t(y) * w + x] =
+            0.5f + 0.45f * std::sin(0.21f * x + 1.3f * c) * std::cos(0.17f * y - 0.4f * c);
+  return img;
+}
+
 }  // namespace matfit::testing
