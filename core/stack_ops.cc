@@ -23,6 +23,7 @@ LightStack EmptyLike(const LightStack& s, int w, int h, bool native) {
   out.image_files = s.image_files;
   out.encodings = s.encodings, out.encoding_reasons = s.encoding_reasons;
   out.saturated_pixels = s.saturated_pixels, out.nonfinite_samples = s.nonfinite_samples;
+  out.band = s.band;
   return out;
 }
 
@@ -63,6 +64,10 @@ StatusOr<LightStack> DownsampleStack(const LightStack& s, int f) {
   if (f == 1) return CropStack(s, 0, 0, s.width(), s.height());
   LightStack out = EmptyLike(s, w, h, /*native=*/false);  // block means are not codes
   out.mm_per_texel = s.mm_per_texel * f;
+  // A band of a distributed stack whose first row is a multiple of f (fit/bands.h): the same
+  // band of the downsampled stack (the rows of an incomplete last block are dropped, as here).
+  MATFIT_CHECK(s.band.row0 % f == 0, "DownsampleStack: a band that does not start on a block");
+  out.band.row0 = s.band.row0 / f, out.band.full_height = s.full_height() / f;
   bool may_clip = false;
   for (int64_t v : s.saturated_pixels) may_clip = may_clip || v > 0;
   // Per block: which source texels count (mask) and the block's own mask bit.

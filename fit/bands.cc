@@ -11,24 +11,26 @@
 
 namespace matfit::fit {
 
-StatusOr<RowBand> SplitRows(int width, int height, int rank, int ranks) {
-  if (ranks < 1 || rank < 0 || rank >= ranks || width < 1)
+StatusOr<RowBand> SplitRows(int width, int height, int rank, int ranks, int multiple) {
+  if (ranks < 1 || rank < 0 || rank >= ranks || width < 1 || multiple < 1)
     return InvalidArgument("band " + std::to_string(rank) + " of " + std::to_string(ranks));
-  if (height < ranks)
-    return InvalidArgument("the images have " + std::to_string(height) + " rows but " +
-                           std::to_string(ranks) +
-                           " ranks were started: run with at most one rank per row");
-  // Rows per unit: the fewest whose texels fill whole runs (width · g ≡ 0 mod kEvalRun).
-  int g = kEvalRun / std::gcd(width, kEvalRun);
-  if ((height + g - 1) / g < ranks) g = 1;  // too coarse for this many ranks: any row
-  const int64_t units = (height + g - 1) / g;
-  const auto start = [&](int r) { return int(std::min<int64_t>(height, units * r / ranks * g)); };
+  if (height / multiple < ranks)
+    return InvalidArgument(
+        "the images have " + std::to_string(height) + " rows but " + std::to_string(ranks) +
+        " ranks were started: run with at most one rank per " +
+        (multiple == 1 ? std::string("row")
+                       : std::to_string(multiple) + " rows (model selection's coarsest mip)") +
+        ", i.e. at most " + std::to_string(height / multiple) + " ranks");
+  // Rows per unit: the fewest whose texels fill whole runs (width · g ≡ 0 mod kEvalRun), and a
+  // multiple of `multiple`; just `multiple` when that is too coarse for this many ranks.
+  const int g = kEvalRun / std::gcd(width, kEvalRun);
+  int unit = std::lcm(g, multiple);
+  if (height / unit < ranks) unit = multiple;
+  const int64_t units = height / unit;  // the rows of an incomplete unit go to the last band
+  const auto start = [&](int r) { return int(units * r / ranks * unit); };
   RowBand b;
   b.row0 = start(rank);
   b.rows = (rank + 1 == ranks ? height : start(rank + 1)) - b.row0;
-  if (b.rows < 1)
-    return InvalidArgument("band " + std::to_string(rank) + " of " + std::to_string(ranks) +
-                           " of " + std::to_string(height) + " rows is empty");
   return b;
 }
 

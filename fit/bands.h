@@ -19,10 +19,11 @@ struct RowBand {
 };
 
 // Band `rank` of `ranks` over an image of width × height: contiguous rows, as even as the
-// granularity allows. Bands start on a boundary of the batched evaluation's texel runs
-// (kEvalRun texels) when every band can still get rows, so that the bands' run sums are the
-// whole stack's, bit for bit. An error when there are fewer rows than ranks.
-StatusOr<RowBand> SplitRows(int width, int height, int rank, int ranks);
+// granularity allows, every band but the last a multiple of `multiple` rows (model selection's
+// mip blocks, fit/select.h). Bands also start on a boundary of the batched evaluation's texel
+// runs (kEvalRun texels) when every band can still get rows, so that the bands' run sums are
+// the whole stack's, bit for bit. An error when there are fewer row blocks than ranks.
+StatusOr<RowBand> SplitRows(int width, int height, int rank, int ranks, int multiple = 1);
 
 // Collectives over `comm` (every rank calls them): rank 0's vector becomes every band's values in
 // rank order (the whole stack's, row-major); the other ranks keep theirs.

@@ -189,18 +189,10 @@ bool FitJobOptions::Check(std::string* why) const {
     return fail("--model '" + model + "' is not a method; choose one of: " + list + " (or auto)");
   }
   if (comm && comm->size() > 1) {
-    const char* one = "; run it in one process (without mpirun)";
-    if (model == "auto")
-      return fail(std::string("--model auto is not run across MPI ranks (it downsamples the stack "
-                              "and compares models on it); name the model") +
-                  one);
     if (!report_only.empty())
-      return fail(std::string("--report-only is not run across MPI ranks") + one);
-    if (model == "rbf" || model == "rbf-srgb")
-      return fail("--model " + model +
-                  " is not run across MPI ranks (its PCA components and kernel width are fitted "
-                  "to the whole stack at once)" +
-                  one);
+      return fail(
+          "--report-only is not run across MPI ranks; run it in one process (without "
+          "mpirun)");
   }
   if (holdout == 1 || (holdout < 0 && holdout != kLeaveOneOut))
     return fail("--holdout must be 0 (off), ≥ 2 folds or loo (leave-one-out), got " +
@@ -213,6 +205,19 @@ StatusOr<FitJobResult> RunFitJob(const FitJobOptions& o, const StageProgress& pr
   if (!o.Check(&why)) return InvalidArgument(why);
   // Refuse an occupied --out before the long work, not after it.
   if (!o.out.empty()) MATFIT_RETURN_IF_ERROR(CheckOutput(o.out, o.overwrite));
+  SceneSpec scene;  // --model auto: what the selection aims at
+  if (o.model == "auto") {
+    if (!o.scene.empty()) {
+      std::ifstream in(o.scene, std::ios::binary);
+      if (!in) return NotFound("cannot read the scene file '" + o.scene + "'");
+      std::stringstream text;
+      text << in.rdbuf();
+      auto parsed = ParseScene(text.str(), o.scene);
+      if (!parsed.ok()) return parsed.status();
+      scene = *parsed;
+    }
+    if (o.budget > 0) scene.error_budget = o.budget;
+  }
   Stages stages(progress);
   if (!stages.Begin("read")) return Cancelled();
   ReadOptions ro = o.read;
@@ -224,7 +229,10 @@ StatusOr<FitJobResult> RunFitJob(const FitJobOptions& o, const StageProgress& pr
     headers.headers_only = true;
     auto shape = ReadDataset(o.input, headers);
     if (!shape.ok()) return shape.status();  // the same files, the same error on every rank
-    auto band = SplitRows(shape->width(), shape->height(), comm->rank(), comm->size());
+    // Model selection downsamples the stack: bands of whole blocks of its coarsest mip.
+    const int multiple =
+        o.model == "auto" ? SelectionRowMultiple(scene, shape->width(), shape->height(), {}) : 1;
+    auto band = SplitRows(shape->width(), shape->height(), comm->rank(), comm->size(), multiple);
     if (!band.ok()) return band.status();
     ro.row0 = band->row0, ro.rows = band->rows;
   }
@@ -313,19 +321,8 @@ StatusOr<FitJobResult> RunFitJob(const FitJobOptions& o, const StageProgress& pr
     return r;
   }
   std::optional<Selection> selection;
-  SceneSpec scene;
   std::string model = o.model;
   if (model == "auto") {
-    if (!o.scene.empty()) {
-      std::ifstream in(o.scene, std::ios::binary);
-      if (!in) return NotFound("cannot read the scene file '" + o.scene + "'");
-      std::stringstream text;
-      text << in.rdbuf();
-      auto parsed = ParseScene(text.str(), o.scene);
-      if (!parsed.ok()) return parsed.status();
-      scene = *parsed;
-    }
-    if (o.budget > 0) scene.error_budget = o.budget;
     if (!stages.Begin("select")) return Cancelled();
     SelectOptions so;
     so.fit.progress = stages.Callback();

@@ -42,7 +42,7 @@ struct FitJobOptions {
   // The ranks of a distributed fit (mpirun/srun; docs/scale-out.md); null or one rank: this
   // process fits the whole stack. Each rank reads and fits one band of rows; every figure is
   // reduced over the ranks, and rank 0 assembles the maps, scores against truth and writes the
-  // pack and report, which equal a single process's. Not with model auto, report_only or rbf.
+  // pack and report, which equal a single process's. Not with report_only.
   const Comm* comm = nullptr;
 
   bool Check(std::string* why) const;

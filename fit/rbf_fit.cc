@@ -22,6 +22,7 @@
 #include "core/color.h"
 #include "core/parallel.h"
 #include "core/shading/relight_basis.h"
+#include "core/stack_band.h"
 #include "fit/fit_common.h"
 #include "fit/linear_basis.h"
 #include "fit/methods.h"
@@ -36,16 +37,42 @@ constexpr int64_t kMaxPcaTexels = 8192;
 // Returns the number of vectors used.
 int64_t SampleMoments(const LightStack& s, bool srgb, Eigen::MatrixXd* moment) {
   const int N = s.num_images(), C = s.channels();
-  const int64_t texels = s.texels();
+  // A grid over the whole stack; a band of a distributed stack takes its rows of it.
+  const int64_t texels = s.full_plane_size();
+  const int64_t band_first = int64_t(s.band.row0) * s.width(), own = s.texels();
   const int64_t stride = std::max<int64_t>(1, texels / kMaxPcaTexels);
   const std::vector<float> inv = InverseIntensities(s);
   const bool clip = StackMayBeClipped(s);
   const float* encode = SrgbCurves().encode;
   std::vector<int64_t> picks;
-  for (int64_t p = stride / 2; p < texels; p += stride)
-    if (!s.has_mask() || s.mask[size_t(p)]) picks.push_back(p);
+  for (int64_t g = stride / 2; g < texels; g += stride) {
+    const int64_t p = g - band_first;
+    if (p >= 0 && p < own && (!s.has_mask() || s.mask[size_t(p)])) picks.push_back(p);
+  }
+  // Per picked texel and channel: a usable flag (1 or 0) and y, N + 1 values. The bands' lists
+  // are joined in grid order, so every rank sums the moment in the blocks and the order one
+  // process does (a PCA of nearly equal eigenvalues turns with the last bits of the sum).
+  const size_t width = size_t(N) + 1;
+  std::vector<double> ys(picks.size() * C * width, 0.0);
+  ParallelFor(0, int64_t(picks.size()), [&](int64_t k0, int64_t k1) {
+    for (int64_t k = k0; k < k1; ++k)
+      for (int c = 0; c < C; ++c) {
+        double* y = ys.data() + (size_t(k) * C + c) * width;
+        bool valid = true;
+        double energy = 0;
+        for (int i = 0; i < N && valid; ++i) {
+          const float raw = s.Sample(i, c, picks[size_t(k)]);
+          const float v = raw * inv[size_t(i) * C + c];
+          valid = std::isfinite(v) && !(clip && raw >= kClipLevel);
+          y[1 + i] = srgb ? SrgbCurveLookup(encode, v) : v, energy += y[1 + i] * y[1 + i];
+        }
+        y[0] = valid && energy > 0;
+      }
+  });
+  ys = ConcatOverBands(s, ys);
+  const int64_t count = int64_t(ys.size() / (C * width));  // picks over the whole stack
   // Per thread block: a partial moment, summed at the end.
-  const int64_t blocks = std::min<int64_t>(int64_t(picks.size()), 8);
+  const int64_t blocks = std::min<int64_t>(count, 8);
   std::vector<Eigen::MatrixXd> part(size_t(std::max<int64_t>(blocks, 1)),
                                     Eigen::MatrixXd::Zero(N, N));
   std::vector<int64_t> used(part.size(), 0);
@@ -54,8 +81,8 @@ int64_t SampleMoments(const LightStack& s, bool srgb, Eigen::MatrixXd* moment) {
   ParallelFor(0, blocks, [&](int64_t b0, int64_t b1) {
     Eigen::MatrixXd Y(N, kBatch);
     for (int64_t b = b0; b < b1; ++b) {
-      const size_t first = size_t(b) * picks.size() / size_t(blocks);
-      const size_t last = size_t(b + 1) * picks.size() / size_t(blocks);
+      const size_t first = size_t(b) * size_t(count) / size_t(blocks);
+      const size_t last = size_t(b + 1) * size_t(count) / size_t(blocks);
       int cols = 0;
       auto flush = [&] {
         if (cols > 0) part[size_t(b)].selfadjointView<Eigen::Lower>().rankUpdate(Y.leftCols(cols));
@@ -63,16 +90,9 @@ int64_t SampleMoments(const LightStack& s, bool srgb, Eigen::MatrixXd* moment) {
       };
       for (size_t k = first; k < last; ++k)
         for (int c = 0; c < C; ++c) {
-          bool valid = true;
-          double energy = 0;
-          for (int i = 0; i < N && valid; ++i) {
-            const float raw = s.Sample(i, c, picks[k]);
-            const float v = raw * inv[size_t(i) * C + c];
-            valid = std::isfinite(v) && !(clip && raw >= kClipLevel);
-            const double y = srgb ? SrgbCurveLookup(encode, v) : v;
-            Y(i, cols) = y, energy += y * y;
-          }
-          if (!valid || !(energy > 0)) continue;
+          const double* y = ys.data() + (k * C + c) * width;
+          if (y[0] == 0) continue;
+          for (int i = 0; i < N; ++i) Y(i, cols) = y[1 + i];
           if (++cols == kBatch) flush();
         }
       flush();

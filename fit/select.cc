@@ -7,6 +7,7 @@
 
 #include "core/color.h"
 #include "core/model/model.h"
+#include "core/stack_band.h"
 #include "core/stack_ops.h"
 #include "core/warnings.h"
 #include "fit/assess.h"
@@ -125,6 +126,12 @@ StatusOr<HeldOutSums> Score(const FitMethod& m, const LightStack& fine, const Li
     }
     h.last_maps = std::move(fit->maps);
   }
+  // A band of a distributed stack: every band's sums (per image; texels scored and flagged).
+  SumOverBands(fine, h.sse.data(), n);
+  SumOverBands(fine, h.count.data(), n);
+  int64_t texels[2] = {h.scored, h.flagged};
+  SumOverBands(fine, texels, 2);
+  h.scored = texels[0], h.flagged = texels[1];
   return h;
 }
 
@@ -155,10 +162,10 @@ std::vector<double> LightWeights(const LightStack& s, const SceneSpec& scene,
   return w;
 }
 
-double SceneError(const HeldOutSums& h, const std::vector<double>& w, const SceneSpec& scene) {
+double SceneError(const LightStack& fine, const HeldOutSums& h, const std::vector<double>& w,
+                  const SceneSpec& scene) {
   if (scene.environment) {
-    double e2 = 0;
-    int64_t k = 0;
+    double e2 = 0, k = 0;
     for (size_t j = 0; j < h.env_err.size(); ++j) {
       if (!(h.env_w[j] > 0)) continue;
       const double d = scene.srgb8 ? (int(LinearToSrgb8Fast(float(h.env_pred[j] / h.env_w[j]))) -
@@ -167,7 +174,9 @@ double SceneError(const HeldOutSums& h, const std::vector<double>& w, const Scen
                                    : h.env_err[j] / h.env_w[j];
       e2 += d * d, ++k;
     }
-    return k ? std::sqrt(e2 / k) : NAN;
+    double sums[2] = {e2, k};  // over every band of a distributed stack
+    SumOverBands(fine, sums, 2);
+    return sums[1] > 0 ? std::sqrt(sums[0] / sums[1]) : NAN;
   }
   double num = 0, den = 0;
   for (size_t i = 0; i < w.size(); ++i) num += w[i] * h.sse[i], den += w[i] * double(h.count[i]);
@@ -251,6 +260,23 @@ StatusOr<SceneSpec> ParseScene(const std::string& text, const std::string& sourc
   return s;
 }
 
+int SceneLevel(const SceneSpec& scene, int width, int height) {
+  // From the footprint (linear: texel width on screen in pixels), clamped so the shown stack
+  // keeps ≥ 4 texels per side.
+  const double want = std::floor(std::log2(1.0 / scene.texel_footprint_px) + 1e-9);
+  int level = int(std::clamp(want, 0.0, 30.0));
+  while (level > 0 && (std::min(width, height) >> level) < 4) --level;
+  return level;
+}
+
+int SelectionRowMultiple(const SceneSpec& scene, int width, int height, const SelectOptions& o) {
+  const int level = SceneLevel(scene, width, height);
+  const int fw = width >> level, fh = height >> level;  // DownsampleStack's floor
+  int k = 0;  // the coarsest candidate level, as SelectModel's table stops
+  while (k < o.max_coarser_levels && (fw >> (k + 1)) >= 4 && (fh >> (k + 1)) >= 4) ++k;
+  return 1 << (level + k);
+}
+
 StatusOr<Selection> SelectModel(const LightStack& stack, const SceneSpec& scene,
                                 const SelectOptions& o) {
   std::string why;
@@ -263,16 +289,14 @@ StatusOr<Selection> SelectModel(const LightStack& stack, const SceneSpec& scene,
         std::to_string(stack.num_images()) + ": name a model instead");
   const int folds = std::min(o.folds, stack.num_images());
   Selection sel;
-  // Scene level from the footprint (linear: texel width on screen in pixels), clamped so the
-  // shown stack keeps ≥ 4 texels per side.
+  // A band of a distributed stack selects for the whole stack (its sizes are the whole one's).
+  const int level = SceneLevel(scene, stack.width(), stack.full_height());
   const double want = std::floor(std::log2(1.0 / scene.texel_footprint_px) + 1e-9);
-  int level = int(std::clamp(want, 0.0, 30.0));
-  while (level > 0 && (std::min(stack.width(), stack.height()) >> level) < 4) --level;
   if (level < want)
     sel.warnings.push_back(
         Warning(WarningCode::kMipFootprint,
                 "the scene's footprint asks for mip " + std::to_string(int(want)) + "; the " +
-                    std::to_string(stack.width()) + "x" + std::to_string(stack.height()) +
+                    std::to_string(stack.width()) + "x" + std::to_string(stack.full_height()) +
                     " dataset stops at mip " + std::to_string(level)));
   sel.scene_level = level;
   auto fine = DownsampleStack(stack, 1 << level);
@@ -286,7 +310,7 @@ StatusOr<Selection> SelectModel(const LightStack& stack, const SceneSpec& scene,
     auto m = MakeMethod(name);
     if (!m) return InvalidArgument("selection: '" + name + "' is not a method");
     for (int k = 0; k <= o.max_coarser_levels; ++k) {
-      const int w = fine->width() >> k, h = fine->height() >> k;
+      const int w = fine->width() >> k, h = fine->full_height() >> k;
       if (k > 0 && (w < 4 || h < 4)) break;
       Candidate c;
       c.method = name;
@@ -350,7 +374,7 @@ StatusOr<Selection> SelectModel(const LightStack& stack, const SceneSpec& scene,
     c.evaluated = true;
     c.fit_seconds = h->fit_seconds;
     c.flagged_fraction = h->scored ? double(h->flagged) / h->scored : 1;
-    c.error = h->any ? SceneError(*h, weights, scene) : NAN;
+    c.error = h->any ? SceneError(*fine, *h, weights, scene) : NAN;
     c.render_ns_per_pixel = h->any ? ShadingCostNs(h->last_maps) : 0;
     if (h->failed_folds > 0)
       c.note = std::to_string(h->failed_folds) + " of " + std::to_string(folds) +

@@ -80,6 +80,13 @@ struct Selection {
   bool budget_met = true;  // false: nothing met the budget; the lowest-error candidate is used
 };
 
+// The mip level the scene shows an image of width × height at (≥ 4 texels per side kept).
+int SceneLevel(const SceneSpec& scene, int width, int height);
+// Rows per block of the coarsest stack the selection scores on an image of width × height:
+// a distributed selection splits the rows in multiples of it (fit/bands.h), so that every
+// rank's downsampled band is rows of the whole downsampled stack.
+int SelectionRowMultiple(const SceneSpec& scene, int width, int height, const SelectOptions& o);
+
 StatusOr<Selection> SelectModel(const LightStack& stack, const SceneSpec& scene,
                                 const SelectOptions& options);
 

@@ -7,7 +7,8 @@
 # sRGB), lights-txt (32-bit EXR, a width whose bands cannot start on a run boundary) and diligent
 # (JPEG, mask); a synthetic leaf under a dome; `matfit leaf` with its leaves split over the ranks
 # (the synthetic scan, and the real 23-leaf sheet when ../shared/data is present). Also: the
-# refusals (--model auto, rbf, more ranks than rows) and a truncated image in one rank's rows.
+# model selection (--model auto with a scene at mip 1) and rbf; the refusals (--report-only, more
+# ranks than rows) and a truncated image in one rank's rows.
 # Usage: mpi_fit_test.sh MATFIT_BINARY PACK_DIFF_BINARY SOURCE_DIR
 set -u
 bin=$1; diff_bin=$2; src=$3
@@ -80,13 +81,17 @@ else
   echo "note: $sheet absent (shared data): the 23-leaf sheet is not run across ranks"
 fi
 
+# Model selection over ranks: the scene shows mip 1, candidates down to mip 3, so the bands are
+# whole 8-row blocks; and rbf, whose PCA gathers every band's sampled texels.
+echo '{"texel_footprint_px": 0.5, "error_budget": 0.02}' > scene.json
+same auto "$lp" 3 --model auto --scene scene.json
+same rbf plaster 3 --model rbf --holdout 3
+
 # Refused with a clear message on every rank, printed once.
-out=$(ranks 2 "$bin" fit "$lp" --model auto --out auto 2>&1); rc=$?
-[ $rc -ne 0 ] && ok || bad "auto under mpirun accepted"
-expect_contains "auto refused" "$out" "--model auto is not run across MPI ranks"
-[ "$(grep -c "is not run across MPI ranks" <<<"$out")" = 1 ] && ok || bad "auto: error printed more than once"
-out=$(ranks 2 "$bin" fit "$lp" --model rbf --out rbf 2>&1)
-expect_contains "rbf refused" "$out" "--model rbf is not run across MPI ranks"
+out=$(ranks 2 "$bin" fit "$lp" --model lambert --report-only bp.1 --out r.json 2>&1); rc=$?
+[ $rc -ne 0 ] && ok || bad "--report-only under mpirun accepted"
+expect_contains "report-only refused" "$out" "--report-only is not run across MPI ranks"
+[ "$(grep -c "is not run across MPI ranks" <<<"$out")" = 1 ] && ok || bad "report-only: error printed more than once"
 "$bin" synth --material plaster --size 8x4 --lights dome:12 --layout lp --out tiny --quiet
 out=$(ranks 5 "$bin" fit "$(ls tiny/*.lp)" --model lambert --out tiny.pack 2>&1)
 expect_contains "more ranks than rows" "$out" "the images have 4 rows but 5 ranks were started"
