@@ -52,10 +52,18 @@ class OiioReader : public Reader {
     // decodes straight into dst, where an explicit type, even the same one, goes through a
     // 64 MiB staging buffer that is mapped, faulted in and unmapped for every image.
     const OIIO::TypeDesc type = want == s.format ? OIIO::TypeDesc::UNKNOWN : want;
-    const bool ok = y0 == 0 && y1 == s.height ? in_->read_image(0, 0, 0, s.nchannels, type, dst)
-                                              : in_->read_scanlines(0, 0, s.y + y0, s.y + y1, 0, 0,
-                                                                    s.nchannels, type, dst);
-    return ok && !in_->has_error();
+    if (y0 == 0 && y1 == s.height)
+      return in_->read_image(0, 0, 0, s.nchannels, type, dst) && !in_->has_error();
+    if (s.tile_width == 0)  // scanline files: only the band's rows
+      return in_->read_scanlines(0, 0, s.y + y0, s.y + y1, 0, 0, s.nchannels, type, dst) &&
+             !in_->has_error();
+    // Tiled files (scanline reads are refused on them): the whole image, then the band's rows.
+    const size_t row = size_t(s.width) * s.nchannels * want.size();
+    std::vector<unsigned char> whole(row * size_t(s.height));
+    if (!in_->read_image(0, 0, 0, s.nchannels, want, whole.data()) || in_->has_error())
+      return false;
+    std::memcpy(dst, whole.data() + row * size_t(y0), row * size_t(y1 - y0));
+    return true;
   }
   std::string error() const override { return LastError(in_.get()); }
 

@@ -37,7 +37,8 @@ std::vector<T> ConcatAcross(const Comm& comm, const std::vector<T>& mine, int ro
   for (const auto& b : all) total += b.size() / sizeof(T);
   std::vector<T> out(total);
   char* at = reinterpret_cast<char*>(out.data());
-  for (const auto& b : all) std::memcpy(at, b.data(), b.size()), at += b.size();
+  for (const auto& b : all)
+    if (!b.empty()) std::memcpy(at, b.data(), b.size()), at += b.size();
   return out;
 }
 

@@ -66,7 +66,10 @@ StatusOr<LightStack> DownsampleStack(const LightStack& s, int f) {
   out.mm_per_texel = s.mm_per_texel * f;
   // A band of a distributed stack whose first row is a multiple of f (fit/bands.h): the same
   // band of the downsampled stack (the rows of an incomplete last block are dropped, as here).
-  MATFIT_CHECK(s.band.row0 % f == 0, "DownsampleStack: a band that does not start on a block");
+  if (s.band.row0 % f != 0)
+    return InvalidArgument("downsampling a band of rows that starts at row " +
+                           std::to_string(s.band.row0) + " by " + std::to_string(f) +
+                           ": a distributed stack's bands must start on a block");
   out.band.row0 = s.band.row0 / f, out.band.full_height = s.full_height() / f;
   bool may_clip = false;
   for (int64_t v : s.saturated_pixels) may_clip = may_clip || v > 0;

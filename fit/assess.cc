@@ -60,7 +60,7 @@ FitAssessment AssessFit(const LightStack& stack, const FitMethod& method, FitRes
     r->warnings.push_back(Warning(WarningCode::kUnboundedError, why));
   }
   // The fit's own "N texel(s) flagged" summary is stale now: count again.
-  ResummariseStatus(r);
+  ResummariseStatus(r, &stack);  // the whole stack's count when it is a band
   return a;
 }
 

@@ -26,12 +26,12 @@ struct RowBand {
 StatusOr<RowBand> SplitRows(int width, int height, int rank, int ranks, int multiple = 1);
 
 // Collectives over `comm` (every rank calls them): rank 0's vector becomes every band's values in
-// rank order (the whole stack's, row-major); the other ranks keep theirs.
+// rank order (the whole stack's, row-major); the other ranks' vectors are left empty.
 void GatherPlane(const Comm& comm, std::vector<float>* v);
 void GatherPlane(const Comm& comm, std::vector<uint8_t>* v);
 void GatherPlane(const Comm& comm, std::vector<uint16_t>* v);
 // The same for every texel-sized map of `maps` (rbf's basis table is not one); rank 0's maps
-// become full_height rows high.
+// become full_height rows high, the other ranks' are left as they were.
 void GatherMaps(const Comm& comm, int full_height, MaterialMaps* maps);
 
 }  // namespace matfit::fit

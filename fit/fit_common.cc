@@ -1,12 +1,14 @@
 #include "fit/fit_common.h"
 
 #include <algorithm>
+#include <array>
 #include <atomic>
 #include <map>
 #include <mutex>
 
 #include "core/model/model.h"
 #include "core/parallel.h"
+#include "core/stack_band.h"
 #include "core/warnings.h"
 
 namespace matfit::fit {
@@ -145,29 +147,32 @@ bool ForEachTile(const LightStack& s, const FitOptions& o,
   return !cancelled;
 }
 
-void SummariseStatus(FitResult* r) {
-  std::map<uint8_t, int64_t> counts;
-  r->flagged_texels = 0;
+void SummariseStatus(FitResult* r, const LightStack* bands) {
+  std::array<int64_t, 256> counts{};
   for (uint8_t s : r->status)
-    if (s != kTexelOk && s != kTexelMasked) ++counts[s], ++r->flagged_texels;
-  if (r->flagged_texels > 0) {
-    auto most = std::max_element(counts.begin(), counts.end(),
-                                 [](const auto& a, const auto& b) { return a.second < b.second; });
+    if (s != kTexelOk && s != kTexelMasked) ++counts[s];
+  if (bands) SumOverBands(*bands, counts.data(), int(counts.size()));
+  r->flagged_texels = 0;
+  int most = 0;  // the most common reason (the lowest code among equals)
+  for (int s = 0; s < 256; ++s) {
+    r->flagged_texels += counts[size_t(s)];
+    if (counts[size_t(s)] > counts[size_t(most)]) most = s;
+  }
+  if (r->flagged_texels > 0)
     r->warnings.push_back(Warning(WarningCode::kFlaggedTexels, std::to_string(r->flagged_texels) +
                                                                    " texel(s) flagged, mostly '" +
-                                                                   TexelStatusName(most->first) +
+                                                                   TexelStatusName(uint8_t(most)) +
                                                                    "'; see the status map"));
-  }
 }
 
-void ResummariseStatus(FitResult* r) {
+void ResummariseStatus(FitResult* r, const LightStack* bands) {
   r->warnings.erase(std::remove_if(r->warnings.begin(), r->warnings.end(),
                                    [](const std::string& w) {
                                      return w.find(" texel(s) flagged, mostly '") !=
                                             std::string::npos;
                                    }),
                     r->warnings.end());
-  SummariseStatus(r);
+  SummariseStatus(r, bands);
 }
 
 StatusOr<FitResult> FinishFit(bool completed, std::chrono::steady_clock::time_point t0,

@@ -80,9 +80,10 @@ class StripReader {
 
 // Counts status entries other than ok/masked into result->flagged_texels and adds a warning
 // naming the most common reason.
-void SummariseStatus(FitResult* result);
+// With `bands`, a band of a distributed stack: the counts of every band (a collective).
+void SummariseStatus(FitResult* result, const LightStack* bands = nullptr);
 // The same after the status changed: the earlier summary warning is replaced.
-void ResummariseStatus(FitResult* result);
+void ResummariseStatus(FitResult* result, const LightStack* bands = nullptr);
 
 // Common epilogue: cancelled → kCancelled; else summarise the status plane, stamp the time
 // since t0 and return the result.

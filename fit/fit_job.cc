@@ -362,7 +362,7 @@ StatusOr<FitJobResult> RunFitJob(const FitJobOptions& o, const StageProgress& pr
   r.reconstruction = score.reconstruction;
   // The common texel set costs a second pass only when the fit flagged texels (no progress of
   // its own: the stage's bar has reached its end once).
-  r.reconstruction_common = AnyFlagged(fit->status)
+  r.reconstruction_common = AnyFlagged(*stack, fit->status)
                                 ? Reconstruction(*stack, fit->maps, CommonTexelStatus(fit->status))
                                 : r.reconstruction;
   stages.End();
@@ -395,6 +395,7 @@ StatusOr<FitJobResult> RunFitJob(const FitJobOptions& o, const StageProgress& pr
     // Every figure so far is the whole stack's (each step reduced over the bands); the per-texel
     // results go to rank 0, which scores against truth and writes the pack. The other ranks
     // wait for its outcome.
+    (void)stages.Begin("gather");  // timed; not cancellable (the ranks must stay in step)
     GatherMaps(*comm, stack->full_height(), &fit->maps);
     GatherPlane(*comm, &fit->status);
     GatherPlane(*comm, &fitted_status);
@@ -407,6 +408,7 @@ StatusOr<FitJobResult> RunFitJob(const FitJobOptions& o, const StageProgress& pr
       if (fit->dropped_lights.empty()) fit->dropped_lights.assign(size_t(stack->plane_size()), 0);
       GatherPlane(*comm, &fit->dropped_lights);
     }
+    stages.End();
     if (comm->rank() != 0) {
       std::string failed;
       if (!AllOk(*comm, true, "", &failed))
@@ -415,7 +417,6 @@ StatusOr<FitJobResult> RunFitJob(const FitJobOptions& o, const StageProgress& pr
       r.timings = stages.Snapshot();
       return r;
     }
-    ResummariseStatus(&*fit);  // the flagged count of the whole stack
     if (r.heldout) {
       r.bound_ratio_heldout =
           BoundToActualRatio(r.assessment.confidence.bound, r.heldout->texel_rmse, fit->status);

@@ -43,6 +43,7 @@ struct FitJobOptions {
   // process fits the whole stack. Each rank reads and fits one band of rows; every figure is
   // reduced over the ranks, and rank 0 assembles the maps, scores against truth and writes the
   // pack and report, which equal a single process's. Not with report_only.
+  // With comm, the progress callback must not cancel (the ranks would fall out of step).
   const Comm* comm = nullptr;
 
   bool Check(std::string* why) const;
@@ -71,8 +72,9 @@ struct FitJobResult {
 // With report_only: reads the pack, scores it against the dataset (reconstruction, truth when
 // present), fills report_json and writes it to `out` when `out` is set.
 // stage, in order: "read", "select" (auto), "fit", "reconstruction", "confidence", "heldout",
-// "truth", "write" (report_only: "read", "reconstruction", "truth"). Each stage is announced with
-// done = 0 and ends with done = total; return false to cancel.
+// "gather" (distributed: rank 0 collects the bands' maps), "truth", "write" (report_only: "read",
+// "reconstruction", "truth"). Each stage is announced with done = 0 and ends with done = total;
+// return false to cancel.
 using StageProgress = std::function<bool(const std::string& stage, int64_t done, int64_t total)>;
 
 StatusOr<FitJobResult> RunFitJob(const FitJobOptions& options, const StageProgress& progress = {});

@@ -47,8 +47,9 @@ StatusOr<HeldOutMetrics> HeldOut(const FitMethod& method, const LightStack& s, i
     total += m.deviation_percent / 100 * double(m.samples);
     h.samples += m.samples;
     const ReconstructionMetrics mc =
-        AnyFlagged(fit->status) ? Reconstruction(s, test, fit->maps, CommonTexelStatus(fit->status))
-                                : m;
+        AnyFlagged(s, fit->status)
+            ? Reconstruction(s, test, fit->maps, CommonTexelStatus(fit->status))
+            : m;
     total_common += mc.deviation_percent / 100 * double(mc.samples);
     total8 += m.rmse_srgb8 * m.rmse_srgb8 * double(m.samples);
     total8_common += mc.rmse_srgb8 * mc.rmse_srgb8 * double(mc.samples);

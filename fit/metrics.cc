@@ -9,6 +9,7 @@
 
 #include "core/model/model.h"
 #include "core/parallel.h"
+#include "core/stack_band.h"
 #include "fit/fit_types.h"
 #include "fit/score.h"
 
@@ -198,6 +199,12 @@ bool AnyFlagged(const std::vector<uint8_t>& status) {
   for (uint8_t st : status)
     if (st != kTexelOk && st != kTexelMasked) return true;
   return false;
+}
+
+bool AnyFlagged(const LightStack& s, const std::vector<uint8_t>& status) {
+  int64_t any = AnyFlagged(status);
+  SumOverBands(s, &any, 1);
+  return any > 0;
 }
 
 }  // namespace matfit::fit

@@ -46,6 +46,9 @@ ReconstructionMetrics Reconstruction(const LightStack& stack, const std::vector<
 // other status ok; AnyFlagged says whether that differs from `status` at all.
 std::vector<uint8_t> CommonTexelStatus(const std::vector<uint8_t>& status);
 bool AnyFlagged(const std::vector<uint8_t>& status);
+// The same over every band of a distributed stack (a collective when `s` is a band: the ranks
+// must agree before some of them score the common set and others do not).
+bool AnyFlagged(const LightStack& s, const std::vector<uint8_t>& status);
 
 struct TruthMetrics {
   // A model without a fitted normal (mean, ptm, hsh) or whose albedo map is not a diffuse albedo

@@ -331,7 +331,12 @@ StatusOr<Selection> SelectModel(const LightStack& stack, const SceneSpec& scene,
     return table[a].level < table[b].level;
   });
   std::vector<StatusOr<LightStack>> coarse;
-  for (int k = 0; k <= o.max_coarser_levels; ++k) coarse.push_back(DownsampleStack(*fine, 1 << k));
+  // The levels the table holds (as SelectionRowMultiple counts them): a distributed stack's
+  // bands are whole blocks of these, not of coarser ones.
+  for (int k = 0; k <= o.max_coarser_levels; ++k) {
+    if (k > 0 && ((fine->width() >> k) < 4 || (fine->full_height() >> k) < 4)) break;
+    coarse.push_back(DownsampleStack(*fine, 1 << k));
+  }
   const size_t warnings_before = sel.warnings.size();
   const std::vector<double> weights = LightWeights(*fine, scene, &sel.warnings);
   const bool sun_fallback = sel.warnings.size() > warnings_before;

@@ -327,7 +327,9 @@ StatusOr<LeafJobResult> RunLeafJob(const LeafJobOptions& o, const LeafProgress& 
     LeafSummary sm;
     sm.id = r["entry"]["id"], sm.name = r["entry"]["name"];
     sm.area_px = r["summary"]["area_px"], sm.flagged_texels = r["summary"]["flagged"];
-    sm.flagged_fraction = r["summary"]["fraction"], sm.mean_hl2_error = r["summary"]["hl2"];
+    sm.flagged_fraction = r["summary"]["fraction"];
+    // JSON has no NaN (a leaf without texels): it travels as null.
+    sm.mean_hl2_error = r["summary"]["hl2"].is_number() ? r["summary"]["hl2"].get<double>() : NAN;
     res.summary.push_back(sm);
     if (!r["warning"].is_null()) res.warnings.push_back(r["warning"]);
   }

@@ -56,15 +56,16 @@ class WorldComm : public Comm {
       const int n = counts[size_t(rank_)];
       const char* send = n > 0 ? mine.data() + at : nullptr;
       if (all)
-        MPI_Allgatherv(send, n, MPI_CHAR, buffer.data(), counts.data(), displs.data(), MPI_CHAR,
+        MPI_Allgatherv(send, n, MPI_BYTE, buffer.data(), counts.data(), displs.data(), MPI_BYTE,
                        MPI_COMM_WORLD);
       else
-        MPI_Gatherv(send, n, MPI_CHAR, keep ? buffer.data() : nullptr, counts.data(), displs.data(),
-                    MPI_CHAR, root, MPI_COMM_WORLD);
+        MPI_Gatherv(send, n, MPI_BYTE, keep ? buffer.data() : nullptr, counts.data(), displs.data(),
+                    MPI_BYTE, root, MPI_COMM_WORLD);
       if (keep)
         for (int r = 0; r < size_; ++r)
-          std::copy_n(buffer.data() + displs[size_t(r)], counts[size_t(r)],
-                      out[size_t(r)].data() + at);
+          if (counts[size_t(r)] > 0)
+            std::copy_n(buffer.data() + displs[size_t(r)], counts[size_t(r)],
+                        out[size_t(r)].data() + at);
       if (most == 0) break;
     }
     return out;

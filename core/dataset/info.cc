@@ -113,9 +113,11 @@ DatasetInfo ComputeDatasetInfo(const LightStack& s) {
   info.images = s.num_images();
   // A band of a distributed stack reports the whole stack (the ranks' figures summed).
   info.width = s.width(), info.height = s.full_height(), info.channels = s.channels();
-  int64_t texel_counts[2] = {int64_t(s.MemoryBytes()), s.MaskedTexels()};
+  // Every band's samples and mask; the decode table once.
+  const int64_t table = int64_t(s.lut().size() * sizeof(float));
+  int64_t texel_counts[2] = {int64_t(s.MemoryBytes()) - table, s.MaskedTexels()};
   SumOverBands(s, texel_counts, 2);
-  info.memory_bytes = size_t(texel_counts[0]);
+  info.memory_bytes = size_t(texel_counts[0] + table);
   info.sample_type = SampleTypeName(s.sample_type());
   info.view_theta_deg = s.view_theta_deg, info.view_phi_deg = s.view_phi_deg;
   info.has_mask = s.has_mask();
