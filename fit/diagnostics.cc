@@ -55,7 +55,7 @@ bool GetVector(const std::string& in, size_t* at, std::vector<T>* v) {
   *at += sizeof n;
   if ((in.size() - *at) / sizeof(T) < n) return false;
   v->resize(size_t(n));
-  std::memcpy(v->data(), in.data() + *at, size_t(n) * sizeof(T));
+  if (n > 0) std::memcpy(v->data(), in.data() + *at, size_t(n) * sizeof(T));
   *at += size_t(n) * sizeof(T);
   return true;
 }
