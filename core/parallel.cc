@@ -19,13 +19,17 @@ std::mutex g_arena_mutex;
 std::shared_ptr<tbb::task_arena> g_arena;
 int g_arena_threads = 0;
 
-// The CPUs this process may run on: its affinity mask (an MPI launcher binds each rank to its
-// cores; taskset, cgroups), else every core.
+// The CPUs this process may run on: its affinity mask at start (an MPI launcher binds each rank
+// to its cores; taskset, cgroups), else every core. Read once: ParallelFor asks on every call.
 int HardwareThreads() {
-  cpu_set_t set;
-  CPU_ZERO(&set);
-  if (sched_getaffinity(0, sizeof set, &set) == 0 && CPU_COUNT(&set) > 0) return CPU_COUNT(&set);
-  return std::max(1u, std::thread::hardware_concurrency());
+  static const int n = [] {
+    cpu_set_t set;
+    CPU_ZERO(&set);
+    if (sched_getaffinity(0, sizeof set, &set) == 0 && CPU_COUNT(&set) > 0)
+      return int(CPU_COUNT(&set));
+    return int(std::max(1u, std::thread::hardware_concurrency()));
+  }();
+  return n;
 }
 
 std::shared_ptr<tbb::task_arena> Arena(int threads) {
