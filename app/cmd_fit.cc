@@ -18,7 +18,7 @@ namespace {
 
 struct FitArgs {
   fit::FitJobOptions job;
-  std::string layout = "auto", view, color_space = "auto";
+  std::string layout = "auto", view, color_space = "auto", crop;
   int threads = 0;
   bool quiet = false;
 };
@@ -65,7 +65,8 @@ int RunFit(FitArgs& a) {
   const bool root = mpi.root;
   a.job.comm = mpi.world;
   if (!root) a.quiet = true;
-  if (int rc = ApplyReadArgs("fit", a.layout, a.view, a.color_space, &a.job.read)) return rc;
+  if (int rc = ApplyReadArgs("fit", a.layout, a.view, a.color_space, a.crop, &a.job.read))
+    return rc;
   std::string why;
   if (!a.job.Check(&why)) return root ? Fail("fit", why.c_str()) : 1;
   SetNumThreads(a.threads);
@@ -172,6 +173,7 @@ void RegisterFit(CLI::App& app, int* exit_code) {
       ->transform(CLI::Transformer(std::map<std::string, int>{{"loo", fit::kLeaveOneOut}}))
       ->capture_default_str();
   sub->add_option("--view", args->view, "BTF view THETA,PHI in degrees (default: most frontal)");
+  sub->add_option("--crop", args->crop, kCropHelp);
   sub->add_option("--layout", args->layout, "auto, bonn, utia, lp, diligent, lights-txt")
       ->capture_default_str();
   sub->add_option("--color-space", args->color_space, "auto, srgb or linear")

@@ -13,14 +13,14 @@ namespace matfit::app {
 namespace {
 
 struct InfoArgs {
-  std::string path, layout = "auto", view, color_space = "auto";
+  std::string path, layout = "auto", view, color_space = "auto", crop;
   bool json = false, quiet = false;
   int threads = 0;
 };
 
 int RunInfo(const InfoArgs& a) {
   ReadOptions ro;
-  if (int rc = ApplyReadArgs("info", a.layout, a.view, a.color_space, &ro)) return rc;
+  if (int rc = ApplyReadArgs("info", a.layout, a.view, a.color_space, a.crop, &ro)) return rc;
   SetNumThreads(a.threads);
   std::string reason;
   if (ro.layout == Layout::kAuto) {
@@ -59,6 +59,7 @@ void RegisterInfo(CLI::App& app, int* exit_code) {
   sub->add_option("--layout", args->layout, "auto, bonn, utia, lp, diligent, lights-txt")
       ->capture_default_str();
   sub->add_option("--view", args->view, "BTF view THETA,PHI in degrees (default: most frontal)");
+  sub->add_option("--crop", args->crop, kCropHelp);
   sub->add_option("--color-space", args->color_space, "auto, srgb or linear")
       ->capture_default_str();
   sub->add_flag("--json", args->json, "print JSON instead of text");

@@ -20,6 +20,7 @@ namespace {
 struct LeafArgs {
   leaf::LeafJobOptions job;
   std::string precompute = "fast";
+  std::string crop;
   int preview_size = 256;
   bool no_preview = false, quiet = false;
   int threads = 0;
@@ -29,6 +30,7 @@ int RunLeaf(LeafArgs& a) {
   if (a.precompute != "fast" && a.precompute != "reference")
     return Fail("leaf", ("--precompute '" + a.precompute + "': choose fast or reference").c_str());
   a.job.material.reference_precompute = a.precompute == "reference";
+  if (int rc = ApplyCropArg("leaf", a.crop, &a.job.crop)) return rc;
   if (a.preview_size < 16 || a.preview_size > 4096)
     return Fail("leaf", "--preview-size must be in 16..4096");
   // Started by mpirun/srun: the leaves are split over the ranks; rank 0 prints and writes.
@@ -113,6 +115,7 @@ void RegisterLeaf(CLI::App& app, int* exit_code) {
   sub->add_option("--precompute", args->precompute, "fast or reference (the direct method)")
       ->capture_default_str();
   sub->add_option("--leaf", j.only_leaf, "process only this leaf id");
+  sub->add_option("--crop", args->crop, kCropHelp);
   sub->add_option("--preview-size", args->preview_size, "preview render size in pixels")
       ->capture_default_str();
   sub->add_flag("--no-preview", args->no_preview, "skip the front/back preview renders");

@@ -2,6 +2,7 @@
 // callbacks set the process exit code through *exit_code.
 #pragma once
 
+#include <optional>
 #include <string>
 
 #include "core/dataset/dataset.h"
@@ -34,8 +35,13 @@ inline std::string RequiredUnless(const std::string& other) {
 // Shared helpers.
 bool ParseViewArg(const char* text, double* theta, double* phi);  // "THETA,PHI" in degrees
 int Fail(const char* command, const char* message);  // prints "matfit CMD: error: ..." → 1
-// Parses --layout, --view THETA,PHI and --color-space into *read; 0, or Fail()'s code.
+// Parses --layout, --view THETA,PHI, --color-space and --crop X,Y,W,H into *read; 0, or
+// Fail()'s code.
 int ApplyReadArgs(const char* command, const std::string& layout, const std::string& view,
-                  const std::string& color_space, ReadOptions* read);
+                  const std::string& color_space, const std::string& crop, ReadOptions* read);
+// Parses --crop X,Y,W,H (empty: none) into *out; 0, or Fail()'s code.
+int ApplyCropArg(const char* command, const std::string& crop, std::optional<CropRect>* out);
+inline constexpr char kCropHelp[] =
+    "read only this region of every image: X,Y,WIDTH,HEIGHT in pixels (e.g. 100,50,640,480)";
 
 }  // namespace matfit::app

@@ -25,8 +25,21 @@ int Fail(const char* command, const char* message) {
   return 1;
 }
 
+int ApplyCropArg(const char* command, const std::string& crop, std::optional<CropRect>* out) {
+  if (crop.empty()) return 0;
+  CropRect c;
+  if (!ParseCrop(crop, &c))
+    return Fail(command, ("--crop '" + crop +
+                          "' must be X,Y,WIDTH,HEIGHT in pixels (whole numbers, width and height "
+                          "> 0), e.g. 100,50,640,480")
+                             .c_str());
+  *out = c;
+  return 0;
+}
+
 int ApplyReadArgs(const char* command, const std::string& layout, const std::string& view,
-                  const std::string& color_space, ReadOptions* read) {
+                  const std::string& color_space, const std::string& crop, ReadOptions* read) {
+  if (int rc = ApplyCropArg(command, crop, &read->crop)) return rc;
   if (!ParseLayout(layout, &read->layout))
     return Fail(command, ("--layout '" + layout +
                           "' is not one of auto, bonn, utia, lp, diligent, lights-txt")

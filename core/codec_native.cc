@@ -39,8 +39,8 @@ class NativeBackend : public Backend {
 
   bool CanWrite(const std::string& format, const WriteSpec& spec, bool in_memory) const override {
     const bool integer = spec.sample == Sample::kUint8 || spec.sample == Sample::kUint16;
-    // PNG with alpha stays with OpenImageIO, which stores colour un-premultiplied by alpha and
-    // premultiplies on reading: files matfit wrote before read back the same.
+    // PNG with alpha goes to OpenImageIO (straight alpha: colour stored as given, read back as
+    // stored).
     if (format == "png") return integer && (spec.channels == 1 || spec.channels == 3);
     return format == "exr" && !integer && !in_memory;
   }

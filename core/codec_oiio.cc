@@ -109,6 +109,9 @@ bool EncodeInto(OIIO::ImageOutput* out, const std::string& file_name,
     spec.alpha_channel = -1;
   }
   spec.attribute("oiio:ColorSpace", w.srgb ? "sRGB" : "Linear");
+  // matfit's images hold colour and alpha as separate values (straight alpha): stored as they
+  // are, never divided by alpha (as OpenImageIO does for associated colour).
+  spec.attribute("oiio:UnassociatedAlpha", 1);
   spec.attribute("Software", w.software);
   if (!w.srgb) spec.attribute("oiio:Gamma", 1.0f);
   const bool is_float = w.sample == Sample::kHalf || w.sample == Sample::kFloat;
@@ -130,7 +133,17 @@ bool EncodeInto(OIIO::ImageOutput* out, const std::string& file_name,
 class OiioBackend : public Backend {
  public:
   std::unique_ptr<Reader> Open(const std::string& path, std::string* error) override {
-    auto in = OIIO::ImageInput::open(path);
+    // Camera RAW (libraw): linear values (sRGB/Rec.709 primaries, no gamma, no automatic
+    // brightening), white-balanced with the camera's as-shot multipliers. Other formats ignore
+    // these hints.
+    OIIO::ImageSpec config;
+    config.attribute("raw:ColorSpace", "linear");
+    config.attribute("raw:use_camera_wb", 1);
+    config.attribute("raw:auto_bright", 0);
+    // Colours as stored, not multiplied by alpha: the alpha channel is a mask, and a sample's
+    // value must not depend on it.
+    config.attribute("oiio:UnassociatedAlpha", 1);
+    auto in = OIIO::ImageInput::open(path, &config);
     if (!in) {
       *error = LastError(nullptr);
       return nullptr;

@@ -197,9 +197,32 @@ StatusOr<NativeImage> ReadImageNative(const std::string& path, const ImageReadOp
     return DataError("image '" + shown + "' has " + std::to_string(h.height) + " rows; rows " +
                      std::to_string(row0) + ".." + std::to_string(row0 + rows - 1) +
                      " were asked for: all images of a stack must have the same size");
+  const int col0 = options.cols > 0 ? options.col0 : 0;
+  const int cols = options.cols > 0 ? options.cols : h.width;
+  if (col0 < 0 || col0 + cols > h.width)
+    return DataError("image '" + shown + "' has " + std::to_string(h.width) + " columns; columns " +
+                     std::to_string(col0) + ".." + std::to_string(col0 + cols - 1) +
+                     " were asked for: all images of a stack must have the same size");
   NativeImage img;
-  img.width = h.width, img.height = rows, img.channels = keep_ch;
-  const int64_t n = int64_t(h.width) * rows;
+  img.width = cols, img.height = rows, img.channels = keep_ch;
+  const int64_t n = int64_t(cols) * rows;
+  // The channel after the kept ones is alpha (grey+alpha, RGBA).
+  const bool want_alpha = options.alpha_mask && !options.all_channels &&
+                          (file_ch == 2 || file_ch == 4) && file_ch == keep_ch + 1;
+  // Rows are decoded whole; a column crop keeps [col0, col0 + cols) of each, in place.
+  auto read_rows = [&](auto* raw) {
+    using T = typename std::decay_t<decltype(*raw)>::value_type;
+    raw->resize(size_t(h.width) * rows * file_ch);
+    if (!in->ReadRows(row0, row0 + rows, raw->data())) return false;
+    if (cols != h.width) {
+      T* d = raw->data();
+      for (int r = 0; r < rows; ++r)
+        std::memmove(d + size_t(r) * cols * file_ch, d + (size_t(r) * h.width + col0) * file_ch,
+                     sizeof(T) * size_t(cols) * file_ch);
+      raw->resize(size_t(n) * file_ch);
+    }
+    return true;
+  };
   bool ok = false;
   int bytes_per_sample = 4;
   // Integer files keep their codes (native depth): read as T, split into planes.
@@ -208,9 +231,14 @@ StatusOr<NativeImage> ReadImageNative(const std::string& path, const ImageReadOp
     fi.pixel_format = name;
     img.type = sample;
     bytes_per_sample = int(sizeof(T));
-    std::vector<T> raw(size_t(n) * file_ch);
-    ok = in->ReadRows(row0, row0 + rows, raw.data());
+    std::vector<T> raw;
+    ok = read_rows(&raw);
     if (ok) *planes = Deinterleave(raw, n, file_ch, keep_ch, &fi.saturated_pixels);
+    if (ok && want_alpha) {
+      constexpr T kHalf = T(~T(0)) / 2;
+      fi.alpha_mask.resize(size_t(n));
+      for (int64_t p = 0; p < n; ++p) fi.alpha_mask[p] = raw[p * file_ch + keep_ch] > kHalf;
+    }
   };
   try {  // a header within the caps can still ask for more memory than there is
     if (h.sample == codec::Sample::kUint8) {
@@ -220,9 +248,9 @@ StatusOr<NativeImage> ReadImageNative(const std::string& path, const ImageReadOp
     } else {
       fi.pixel_format = h.sample == codec::Sample::kHalf ? "half" : "float";
       img.type = SampleType::kFloat32;
-      img.floats = Image(h.width, rows, keep_ch);
-      std::vector<float> raw(size_t(n) * file_ch);
-      ok = in->ReadRows(row0, row0 + rows, raw.data());
+      img.floats = Image(cols, rows, keep_ch);
+      std::vector<float> raw;
+      ok = read_rows(&raw);
       if (ok) {
         for (int64_t p = 0; p < n; ++p)
           for (int c = 0; c < keep_ch; ++c) {
@@ -230,6 +258,10 @@ StatusOr<NativeImage> ReadImageNative(const std::string& path, const ImageReadOp
             fi.nonfinite_samples += !std::isfinite(v);
             img.floats.Plane(c)[p] = std::isfinite(v) ? DecodeToLinear(v, fi.encoding) : v;
           }
+        if (want_alpha) {
+          fi.alpha_mask.resize(size_t(n));
+          for (int64_t p = 0; p < n; ++p) fi.alpha_mask[p] = raw[p * file_ch + keep_ch] > 0.5f;
+        }
       }
     }
   } catch (const std::bad_alloc&) {

@@ -28,6 +28,11 @@ struct ImageReadOptions {
   // Only rows [row0, row0 + rows) (rows 0: every row): a rank's band of a distributed stack.
   // The image returned has `rows` rows; saturation and non-finite counts are the band's.
   int row0 = 0, rows = 0;
+  // Only columns [col0, col0 + cols) (cols 0: every column): a crop. The image returned has
+  // `cols` columns; counts are the crop's.
+  int col0 = 0, cols = 0;
+  // Files with an alpha channel (grey+alpha, RGBA): fill ImageFileInfo::alpha_mask.
+  bool alpha_mask = false;
 };
 
 // What reading a file found out, for `matfit info` and warnings.
@@ -38,6 +43,9 @@ struct ImageFileInfo {
   std::string encoding_reason;    // "user override", "layout default", "file metadata", ...
   int64_t saturated_pixels = 0;   // integer formats: pixels with a channel at the max code
   int64_t nonfinite_samples = 0;  // float formats: NaN / Inf samples
+  // With ImageReadOptions::alpha_mask and a file with alpha: 1 where alpha > half its range
+  // (width × height of the image returned); otherwise empty.
+  std::vector<uint8_t> alpha_mask;
 };
 
 // Reads `path` as linear float: 1 channel for grey files, 3 for colour; alpha dropped.

@@ -169,6 +169,13 @@ class LightStack {
   // reports them with its own.
   std::vector<std::string> read_warnings;
 
+  // Where the mask came from ("mask.png", "alpha channel of 81 images"); empty: no mask. When
+  // the images' alpha is opaque everywhere there is no mask and this says so.
+  std::string mask_source;
+  // The images' own size in their files and where this stack's region starts (--crop; 0,0 and
+  // the stack's size when not cropped). 0 × 0 for stacks not read from files.
+  int source_width = 0, source_height = 0, crop_x = 0, crop_y = 0;
+
   bool has_mask() const { return !mask.empty(); }
   StackBand band;  // which rows of a distributed stack these are (default: the whole stack)
   int64_t MaskedTexels() const;  // texels inside the mask (all when no mask)

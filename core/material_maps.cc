@@ -1,9 +1,40 @@
 #include "core/material_maps.h"
 
+#include <algorithm>
+
 #include "core/model/model.h"
 
 namespace matfit {
 
 const char* ShadingModelName(ShadingModel m) { return Model(m).name(); }
+
+namespace {
+
+Image CropPlanes(const Image& img, int x, int y, int w, int h) {
+  if (img.empty()) return {};
+  Image out(w, h, img.channels());
+  for (int c = 0; c < img.channels(); ++c)
+    for (int r = 0; r < h; ++r)
+      std::copy_n(img.Plane(c).data() + int64_t(y + r) * img.width() + x, w,
+                  out.Plane(c).data() + int64_t(r) * w);
+  return out;
+}
+
+}  // namespace
+
+MaterialMaps CropMaps(const MaterialMaps& m, int x, int y, int w, int h) {
+  MATFIT_CHECK(x >= 0 && y >= 0 && w > 0 && h > 0 && x + w <= m.width && y + h <= m.height);
+  MaterialMaps out = m;
+  out.width = w, out.height = h;
+  for (Image MaterialMaps::*plane :
+       {&MaterialMaps::normal, &MaterialMaps::albedo, &MaterialMaps::height_map,
+        &MaterialMaps::specular, &MaterialMaps::exponent, &MaterialMaps::roughness,
+        &MaterialMaps::thickness, &MaterialMaps::translucency, &MaterialMaps::albedo_back,
+        &MaterialMaps::hl2, &MaterialMaps::mask, &MaterialMaps::ambient,
+        &MaterialMaps::normal_scale, &MaterialMaps::specular_color, &MaterialMaps::coefficients,
+        &MaterialMaps::interpolation_error, &MaterialMaps::lobe_shape})
+    out.*plane = CropPlanes(m.*plane, x, y, w, h);
+  return out;
+}
 
 }  // namespace matfit

@@ -24,6 +24,9 @@ LightStack EmptyLike(const LightStack& s, int w, int h, bool native) {
   out.encodings = s.encodings, out.encoding_reasons = s.encoding_reasons;
   out.saturated_pixels = s.saturated_pixels, out.nonfinite_samples = s.nonfinite_samples;
   out.band = s.band;
+  out.mask_source = s.mask_source;
+  out.source_width = s.source_width, out.source_height = s.source_height;
+  out.crop_x = s.crop_x, out.crop_y = s.crop_y;
   return out;
 }
 

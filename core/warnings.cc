@@ -30,11 +30,12 @@ constexpr std::array kWarnings = {
                 "NaN or Inf samples in float images"},
     WarningSpec{W::kBlackImages, "black-images", "dataset", "images whose maximum is < 1e-4"},
     WarningSpec{W::kEmptyMask, "empty-mask", "dataset", "the mask selects no texel"},
-    WarningSpec{W::kLightCountMismatch, "light-count-mismatch", "dataset",
-                "the light file lists fewer lights than the folder has numbered images: the "
-                "extra images are not used"},
     WarningSpec{W::kAlphaDropped, "alpha-dropped", "dataset",
-                "images have an alpha channel, which is not used (not a mask)"},
+                "the images have an alpha channel but a mask file is given: the mask file is "
+                "used, the alpha is not"},
+    WarningSpec{W::kLpPathFallback, "lp-path-fallback", "dataset",
+                "`.lp` entries name absolute or another machine's paths (e.g. C:\\...): the "
+                "files of those names beside the .lp file are read"},
     WarningSpec{W::kEncodingAssumed, "encoding-assumed", "dataset",
                 "images carry no colour metadata: their encoding is the bit-depth convention "
                 "(8-bit sRGB, deeper linear), not known"},

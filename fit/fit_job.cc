@@ -76,6 +76,26 @@ class Stages {
 
 Status Cancelled() { return Status(StatusCode::kCancelled, "cancelled"); }
 
+// The truth maps of the stack's region: a dataset read with --crop is compared with the same
+// region of its truth (maps of the whole images' size are cut; any other size is left to fail
+// the size check).
+StatusOr<MaterialMaps> TruthOfRegion(StatusOr<MaterialMaps> truth, const LightStack& stack) {
+  const bool cropped = stack.source_width > 0 && (stack.width() != stack.source_width ||
+                                                  stack.full_height() != stack.source_height);
+  if (!truth.ok() || !cropped || truth->width != stack.source_width ||
+      truth->height != stack.source_height)
+    return truth;
+  return CropMaps(*truth, stack.crop_x, stack.crop_y, stack.width(), stack.full_height());
+}
+
+// report.json's "crop": the region of the source images the stack holds, when not all of them.
+std::optional<FitReportInputs::Region> CropRegion(const LightStack& s) {
+  if (s.source_width <= 0 || (s.width() == s.source_width && s.full_height() == s.source_height))
+    return std::nullopt;
+  return FitReportInputs::Region{s.crop_x,        s.crop_y,       s.width(),
+                                 s.full_height(), s.source_width, s.source_height};
+}
+
 // The steps after scoring, on the whole stack's maps (rank 0 of a distributed fit): truth,
 // report.json and the pack.
 Status FinishJob(const FitJobOptions& o, const LightStack& stack, const FitMethod& method,
@@ -86,7 +106,7 @@ Status FinishJob(const FitJobOptions& o, const LightStack& stack, const FitMetho
   const std::string truth_dir = synth::FindTruthFolder(o.input);
   if (!truth_dir.empty()) {
     if (!stages->Begin("truth")) return Cancelled();
-    auto truth = synth::ReadTruth(truth_dir, o.read.confine_to);
+    auto truth = TruthOfRegion(synth::ReadTruth(truth_dir, o.read.confine_to), stack);
     if (truth.ok() && truth->width == stack.width() && truth->height == stack.full_height()) {
       r.truth = CompareToTruth(fit.maps, *truth, fitted_status);
       // The bound claims the supported cone: scored there, as the stability matrix does. Only
@@ -126,6 +146,7 @@ Status FinishJob(const FitJobOptions& o, const LightStack& stack, const FitMetho
   ri.bound_ratio_truth = r.bound_ratio_truth;
   if (selection) ri.selection_json = SelectionJson(*selection, scene);
   ri.source = o.source_label.empty() ? o.input : o.source_label;
+  ri.crop = CropRegion(stack);
   r.report_json = MakeReportJson(ri);  // for material.json's summary; timed again below
 
   PackInfo info;
@@ -300,7 +321,7 @@ StatusOr<FitJobResult> RunFitJob(const FitJobOptions& o, const StageProgress& pr
     const std::string truth_dir = synth::FindTruthFolder(o.input);
     if (!truth_dir.empty()) {
       if (!stages.Begin("truth")) return Cancelled();
-      if (auto truth = synth::ReadTruth(truth_dir, o.read.confine_to);
+      if (auto truth = TruthOfRegion(synth::ReadTruth(truth_dir, o.read.confine_to), *stack);
           truth.ok() && truth->width == stack->width())
         r.truth = CompareToTruth(r.fit.maps, *truth, r.fit.status);
       stages.End();
@@ -313,6 +334,7 @@ StatusOr<FitJobResult> RunFitJob(const FitJobOptions& o, const StageProgress& pr
     ri.reconstruction_common = r.reconstruction_common;
     ri.truth = r.truth;
     ri.source = o.source_label.empty() ? o.input : o.source_label;
+    ri.crop = CropRegion(*stack);
     ri.timings = &r.timings;
     ri.tone = r.tone ? &*r.tone : nullptr;
     ri.read_encoding = r.read_encoding;

@@ -33,6 +33,13 @@ std::string MakeReportJson(const FitReportInputs& in) {
       {"method", r.method},
       {"model", ShadingModelName(r.maps.model)},
       {"source", in.source},
+      {"crop", in.crop ? json({{"x", in.crop->x},
+                               {"y", in.crop->y},
+                               {"width", in.crop->width},
+                               {"height", in.crop->height},
+                               {"source_width", in.crop->source_width},
+                               {"source_height", in.crop->source_height}})
+                       : json()},
       {"fit_seconds", r.fit_seconds},
       {"texels", int64_t(r.maps.width) * r.maps.height},
       {"images", in.images},

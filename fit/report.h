@@ -38,6 +38,12 @@ struct FitReportInputs {
   std::string selection_json;  // optional: SelectionJson (model auto)
   std::string source;
   const StageTimings* timings = nullptr;  // optional: report.json "timings"
+  // --crop: the region of the source images that was fitted (report.json "crop"; null when
+  // the whole images were).
+  struct Region {
+    int x = 0, y = 0, width = 0, height = 0, source_width = 0, source_height = 0;
+  };
+  std::optional<Region> crop;
 };
 
 std::string MakeReportJson(const FitReportInputs& in);

@@ -42,6 +42,8 @@ bool LeafJobOptions::Check(std::string* why) const {
   if (!(default_mm_per_pixel >= 1e-3 && default_mm_per_pixel <= 100))
     return fail("default mm per pixel must be in [0.001, 100], got " + num(default_mm_per_pixel));
   if (only_leaf < 0) return fail("--leaf must be ≥ 1, got " + std::to_string(only_leaf));
+  if (crop && (crop->x < 0 || crop->y < 0 || crop->w <= 0 || crop->h <= 0))
+    return fail("--crop needs x,y ≥ 0 and a width and height > 0");
   return sheet.Check(why) && material.Check(why);
 }
 
@@ -138,6 +140,7 @@ StatusOr<LeafJobResult> RunLeafJob(const LeafJobOptions& o, const LeafProgress& 
   ro.manifest = o.manifest;
   ro.confine = o.confine;
   ro.max_samples = o.max_stack_samples;
+  ro.crop = o.crop;
   auto scan = ReadLeafScan(o.input, ro);
   if (!scan.ok()) return scan.status();
   if (o.max_thickness_mm > 0) scan->max_thickness_mm = o.max_thickness_mm;
@@ -346,6 +349,11 @@ StatusOr<LeafJobResult> RunLeafJob(const LeafJobOptions& o, const LeafProgress& 
         {"schema", "matfit.leaves/1"},
         {"source", o.source_label.empty() ? o.input : o.source_label},
         {"size", {{"width", sheet->width}, {"height", sheet->height}}},
+        {"crop", o.crop ? json({{"x", o.crop->x},
+                                {"y", o.crop->y},
+                                {"width", o.crop->w},
+                                {"height", o.crop->h}})
+                        : json()},
         {"scale", {{"mm_per_pixel", res.mm_per_pixel}, {"source", res.scale_source}}},
         {"counts",
          {{"leaves", res.leaves},

@@ -5,9 +5,11 @@
 
 #include <cstdint>
 #include <functional>
+#include <optional>
 #include <string>
 #include <vector>
 
+#include "core/dataset/dataset.h"
 #include "core/image.h"
 #include "core/material_maps.h"
 #include "core/status.h"
@@ -33,6 +35,7 @@ struct LeafJobOptions {
   int only_leaf = 0;                  // process just this leaf id (0 = every leaf)
   bool confine = false;               // every file the scan names must lie inside `input`
   int64_t max_stack_samples = 0;      // images × w × h × channels of the scan; 0 = no limit
+  std::optional<CropRect> crop;       // --crop: only this region of every image of the scan
   // Preview renders of a leaf pack lit from the front / from behind (render/); empty = none.
   std::function<StatusOr<Image>(const MaterialMaps&, bool from_behind)> preview;
   // What leaves.json and the packs name as the input (empty: `input`). The server passes a

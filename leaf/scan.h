@@ -3,9 +3,11 @@
 #pragma once
 
 #include <cstdint>
+#include <optional>
 #include <string>
 #include <vector>
 
+#include "core/dataset/dataset.h"
 #include "core/image.h"
 #include "core/light_stack.h"
 #include "core/status.h"
@@ -43,6 +45,8 @@ struct LeafScanReadOptions {
   // Check only (the server's submission check): files, manifest and headers; no pixel decoded,
   // the scan returned holds no images.
   bool headers_only = false;
+  // Only this region of every image of the scan (--crop); it must lie inside them.
+  std::optional<CropRect> crop;
 };
 
 // Reads a leaf-scan folder. No manifest: DIR/leaf.json when present, else detection

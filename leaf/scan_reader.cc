@@ -7,6 +7,7 @@
 #include <sstream>
 
 #include "core/dataset/dataset.h"
+#include "core/dataset/stack_loader.h"
 #include "core/image_io.h"
 #include "core/path_util.h"
 #include "leaf/scan.h"
@@ -69,10 +70,11 @@ std::string Num(double v) {
 }
 
 Status ReadOne(const std::string& path, ColorSpaceChoice cs, const std::string& confine,
-               Image* out) {
+               const std::optional<CropRect>& crop, Image* out) {
   ImageReadOptions o;
   o.color_space = cs;
   o.confine_to = confine;
+  if (crop) o.col0 = crop->x, o.cols = crop->w, o.row0 = crop->y, o.rows = crop->h;
   auto img = ReadImage(path, o);
   if (!img.ok()) return img.status();
   *out = std::move(*img);
@@ -197,6 +199,7 @@ StatusOr<LeafScan> ReadLeafScan(const std::string& dir, const LeafScanReadOption
       ro.layout = Layout::kLp;
       ro.confine_to = confine_to;
       ro.headers_only = true;
+      ro.crop = options.crop;
       auto st = ReadLp(in_dir(top), ro);
       if (!st.ok()) return st.status();
       images += int64_t(st->lights().size());
@@ -216,6 +219,10 @@ StatusOr<LeafScan> ReadLeafScan(const std::string& dir, const LeafScanReadOption
       auto hd = ReadImageHeader(in_dir(f), io);
       if (!hd.ok()) return hd.status();
       ++images;
+      if (options.crop) {
+        MATFIT_RETURN_IF_ERROR(CheckCrop(*options.crop, hd->width, hd->height, f));
+        hd->width = options.crop->w, hd->height = options.crop->h;
+      }
       samples += int64_t(hd->width) * hd->height * hd->channels;
     }
     if (options.max_samples > 0 && samples > options.max_samples)
@@ -231,16 +238,17 @@ StatusOr<LeafScan> ReadLeafScan(const std::string& dir, const LeafScanReadOption
     ro.layout = Layout::kLp;
     ro.color_space = cs;
     ro.confine_to = confine_to;
+    ro.crop = options.crop;
     auto st = ReadLp(in_dir(top), ro);
     if (!st.ok()) return st.status();
     scan.top = std::move(*st);
   } else {
-    MATFIT_RETURN_IF_ERROR(ReadOne(in_dir(front), cs, confine_to, &scan.front));
+    MATFIT_RETURN_IF_ERROR(ReadOne(in_dir(front), cs, confine_to, options.crop, &scan.front));
     scan.front_file = front;
   }
   for (const auto& f : back) {
     Image img;
-    MATFIT_RETURN_IF_ERROR(ReadOne(in_dir(f), cs, confine_to, &img));
+    MATFIT_RETURN_IF_ERROR(ReadOne(in_dir(f), cs, confine_to, options.crop, &img));
     scan.back.push_back(std::move(img));
     scan.back_files.push_back(f);
   }
@@ -276,7 +284,7 @@ StatusOr<LeafScan> ReadLeafScan(const std::string& dir, const LeafScanReadOption
     const bool albedo = sf.find("albedo") != std::string::npos;
     const bool normal = sf.find("normal") != std::string::npos;
     MATFIT_RETURN_IF_ERROR(
-        ReadOne(in_dir(f), albedo ? cs : ColorSpaceChoice::kLinear, confine_to, img));
+        ReadOne(in_dir(f), albedo ? cs : ColorSpaceChoice::kLinear, confine_to, options.crop, img));
     MATFIT_RETURN_IF_ERROR(check_grid(*img, "'" + sf + "' (" + f + ")"));
     if (normal && img->channels() < 3)
       return DataError("leaf scan '" + dir + "': '" + sf + "' (" + f +

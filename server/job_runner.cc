@@ -9,7 +9,6 @@
 
 #include "core/color.h"
 #include "core/dataset/dataset.h"
-#include "core/warnings.h"
 #include "fit/fit_job.h"
 #include "leaf/leaf_job.h"
 #include "leaf/scan.h"
@@ -119,12 +118,6 @@ Status ValidateDataset(const JobSpec& spec, const std::string& dir, int64_t max_
                                                        : "";
     return stack.status();
   }
-  // A miscounted light file would silently leave images out of the fit: refuse it here.
-  const std::string mismatch = std::string(WarningName(WarningCode::kLightCountMismatch)) + ": ";
-  for (const auto& w : stack->read_warnings)
-    if (w.rfind(mismatch, 0) == 0)
-      return DataError(w.substr(mismatch.size()) +
-                       " (or leave the extra images out of the upload)");
   const int images = int(stack->lights().size());
   if (spec.holdout > images)
     return *field = "holdout",

@@ -76,8 +76,9 @@ std::string MakeBonnViewFolder(double theta_v, double phi_v) {
 bool IsImageExtension(const std::string& ext) {
   std::string e = ext;
   std::transform(e.begin(), e.end(), e.begin(), [](unsigned char c) { return std::tolower(c); });
-  return e == ".png" || e == ".jpg" || e == ".jpeg" || e == ".tga" || e == ".tif" || e == ".tiff" ||
-         e == ".exr" || e == ".bmp" || e == ".hdr";
+  for (const char* known : kImageExtensions)
+    if (e == known) return true;
+  return false;
 }
 
 }  // namespace matfit

@@ -22,6 +22,11 @@ std::string MakeUtiaName(const BtfName& angles, const std::string& ext);
 // Folder of one view in the Bonn layout: "tv030_pv060".
 std::string MakeBonnViewFolder(double theta_v, double phi_v);
 
+// Extensions of the image files datasets may hold, lower case: the formats matfit decodes
+// natively and those OpenImageIO reads here (camera RAW through libraw, docs/formats.md).
+inline constexpr const char* kImageExtensions[] = {
+    ".png", ".jpg", ".jpeg", ".tga", ".tif", ".tiff", ".exr", ".bmp", ".hdr", ".webp", ".ppm",
+    ".pgm", ".dng", ".cr2",  ".nef", ".arw", ".raf",  ".orf", ".rw2", ".pef", ".srw"};
 bool IsImageExtension(const std::string& ext);  // ".png", ".JPG", ".exr", ...
 
 }  // namespace matfit

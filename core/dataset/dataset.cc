@@ -57,7 +57,30 @@ bool ParseLayout(const std::string& name, Layout* out) {
   return false;
 }
 
+bool ParseCrop(const std::string& text, CropRect* out) {
+  int v[4];
+  size_t pos = 0;
+  for (int i = 0; i < 4; ++i) {
+    const size_t end = i < 3 ? text.find(',', pos) : text.size();
+    if (end == std::string::npos || end == pos || end - pos > 9) return false;
+    v[i] = 0;
+    for (size_t k = pos; k < end; ++k) {
+      if (text[k] < '0' || text[k] > '9') return false;
+      v[i] = v[i] * 10 + (text[k] - '0');
+    }
+    pos = end + 1;
+  }
+  if (v[2] <= 0 || v[3] <= 0) return false;
+  *out = CropRect{v[0], v[1], v[2], v[3]};
+  return true;
+}
+
 bool ReadOptions::Check(std::string* why) const {
+  if (crop && (crop->x < 0 || crop->y < 0 || crop->w <= 0 || crop->h <= 0)) {
+    *why = "--crop needs x,y ≥ 0 and a width and height > 0, got " + std::to_string(crop->x) + "," +
+           std::to_string(crop->y) + "," + std::to_string(crop->w) + "," + std::to_string(crop->h);
+    return false;
+  }
   if (row0 < 0 || rows < 0) {
     *why = "a band of rows needs row0 ≥ 0 and rows ≥ 0 (0 = all), got " + std::to_string(row0) +
            " and " + std::to_string(rows);
@@ -117,12 +140,22 @@ StatusOr<Layout> DetectLayout(const std::string& path, std::string* reason,
   const std::string name = p.filename().string();
   const std::string lights = FindLightsTxt(path, confine_to);
   if (!lights.empty()) {
-    for (const auto& e : fs::directory_iterator(p, ec))
-      if (e.path().stem() == name + ".0") {
-        found.push_back({Layout::kLightsTxt, "'" + DatasetRelative(lights, confine_to) +
-                                                 "' and numbered images " + name + ".N"});
-        break;
-      }
+    // Numbered images NAME.N; else, with lights.txt in the folder itself, images.txt or any
+    // image files (the reader orders them by name).
+    std::string evidence;
+    bool images = false;
+    for (const auto& e : fs::directory_iterator(p, ec)) {
+      if (e.path().stem() == name + ".0") evidence = "numbered images " + name + ".N";
+      images |= e.is_regular_file(ec) && IsImageExtension(e.path().extension().string());
+    }
+    const bool here = fs::is_regular_file(p / "lights.txt", ec);
+    if (evidence.empty() && fs::is_regular_file(p / "images.txt", ec))
+      evidence = "the image list images.txt";
+    else if (evidence.empty() && here && images)
+      evidence = "image files (in light order by name)";
+    if (!evidence.empty())
+      found.push_back(
+          {Layout::kLightsTxt, "'" + DatasetRelative(lights, confine_to) + "' and " + evidence});
   }
   if (AnyMatching(p, ParseBonnName))
     found.push_back(
@@ -150,9 +183,9 @@ StatusOr<Layout> DetectLayout(const std::string& path, std::string* reason,
             "read: copy it into the dataset folder)"
           : "";
   return DataError("cannot tell the layout of " + shown +
-                   ": found no filenames.txt (DiLiGenT), no .lp file, no lights.txt with images "
-                   "named " +
-                   name + ".0.*" + parent_note +
+                   ": found no filenames.txt (DiLiGenT), no .lp file, no lights.txt with "
+                   "images (named " +
+                   name + ".0.*, listed in images.txt, or beside it)" + parent_note +
                    ", and no BTF-named images; see docs/formats.md or pass "
                    "--layout");
 }

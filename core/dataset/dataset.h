@@ -26,6 +26,13 @@ struct ViewAngles {
   double phi_deg = 0;    // azimuth, [0, 360)
 };
 
+// A region of the images, in pixels of the files: columns [x, x + w), rows [y, y + h).
+struct CropRect {
+  int x = 0, y = 0, w = 0, h = 0;
+};
+// "x,y,w,h" (non-negative integers, w and h > 0); false when malformed.
+bool ParseCrop(const std::string& text, CropRect* out);
+
 struct ReadOptions {
   Layout layout = Layout::kAuto;  // kAuto: detect from the folder's contents
   // BTF layouts: which view to load; unset = the most frontal view present.
@@ -47,6 +54,9 @@ struct ReadOptions {
   // Only rows [row0, row0 + rows) of every image and mask (rows 0: all): a rank's band of a
   // distributed fit. The stack holds those rows; its band records where they lie.
   int row0 = 0, rows = 0;
+  // Only this region of every image and mask (--crop); it must lie inside the images. Bands
+  // (row0, rows) count rows of the region.
+  std::optional<CropRect> crop;
 
   bool Check(std::string* why) const;
 };

@@ -80,9 +80,7 @@ StatusOr<LightStack> ReadDiligent(const std::string& dir, const ReadOptions& o) 
   const fs::path mask = d / "mask.png";
   std::error_code ec;
   if (fs::exists(mask, ec)) {
-    auto m = ReadMaskImage(mask.string(), stack->width(), stack->full_height(), o);
-    if (!m.ok()) return m.status();
-    stack->mask = std::move(*m);
+    MATFIT_RETURN_IF_ERROR(ApplyMaskFile(mask.string(), o, &*stack));
   }
   stack->layout = LayoutName(Layout::kDiligent);
   stack->source = dir;

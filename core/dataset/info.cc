@@ -121,6 +121,12 @@ DatasetInfo ComputeDatasetInfo(const LightStack& s) {
   info.sample_type = SampleTypeName(s.sample_type());
   info.view_theta_deg = s.view_theta_deg, info.view_phi_deg = s.view_phi_deg;
   info.has_mask = s.has_mask();
+  info.mask_source = s.mask_source;
+  info.source_width = s.source_width, info.source_height = s.source_height;
+  info.crop_x = s.crop_x, info.crop_y = s.crop_y;
+  info.cropped =
+      s.source_width > 0 && (s.source_width != s.width() || s.source_height != s.full_height() ||
+                             s.crop_x != 0 || s.crop_y != 0);
   info.masked_texels = texel_counts[1];
   const int n = s.num_images();
 
@@ -283,13 +289,20 @@ std::string FormatDatasetInfo(const DatasetInfo& d) {
        std::to_string(d.height) + ", " + std::to_string(d.channels) + " channel(s), " +
        HumanBytes(double(d.memory_bytes)) + " as " +
        (d.sample_type.empty() ? "float32" : d.sample_type) + "\n";
+  if (d.cropped)
+    o += "region       " + std::to_string(d.width) + "x" + std::to_string(d.height) + " at " +
+         std::to_string(d.crop_x) + "," + std::to_string(d.crop_y) + " of the " +
+         std::to_string(d.source_width) + "x" + std::to_string(d.source_height) +
+         " images (--crop)\n";
   o += "view         θv=" + Fmt("%.1f", d.view_theta_deg) + "° φv=" + Fmt("%.1f", d.view_phi_deg) +
        "°\n";
   for (const auto& e : d.encodings) o += "colour       " + e + "\n";
   o += "mask         " +
        (d.has_mask ? std::to_string(d.masked_texels) + " of " +
-                         std::to_string(int64_t(d.width) * d.height) + " texels"
-                   : std::string("none (all texels)")) +
+                         std::to_string(int64_t(d.width) * d.height) + " texels" +
+                         (d.mask_source.empty() ? "" : ", from the " + d.mask_source)
+        : d.mask_source.empty() ? std::string("none (all texels)")
+                                : d.mask_source + " (all texels)") +
        "\n";
   o += "lights       θl " + Fmt("%.1f", d.theta_min) + "°..." + Fmt("%.1f", d.theta_max) +
        "°, largest azimuth gap " + Fmt("%.0f", d.max_azimuth_gap_deg) + "°, intensity " +
@@ -330,6 +343,14 @@ std::string DatasetInfoJson(const DatasetInfo& d) {
       {"view", {{"theta_deg", d.view_theta_deg}, {"phi_deg", d.view_phi_deg}}},
       {"encodings", d.encodings},
       {"mask_texels", d.has_mask ? nlohmann::json(d.masked_texels) : nlohmann::json()},
+      {"mask_source", d.mask_source},
+      {"crop", d.cropped ? nlohmann::json({{"x", d.crop_x},
+                                           {"y", d.crop_y},
+                                           {"width", d.width},
+                                           {"height", d.height},
+                                           {"source_width", d.source_width},
+                                           {"source_height", d.source_height}})
+                         : nlohmann::json()},
       {"theta_groups", groups},
       {"theta_min_deg", d.theta_min},
       {"theta_max_deg", d.theta_max},

@@ -33,6 +33,10 @@ struct DatasetInfo {
   std::vector<std::string> encodings;  // "sRGB (8-bit default (sRGB)) × 12"
   int64_t masked_texels = 0;           // texels inside the mask
   bool has_mask = false;
+  std::string mask_source;  // LightStack::mask_source
+  // --crop: the region of the source images the stack holds (cropped false: all of them).
+  bool cropped = false;
+  int crop_x = 0, crop_y = 0, source_width = 0, source_height = 0;
   double saturated_fraction = 0;  // of all pixels of all images
   std::string worst_saturated_file;
   double worst_saturated_fraction = 0;

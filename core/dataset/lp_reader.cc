@@ -1,15 +1,57 @@
 // RTI `.lp` light files: first line N, then N lines "file lx ly lz" (paths relative to the
 // .lp file; file names may contain spaces, the last three tokens are the direction).
 // An optional mask.png beside the .lp file is read as the sample mask.
+#include <cctype>
 #include <filesystem>
 
 #include "core/dataset/dataset.h"
 #include "core/dataset/stack_loader.h"
+#include "core/path_util.h"
 #include "core/text_file.h"
+#include "core/warnings.h"
 
 namespace matfit {
 namespace {
 namespace fs = std::filesystem;
+
+// A path written on another system: a Windows drive ("C:\\..", "C:/..") or UNC ("\\\\host")
+// path, or any path with backslash separators.
+bool IsWindowsPath(const std::string& p) {
+  return p.find('\\') != std::string::npos ||
+         (p.size() >= 2 && std::isalpha(static_cast<unsigned char>(p[0])) && p[1] == ':');
+}
+
+}  // namespace
+
+bool IsForeignPath(const std::string& name) {
+  return IsWindowsPath(name) || fs::path(name).is_absolute();
+}
+
+std::string ForeignBaseName(const std::string& name) {
+  const size_t cut = name.find_last_of(IsWindowsPath(name) ? "/\\:" : "/");
+  return cut == std::string::npos ? name : name.substr(cut + 1);
+}
+
+std::string ResolveLpImage(const std::string& name, const fs::path& base,
+                           const std::string& confine_to, bool* by_base_name) {
+  std::error_code ec;
+  *by_base_name = false;
+  // Relative names are the format's: beside the .lp file. Absolute POSIX paths are used as
+  // they are, except in a confined (server) dataset, which never looks outside its folder.
+  if (!IsWindowsPath(name)) {
+    const fs::path as_written = fs::path(name).is_absolute() ? fs::path(name) : base / name;
+    if ((confine_to.empty() || !fs::path(name).is_absolute()) &&
+        fs::is_regular_file(as_written, ec))
+      return as_written.string();
+  }
+  // Files from another machine (absolute, Windows, or a sub-folder that is not here): the base
+  // name beside the .lp file, as RTIBuilder users copy the images.
+  const std::string leaf = ForeignBaseName(name);
+  if (leaf.empty() || leaf == "." || leaf == "..") return {};
+  const fs::path local = base / leaf;
+  if (!fs::is_regular_file(local, ec)) return {};
+  *by_base_name = true;
+  return local.string();
 }
 
 StatusOr<LightStack> ReadLp(const std::string& path, const ReadOptions& o) {
@@ -31,6 +73,8 @@ StatusOr<LightStack> ReadLp(const std::string& path, const ReadOptions& o) {
   const fs::path base = fs::path(path).parent_path();
   std::vector<std::string> files;
   std::vector<LightSample> lights;
+  int fallbacks = 0;
+  std::string first_fallback;
   for (size_t i = 1; i < lines->size(); ++i) {
     const TextLine& l = (*lines)[i];
     if (l.tokens.size() < 4)
@@ -47,18 +91,19 @@ StatusOr<LightStack> ReadLp(const std::string& path, const ReadOptions& o) {
     // File name: everything before the direction (may contain spaces).
     std::string name = l.tokens[0];
     for (size_t t = 1; t + 3 < k; ++t) name += " " + l.tokens[t];
-    fs::path file = fs::path(name).is_absolute() ? fs::path(name) : base / name;
-    std::error_code ec;
-    if (!fs::is_regular_file(file, ec)) {
-      // Files written on another machine often carry its absolute path: try the base name.
-      const fs::path local = base / fs::path(name).filename();
-      if (fs::is_regular_file(local, ec))
-        file = local;
-      else
-        return NotFound(AtLine(
-            path, l.number, "image '" + name + "' not found (looked for '" + file.string() + "')"));
+    bool by_base_name = false;
+    const std::string file = ResolveLpImage(name, base, o.confine_to, &by_base_name);
+    if (file.empty()) {
+      const std::string leaf = ForeignBaseName(name);
+      auto shown = [&](const fs::path& p) { return DatasetRelative(p.string(), o.confine_to); };
+      return NotFound(AtLine(shown(path), l.number,
+                             "image '" + name + "' not found" +
+                                 (IsForeignPath(name) ? "" : " as '" + shown(base / name) + "'") +
+                                 (leaf != name ? " nor as '" + shown(base / leaf) + "'" : "") +
+                                 "; put the image beside the .lp file or fix its path"));
     }
-    files.push_back(file.string());
+    if (by_base_name && ++fallbacks == 1) first_fallback = name;
+    files.push_back(file);
     lights.push_back(*light);
   }
   ImageReadOptions io;
@@ -66,13 +111,18 @@ StatusOr<LightStack> ReadLp(const std::string& path, const ReadOptions& o) {
   io.confine_to = o.confine_to;
   auto stack = LoadStack(files, std::move(lights), io, o);
   if (!stack.ok()) return stack.status();
+  if (fallbacks > 0)
+    stack->read_warnings.push_back(
+        Warning(WarningCode::kLpPathFallback,
+                std::to_string(fallbacks) + " of " + std::to_string(count) + " image paths in '" +
+                    DatasetRelative(path, o.confine_to) +
+                    "' are absolute or from another machine (first: '" + first_fallback +
+                    "'); the files of those names beside the .lp file were read"));
   // Optional mask beside the light file (written by `matfit synth`; white = sample).
   const fs::path mask = base / "mask.png";
   std::error_code ec;
   if (fs::is_regular_file(mask, ec)) {
-    auto m = ReadMaskImage(mask.string(), stack->width(), stack->full_height(), o);
-    if (!m.ok()) return m.status();
-    stack->mask = std::move(*m);
+    MATFIT_RETURN_IF_ERROR(ApplyMaskFile(mask.string(), o, &*stack));
   }
   stack->layout = LayoutName(Layout::kLp);
   stack->source = path;

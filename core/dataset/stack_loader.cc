@@ -40,7 +40,7 @@ void StorePlanes(const NativeImage& img, int i, LightStack* stack) {
 // and the caller loads again as float).
 StatusOr<LightStack> Load(const std::vector<std::string>& files, std::vector<LightSample> lights,
                           const ImageReadOptions& options, const ProgressFn& progress,
-                          bool as_float, bool* uniform) {
+                          bool as_float, bool banded, bool* uniform) {
   *uniform = true;
   ImageFileInfo first_info;
   auto read = [&](const std::string& path, ImageFileInfo* info) -> StatusOr<NativeImage> {
@@ -80,9 +80,17 @@ StatusOr<LightStack> Load(const std::vector<std::string>& files, std::vector<Lig
   std::vector<Status> errors(n);
   std::atomic<int64_t> done{0};
   std::atomic<bool> mixed{false};
-  std::mutex progress_mutex;
+  std::mutex progress_mutex, alpha_mutex;
+  int alpha_images = 0;
   auto store = [&](int i, const NativeImage& img, const ImageFileInfo& info) {
     StorePlanes(img, i, &stack);
+    if (!info.alpha_mask.empty()) {  // a texel is a sample where every image's alpha says so
+      std::lock_guard<std::mutex> lock(alpha_mutex);
+      if (alpha_images++ == 0)
+        stack.mask = info.alpha_mask;
+      else
+        for (size_t p = 0; p < stack.mask.size(); ++p) stack.mask[p] &= info.alpha_mask[p];
+    }
     stack.encodings[i] = info.encoding;
     stack.encoding_reasons[i] = info.encoding_reason;
     stack.saturated_pixels[i] = info.saturated_pixels;
@@ -129,10 +137,55 @@ StatusOr<LightStack> Load(const std::vector<std::string>& files, std::vector<Lig
     return stack;
   }
   if (progress) progress(n, n);
+  // A rank's band keeps its part of the alpha mask as it is: whether the whole mask is empty or
+  // full is a question about every band.
+  if (alpha_images > 0 && banded) {
+    stack.mask_source =
+        "alpha channel (" + std::to_string(alpha_images) + " of " + std::to_string(n) + " images)";
+  } else if (alpha_images > 0) {
+    const int64_t inside = std::count(stack.mask.begin(), stack.mask.end(), uint8_t(1));
+    const std::string of = std::to_string(alpha_images) + " of " + std::to_string(n) + " images";
+    if (inside == 0)
+      return DataError("the alpha channel of the images (" + of +
+                       " have one) is transparent at every pixel, so no pixel would be fitted; "
+                       "save the images without alpha, or make the sample opaque");
+    if (inside == int64_t(stack.mask.size())) {
+      stack.mask.clear();  // opaque everywhere: every texel, no mask needed
+      stack.mask_source = "none: the alpha channel (" + of + ") is opaque everywhere";
+    } else {
+      stack.mask_source = "alpha channel (" + of + ")";
+    }
+  }
   return stack;
 }
 
 }  // namespace
+
+Status CheckCrop(const CropRect& c, int width, int height, const std::string& file) {
+  if (c.x < 0 || c.y < 0 || c.w <= 0 || c.h <= 0 || int64_t(c.x) + c.w > width ||
+      int64_t(c.y) + c.h > height)
+    return DataError("--crop " + std::to_string(c.x) + "," + std::to_string(c.y) + "," +
+                     std::to_string(c.w) + "," + std::to_string(c.h) +
+                     " (x,y,width,height) reaches outside the " + std::to_string(width) + "x" +
+                     std::to_string(height) + " images (e.g. '" + file +
+                     "'); the region must lie inside them");
+  return Status::Ok();
+}
+
+Status ApplyMaskFile(const std::string& path, const ReadOptions& o, LightStack* stack) {
+  auto m = ReadMaskImage(path, stack->source_width, stack->source_height, o);
+  if (!m.ok()) return m.status();
+  const std::string shown = DatasetRelative(path, o.confine_to);
+  if (stack->mask_source.rfind("alpha", 0) == 0)  // the file is the user's explicit choice
+    stack->read_warnings.push_back(Warning(WarningCode::kAlphaDropped,
+                                           "the images have an alpha channel, but the mask file '" +
+                                               shown +
+                                               "' is used instead; remove the mask file to mask by "
+                                               "the alpha channel"));
+  stack->mask = std::move(*m);
+  stack->mask_source = "mask file '" + shown + "'";
+  return Status::Ok();
+}
 
 StatusOr<LightStack> LoadStack(const std::vector<std::string>& files,
                                std::vector<LightSample> lights, const ImageReadOptions& options_in,
@@ -141,29 +194,32 @@ StatusOr<LightStack> LoadStack(const std::vector<std::string>& files,
   if (files.empty()) return DataError("the dataset lists no images");
   ImageReadOptions options = options_in;
   options.confine_to = o.confine_to;
-  if (!o.headers_only) options.row0 = o.row0, options.rows = o.rows;
   // Headers first: a decompression bomb (tiny files declaring huge images) is refused here,
   // before a pixel is decoded or a byte of the stack allocated.
   auto first = ReadImageHeader(files[0], options);
   if (!first.ok()) return first.status();
-  const int w = first->width, h = first->height, ch = first->channels;
+  const int source_w = first->width, source_h = first->height, ch = first->channels;
   const int n = int(files.size());
   auto shown = [&](const std::string& f) { return DatasetRelative(f, o.confine_to); };
-  // Grey+alpha or RGBA: the alpha plane is not read (it is not a mask); say so, once.
-  auto has_alpha = [&](const ImageHeader& hd) {
-    return !options.all_channels && (hd.file_channels == 2 || hd.file_channels == 4);
-  };
-  int alpha_files = has_alpha(*first) ? 1 : 0, first_alpha = alpha_files ? 0 : -1;
   for (int i = 1; i < n; ++i) {
     auto hd = ReadImageHeader(files[i], options);
     if (!hd.ok()) return hd.status();
-    if (has_alpha(*hd) && alpha_files++ == 0) first_alpha = i;
-    if (hd->width != w || hd->height != h || hd->channels != ch)
+    if (hd->width != source_w || hd->height != source_h || hd->channels != ch)
       return DataError("image '" + shown(files[i]) + "' is " + std::to_string(hd->width) + "x" +
                        std::to_string(hd->height) + " with " + std::to_string(hd->channels) +
-                       " channel(s) but '" + shown(files[0]) + "' is " + std::to_string(w) + "x" +
-                       std::to_string(h) + " with " + std::to_string(ch) +
+                       " channel(s) but '" + shown(files[0]) + "' is " + std::to_string(source_w) +
+                       "x" + std::to_string(source_h) + " with " + std::to_string(ch) +
                        ": all images of a stack must have the same size and channels");
+  }
+  // The region read: the crop, or the whole images.
+  const CropRect region = o.crop ? *o.crop : CropRect{0, 0, source_w, source_h};
+  MATFIT_RETURN_IF_ERROR(CheckCrop(region, source_w, source_h, shown(files[0])));
+  const int w = region.w, h = region.h;
+  if (o.crop) options.col0 = region.x, options.cols = region.w;
+  if (!o.headers_only) {
+    options.row0 = region.y + o.row0;
+    options.rows = o.rows > 0 ? o.rows : (o.crop ? region.h : 0);
+    options.alpha_mask = !options.all_channels;  // RGBA / grey+alpha: alpha is the mask
   }
   if (o.rows > 0 && (o.row0 < 0 || o.row0 + o.rows > h))
     return DataError("rows " + std::to_string(o.row0) + ".." + std::to_string(o.row0 + o.rows - 1) +
@@ -176,30 +232,27 @@ StatusOr<LightStack> LoadStack(const std::vector<std::string>& files,
                      " samples (images × width × height × channels), more than the limit of " +
                      std::to_string(o.max_stack_samples) +
                      "; select fewer images or one view, or crop or downscale them");
-  std::vector<std::string> warnings;
-  if (alpha_files > 0)
-    warnings.push_back(Warning(
-        WarningCode::kAlphaDropped,
-        std::to_string(alpha_files) + " of " + std::to_string(n) +
-            " images have an alpha channel (first: '" + shown(files[first_alpha]) +
-            "'), which is not read: matfit fits the colour channels of every pixel; to leave "
-            "pixels out, give a mask image"));
+  auto provenance = [&](LightStack* s) {
+    s->source_width = source_w, s->source_height = source_h;
+    s->crop_x = region.x, s->crop_y = region.y;
+  };
   if (o.headers_only) {
     LightStack stack(w, h, ch, 0);  // the size and the lights, no images
     stack.lights() = std::move(lights);
     stack.image_files = files;
-    stack.read_warnings = std::move(warnings);
+    provenance(&stack);
     return stack;
   }
   try {
     bool uniform = true;
-    auto stack = Load(files, lights, options, o.progress, /*as_float=*/false, &uniform);
+    auto stack = Load(files, lights, options, o.progress, /*as_float=*/false, o.rows > 0, &uniform);
     if (stack.ok() && !uniform) {
       // Files of mixed depth or transfer function: linear float32, as every image decodes alone.
       *stack = LightStack();
-      stack = Load(files, std::move(lights), options, o.progress, /*as_float=*/true, &uniform);
+      stack = Load(files, std::move(lights), options, o.progress, /*as_float=*/true, o.rows > 0,
+                   &uniform);
     }
-    if (stack.ok()) stack->read_warnings = std::move(warnings);
+    if (stack.ok()) provenance(&*stack);
     if (stack.ok() && o.rows > 0) stack->band.row0 = o.row0, stack->band.full_height = h;
     return stack;
   } catch (const std::bad_alloc&) {
@@ -225,7 +278,13 @@ StatusOr<std::vector<uint8_t>> ReadMaskImage(const std::string& path, int width,
                        std::to_string(height));
     if (o.headers_only) return std::vector<uint8_t>();
   }
-  if (o.rows > 0) opt.row0 = o.row0, opt.rows = o.rows, height = o.rows;
+  const CropRect region = o.crop ? *o.crop : CropRect{0, 0, width, height};
+  MATFIT_RETURN_IF_ERROR(CheckCrop(region, width, height, DatasetRelative(path, o.confine_to)));
+  if (o.crop) opt.col0 = region.x, opt.cols = width = region.w;
+  if (o.rows > 0)
+    opt.row0 = region.y + o.row0, opt.rows = height = o.rows;
+  else if (o.crop)
+    opt.row0 = region.y, opt.rows = height = region.h;
   auto img = ReadImage(path, opt);
   if (!img.ok()) return Status(img.status().code(), "mask: " + img.status().message());
   if (img->width() != width || img->height() != height)

@@ -1,7 +1,8 @@
 #!/usr/bin/env bash
 # Nothing silent (issue #21): each case that used to pass with "warnings none" now warns, with its
 # code, in `matfit info` (text and --json), in the fit's summary and in report.json `warnings`.
-# Cases: a lights.txt with fewer lights than images, RGBA images, gamma-encoded 16-bit TIFFs
+# Cases: a lights.txt with fewer lights than images (now an error), RGBA images with a mask file,
+# gamma-encoded 16-bit TIFFs
 # without colour metadata (and the encoding assumed for them), a 262° light-azimuth gap, lights at
 # one elevation.
 # Usage: warnings_test.sh MATFIT_BINARY PROJECT_ROOT
@@ -36,17 +37,34 @@ fit_warns() {
   bad "synth ds"
 expect_contains "clean set" "$("$bin" info ds --quiet)" "warnings     none"
 
-# 1. lights.txt lists 23 lights beside 24 numbered images: the 24th image is not used.
+# 1. lights.txt lists 23 lights beside 24 numbered images: an error, never a silent drop.
 mkdir count && cp -r ds count/ds
 { echo 23; sed -n 2,24p ds/lights.txt; } >count/ds/lights.txt
-warns count count/ds light-count-mismatch
-fit_warns count count/ds light-count-mismatch
+out=$("$bin" info count/ds --quiet 2>&1) && bad "count: info accepted 23 lights for 24 images"
+expect_contains "count info" "$out" "lists 23 lights but the folder has numbered images ds.0 to ds.23: 24 image(s)"
+out=$("$bin" fit count/ds --model lambert --out "$tmp/pack-count" --quiet 2>&1) &&
+  bad "count: fit accepted 23 lights for 24 images"
+expect_contains "count fit" "$out" "lists 23 lights but"
+[ ! -e "$tmp/pack-count" ] || bad "count: a failed fit left its output folder"
 
-# 2. RGBA images: the alpha channel is not read.
+# 2. RGBA images: the alpha channel is the mask (opaque everywhere: every texel, and said; else
+# the texels it covers); with a mask file as well, the mask file wins and the alpha is said to be
+# unused.
 mkdir rgba && cp -r ds rgba/ds
 for f in rgba/ds/ds.*.png; do oiiotool "$f" --ch R,G,B,A=1.0 -o "$f"; done
+expect_contains "rgba opaque info" "$("$bin" info rgba/ds --quiet)" \
+  "mask         none: the alpha channel (24 of 24 images) is opaque everywhere (all texels)"
+oiiotool --pattern constant:color=1 24x24 1 --fill:color=0 24x4+0+20 -d uint16 -o alpha.png
+for f in rgba/ds/ds.*.png; do
+  oiiotool "$f" --ch R,G,B alpha.png --chappend --chnames R,G,B,A -o "$f"
+done
+expect_contains "rgba info" "$("$bin" info rgba/ds --quiet)" \
+  "mask         480 of 576 texels, from the alpha channel (24 of 24 images)"
+oiiotool --pattern constant:color=1 24x24 1 --fill:color=0 12x24+0+0 -d uint8 -o rgba/ds/ds.mask.png
 warns rgba rgba/ds alpha-dropped
 fit_warns rgba rgba/ds alpha-dropped
+expect_contains "rgba mask file" "$("$bin" info rgba/ds --quiet)" \
+  "mask         288 of 576 texels, from the mask file 'rgba/ds/ds.mask.png'"
 
 # 3. sRGB-encoded values in 16-bit TIFFs without colour metadata (read as linear).
 "$bin" synth --material plaster --lights dome:24 --layout lights-txt --size 24 --bits 8 --out g8 \

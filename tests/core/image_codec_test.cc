@@ -223,7 +223,7 @@ TEST(ImageCodec, UnusualFilesAreLeftToOpenImageIo) {
   auto img = ReadImage(tif);
   ASSERT_TRUE(img.ok()) << img.status().ToString();
   EXPECT_EQ(img->width(), 8);
-  // A PNG with alpha: OpenImageIO premultiplies, as matfit always read them.
+  // A PNG with alpha goes to OpenImageIO (colours as stored, not premultiplied).
   const std::string rgba = tmp / "rgba.png";
   ASSERT_TRUE(
       WriteImage(rgba, Pattern(8, 6, 4), {PixelFormat::kUint8, TransferFunction::kLinear}).ok());

@@ -73,7 +73,8 @@ TEST_F(ApiErrorsTest, LightCountMismatchIsRefusedAtSubmission) {
   lights = lights.substr(0, lights.rfind('\n', lights.size() - 2) + 1);
   std::ofstream(d / "lights.txt") << lights;
   const json j = Expect(Upload(Zip(d), {{"model", "lambert"}}), 422, "file");
-  EXPECT_NE(Message(j).find("'lights.txt' lists 11 lights but the folder also has 1 more"),
+  EXPECT_NE(Message(j).find("'lights.txt' lists 11 lights but the folder has numbered images "
+                            "obj.0 to obj.11: 12 image(s)"),
             std::string::npos)
       << Message(j);
   ExpectDataClean(0);

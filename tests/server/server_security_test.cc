@@ -148,19 +148,49 @@ TEST_F(ServerTest, HostileAndMalformedInputsGetTheRightStatusAndLeaveTheDataFold
   Get("/api/v1/nothing-here", 404);
 }
 
-TEST_F(ServerTest, FilesNamedOutsideTheDatasetFailTheJobWithTheReason) {
+TEST_F(ServerTest, AbsoluteLpPathsReadOnlyTheUploadsOwnFiles) {
   Start();
-  // An .lp file naming an existing image outside the upload by absolute path, and a leaf
-  // manifest naming one by a path above the scan: both readable, both refused.
-  const std::string p1 = (tmp_ / "lp.zip").string(), p2 = (tmp_ / "leaf.zip").string();
+  // An .lp file naming existing images outside the upload by absolute path. The server never
+  // opens them: a file of the same name in the upload is read instead (as for an .lp written on
+  // another machine, with a note); one that is not there fails the submission, and the message
+  // shows no server path.
+  const std::string p1 = (tmp_ / "lp.zip").string(), p2 = (tmp_ / "lp2.zip").string();
+  const std::string fixture = fs::absolute(kFixtures + "/plastic-ring12").string();
   {
     ArchiveWriter w(p1, ArchiveWriter::Format::kZip);
     w.Folder(kFixtures + "/plastic-ring12", "set", "lights.lp");
     std::string lp = Slurp(kFixtures + "/plastic-ring12/lights.lp");
-    const auto at = lp.find("img_000.png");
-    lp.replace(at, 11, fs::absolute(kFixtures + "/plastic-ring12/img_000.png").string());
+    lp.replace(lp.find("img_000.png"), 11, fixture + "/img_000.png");
     w.File("set/lights.lp", lp);
   }
+  const std::string leaf_image = fs::absolute(kFixtures + "/leaf-scan/1_BL.png").string();
+  {
+    ArchiveWriter w(p2, ArchiveWriter::Format::kZip);
+    w.Folder(kFixtures + "/plastic-ring12", "set", "lights.lp");
+    std::string lp = Slurp(kFixtures + "/plastic-ring12/lights.lp");
+    lp.replace(lp.find("img_001.png"), 11, leaf_image);  // no 1_BL.png in the upload
+    w.File("set/lights.lp", lp);
+  }
+  auto r = Upload(p1, {{"mode", "fit"}, {"model", "lambert"}});
+  ASSERT_TRUE(r);
+  ASSERT_EQ(r->status, 202) << r->body;
+  const json j = WaitFor(json::parse(r->body)["id"], Finished);
+  ASSERT_EQ(j["state"], "succeeded") << j.dump();
+  EXPECT_NE(j["summary"]["warnings"].dump().find("lp-path-fallback"), std::string::npos)
+      << j.dump();
+  auto r2 = Upload(p2, {{"mode", "fit"}, {"model", "lambert"}});
+  ASSERT_TRUE(r2);
+  ASSERT_EQ(r2->status, 422) << r2->body;
+  const std::string error = json::parse(r2->body)["error"]["message"].get<std::string>();
+  EXPECT_NE(error.find("image '" + leaf_image + "' not found nor as '1_BL.png'"), std::string::npos)
+      << error;
+  EXPECT_EQ(error.find(tmp_.string()), std::string::npos) << error;
+}
+
+TEST_F(ServerTest, FilesNamedOutsideTheDatasetFailTheJobWithTheReason) {
+  Start();
+  // A leaf manifest naming an image by a path above the scan: readable, refused.
+  const std::string p2 = (tmp_ / "leaf.zip").string();
   {
     ArchiveWriter w(p2, ArchiveWriter::Format::kZip);
     w.Folder(kFixtures + "/leaf-scan", "scan", "leaf.json");
@@ -169,7 +199,7 @@ TEST_F(ServerTest, FilesNamedOutsideTheDatasetFailTheJobWithTheReason) {
     manifest.replace(manifest.find("\"*_BL.png\""), 10, "[\"1_BL.png\", \"" + outside + "\"]");
     w.File("scan/leaf.json", manifest);
   }
-  const std::pair<std::string, std::string> modes[] = {{p1, "fit"}, {p2, "leaf"}};
+  const std::pair<std::string, std::string> modes[] = {{p2, "leaf"}};
   for (const auto& [archive, mode] : modes) {
     auto r = Upload(archive, {{"mode", mode}});
     ASSERT_TRUE(r);

@@ -1,0 +1,77 @@
+#!/usr/bin/env bash
+# The inputs labs have, end to end (issue 20, item 3): --crop on info, fit and leaf (the region's
+# maps equal the same region of a whole fit; report.json and leaves.json say which region; a
+# region outside the images is refused naming it); an RTIBuilder .lp with Windows paths; a
+# lights.txt folder with its own image names.
+# Usage: inputs_cli_test.sh MATFIT_BINARY SOURCE_DIR
+set -u
+bin=$1; src=$2
+tmp=$(mktemp -d); trap 'rm -rf "$tmp"' EXIT
+. "$src/tests/app/lib.sh"
+cd "$tmp"
+command -v oiiotool >/dev/null || { echo "oiiotool missing (openimageio-tools)"; exit 1; }
+
+"$bin" synth --material granite --lights dome:24 --layout lights-txt --size 32 --noise 0.01 \
+  --out ds --quiet || bad "synth ds"
+
+# info: the region and its size.
+out=$("$bin" info ds --crop 4,6,20,16 --quiet 2>&1) || bad "info --crop: $out"
+expect_contains "info crop size" "$out" "images       24 x 20x16"
+expect_contains "info crop region" "$out" "region       20x16 at 4,6 of the 32x32 images (--crop)"
+expect_contains "info crop json" "$("$bin" info ds --crop 4,6,20,16 --quiet --json)" '"source_width": 32'
+
+# fit: a per-texel model's maps of the region are the whole fit's, cut.
+"$bin" fit ds --model lambert --out whole --quiet >/dev/null || bad "whole fit"
+out=$("$bin" fit ds --model lambert --crop 4,6,20,16 --out part --quiet 2>&1) || bad "fit --crop: $out"
+expect_contains "fit crop texels" "$out" "texels      20 x 16"
+expect_contains "fit crop truth" "$out" "vs truth    normal MAE"  # the truth is cut to the region
+for map in normal albedo; do
+  oiiotool whole/maps/$map.exr --cut 20x16+4+6 --origin +0+0 --fullsize 20x16+0+0 -o cut-$map.exr
+  d=$(oiiotool --diff --fail 1e-6 cut-$map.exr part/maps/$map.exr 2>&1) && ok ||
+    bad "crop $map differs from the whole fit's region: $d"
+done
+expect_contains "report crop" "$(cat part/report.json)" '"crop": {'
+expect_contains "report crop x" "$(tr -d ' \n' <part/report.json)" '"crop":{"height":16,"source_height":32,"source_width":32,"width":20,"x":4,"y":6}'
+expect_contains "report no crop" "$(tr -d ' \n' <whole/report.json)" '"crop":null'
+
+# Refusals name the flag and the value.
+out=$("$bin" fit ds --model lambert --crop 4,6,20 --out bad1 --quiet 2>&1) && bad "--crop with 3 numbers accepted"
+expect_contains "crop malformed" "$out" "--crop '4,6,20' must be X,Y,WIDTH,HEIGHT"
+out=$("$bin" info ds --crop 20,20,20,20 --quiet 2>&1) && bad "a region outside the images accepted"
+expect_contains "crop outside" "$out" "--crop 20,20,20,20 (x,y,width,height) reaches outside the 32x32 images"
+[ ! -e bad1 ] || bad "a refused fit left its output folder"
+
+# leaf: the sheet's region (the 112x88 sheet less a 2-pixel rim: the leaf and the four markers
+# inside it, their bounding boxes moved by the offset).
+out=$("$bin" leaf "$src/fixtures/leaf-scan" --crop 2,1,108,86 --out leaf --quiet 2>&1) || bad "leaf --crop: $out"
+expect_contains "leaf crop found" "$out" "found       1 leaves, 0 twigs, 4 markers"
+expect_contains "leaf crop scale" "$out" "scale       0.2 mm/pixel (markers)"
+j=$(tr -d ' \n' <leaf/leaves.json)
+expect_contains "leaf crop size" "$j" '"size":{"height":86,"width":108}'
+expect_contains "leaf crop field" "$j" '"crop":{"height":86,"width":108,"x":2,"y":1}'
+expect_contains "leaf crop bbox" "$j" '"bbox":[31,16,46,54]'
+expect_contains "leaf crop marker" "$j" '"bbox":[87,64,20,20]'
+out=$("$bin" leaf "$src/fixtures/leaf-scan" --crop 100,0,20,20 --out leaf2 --quiet 2>&1) && bad "leaf crop outside accepted"
+expect_contains "leaf crop outside" "$out" "reaches outside the 112x88 images"
+
+# An RTIBuilder .lp written on Windows: absolute paths, images beside the .lp (with a note).
+"$bin" synth --material plaster --lights dome:12 --layout lp --size 16 --out rti --quiet || bad "synth rti"
+lp=$(ls rti/*.lp)
+awk 'NR == 1 {print; next} {printf "C:\\Users\\lab\\RTI\\jpeg-exports\\%s %s %s %s\n", $1, $2, $3, $4}' \
+  "$lp" >"$lp.new" && mv "$lp.new" "$lp"
+out=$("$bin" info rti --quiet 2>&1) || bad "info on a Windows .lp: $out"
+expect_contains "lp windows" "$out" "warning      lp-path-fallback: 12 of 12 image paths"
+"$bin" fit rti --model lambert --out rti-pack --quiet >/dev/null || bad "fit on a Windows .lp"
+
+# lights.txt with the camera's own names (IMG_0001.JPG ...) in a folder of any name.
+mkdir -p "shoot 2026-12-05"
+cp ds/lights.txt "shoot 2026-12-05/"
+for i in $(seq 0 23); do cp "ds/ds.$i.png" "shoot 2026-12-05/IMG_$(printf %04d $((i + 1))).png"; done
+out=$("$bin" info "shoot 2026-12-05" --quiet 2>&1) || bad "info on camera names: $out"
+expect_contains "camera names layout" "$out" "image files (in light order by name)"
+"$bin" fit "shoot 2026-12-05" --model lambert --out named --quiet >/dev/null || bad "fit on camera names"
+d=$(oiiotool --diff --fail 1e-6 whole/maps/normal.exr named/maps/normal.exr 2>&1) && ok ||
+  bad "camera-named set fits differently from the numbered one: $d"
+
+echo "inputs_cli_test: $pass passed, $fail failed"
+[ "$fail" -eq 0 ]
