@@ -11,6 +11,7 @@
 #include <nlohmann/json.hpp>
 
 #include "core/atomic_file.h"
+#include "core/height_from_normals.h"
 #include "core/image_io.h"
 #include "core/model/model.h"
 #include "core/output_marker.h"
@@ -101,6 +102,38 @@ Status ZipFolder(const std::string& folder, const std::string& zip_path) {
   return Status::Ok();
 }
 
+// The height map integrated from the normals (core/height_from_normals.h) over the texels with a
+// fitted normal: inside the mask, status ok (0), unverifiable (7) or suspect (8) — the codes of
+// fit/fit_types.h whose normal was fitted. height.exr in texel units (mean 0), height.png 16-bit
+// from its minimum (0) to its maximum (65535), the range in material.json.
+template <typename Put, typename Keep>
+Status PutHeightMaps(const MaterialMaps& m, const std::vector<uint8_t>& status, Put& put,
+                     Keep& keep, const ImageWriteOptions& exr, const ImageWriteOptions& lin16,
+                     json* maps) {
+  const int64_t n = int64_t(m.width) * m.height;
+  std::vector<uint8_t> trusted(size_t(n), 1);
+  for (int64_t p = 0; p < n; ++p) {
+    const uint8_t st = size_t(p) < status.size() ? status[p] : 0;
+    const bool fitted = st == 0 || st == 7 || st == 8;
+    trusted[p] = fitted && (m.mask.empty() || m.mask.Plane(0)[p] > 0.5f);
+  }
+  HeightResult h = IntegrateNormals(m.normal, trusted);
+  if (h.height.empty()) return Status::Ok();
+  const Image& exact = keep(std::move(h.height));
+  Image png(m.width, m.height, 1);
+  const double span = h.max - h.min;
+  for (int64_t p = 0; p < n; ++p)
+    png.Plane(0)[p] = span > 0 ? float((exact.Plane(0)[p] - h.min) / span) : 0.5f;
+  MATFIT_RETURN_IF_ERROR(put("height_exact", "height.exr", exact, exr,
+                             "height from the normals in texel units, mean 0 over the fitted "
+                             "texels (least-squares integration, docs/pack.md)"));
+  MATFIT_RETURN_IF_ERROR(put("height", "height.png", keep(std::move(png)), lin16,
+                             "the same height, 0 = range[0], 65535 = range[1] (texel units)"));
+  for (auto& e : *maps)
+    if (e["name"] == "height" || e["name"] == "height_exact") e["range_texels"] = {h.min, h.max};
+  return Status::Ok();
+}
+
 double RoughnessFromBlinnPhongExponent(double e) { return std::pow(2.0 / (e + 2.0), 0.25); }
 
 Status WritePack(const MaterialMaps& m, const std::vector<uint8_t>& status, const PackInfo& info,
@@ -152,6 +185,7 @@ Status WritePack(const MaterialMaps& m, const std::vector<uint8_t>& status, cons
                                "tangent-space normal, OpenGL +Y, rgb = n*0.5+0.5"));
     MATFIT_RETURN_IF_ERROR(
         put("normal_exact", "normal.exr", m.normal, exr, "unit normal xyz (float)"));
+    MATFIT_RETURN_IF_ERROR(PutHeightMaps(m, status, put, keep, exr, lin16, &maps));
   }
   MATFIT_RETURN_IF_ERROR(model.WritePackMaps(m, [&](const PackMap& pm) {
     const ImageWriteOptions wo = pm.encoding == MapEncoding::kSrgb8      ? srgb8
