@@ -9,6 +9,7 @@
 #include <filesystem>
 #include <functional>
 #include <nlohmann/json.hpp>
+#include <tuple>
 
 #include "core/atomic_file.h"
 #include "core/height_from_normals.h"
@@ -17,6 +18,7 @@
 #include "core/output_marker.h"
 #include "core/pack/gltf.h"
 #include "core/pack/pack.h"
+#include "core/pack/ptm_export.h"
 #include "core/pack/shader_params.h"
 #include "core/parallel.h"
 #include "core/version.h"
@@ -330,6 +332,21 @@ Status WritePack(const MaterialMaps& m, const std::vector<uint8_t>& status, cons
     for (const char* k : {"deviation_percent", "rmse", "psnr_db", "flagged_texels", "fit_seconds"})
       if (r.is_object() && r.contains(k)) report_summary[k] = r[k];
   }
+  // Files other tools open: PTM (RTIViewer, the RTI web viewers) for ptm fits.
+  json exports = json::array();
+  if (m.model == ShadingModel::kPtm) {
+    const char* values = m.basis_srgb ? "8-bit sRGB codes, as RTI tools fit them"
+                                      : "linear radiance x 255 (a viewer shows it darker than "
+                                        "an sRGB fit; fit ptm-srgb for RTI viewers)";
+    for (const auto& [format, file, name] :
+         {std::tuple{PtmFormat::kRgb, "material.ptm", "PTM_1.2 PTM_FORMAT_RGB"},
+          std::tuple{PtmFormat::kLrgb, "material_lrgb.ptm", "PTM_1.2 PTM_FORMAT_LRGB"}}) {
+      auto bytes = EncodePtm(m, format);
+      if (!bytes.ok()) break;  // not a 6-term ptm of 1 or 3 channels
+      MATFIT_RETURN_IF_ERROR(WriteFileAtomic((root / file).string(), *bytes));
+      exports.push_back({{"file", file}, {"format", name}, {"values", values}});
+    }
+  }
   json material = {
       {"schema", "matfit.material/1"},
       {"model",
@@ -344,6 +361,7 @@ Status WritePack(const MaterialMaps& m, const std::vector<uint8_t>& status, cons
         {"normal_map", "OpenGL (+Y up), rgb = n*0.5+0.5, 16-bit PNG"},
         {"reflectance", "pixel = intensity * R, R = pi * f_r * max(0, n.l)"}}},
       {"gltf", "material.gltf"},
+      {"exports", exports},
       {"previews", previews},
       {"viewer", viewer},
       {"report", "report.json"},

@@ -90,5 +90,16 @@ echo "height relief: fitted $f, truth $t (texels)"
 "$bin" fit stone --model ptm --out stone-ptm --quiet >/dev/null || bad "fit stone ptm"
 [ ! -e stone-ptm/maps/height.exr ] && ok || bad "a ptm pack (no normals) has a height map"
 
+# PTM export (issue 20, item 4 part): ptm packs carry material.ptm (RGB) and material_lrgb.ptm
+# (the bytes are checked against the fit by tests/core/ptm_export_test.cc); other models none.
+"$bin" fit stone --model ptm-srgb --out stone-ptm-srgb --quiet >/dev/null || bad "fit stone ptm-srgb"
+for d in stone-ptm stone-ptm-srgb; do
+  expect_contains "$d header" "$(head -c 16 $d/material.ptm)" "PTM_1.2"
+  expect_contains "$d format" "$(head -n 4 $d/material.ptm | tr '\n' ' ')" "PTM_FORMAT_RGB 96 96"
+  expect_contains "$d lrgb" "$(head -n 2 $d/material_lrgb.ptm | tr '\n' ' ')" "PTM_1.2 PTM_FORMAT_LRGB"
+  expect_contains "$d exports" "$(tr -d ' \n' <$d/material.json)" '"exports":[{"file":"material.ptm"'
+done
+[ ! -e stone-pack/material.ptm ] && ok || bad "a lambert pack has a .ptm"
+
 echo "inputs_cli_test: $pass passed, $fail failed"
 [ "$fail" -eq 0 ]
