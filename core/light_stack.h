@@ -172,9 +172,12 @@ class LightStack {
   // Where the mask came from ("mask.png", "alpha channel of 81 images"); empty: no mask. When
   // the images' alpha is opaque everywhere there is no mask and this says so.
   std::string mask_source;
-  // The images' own size in their files and where this stack's region starts (--crop; 0,0 and
-  // the stack's size when not cropped). 0 × 0 for stacks not read from files.
-  int source_width = 0, source_height = 0, crop_x = 0, crop_y = 0;
+  // The images' own size in their files (0 × 0 for stacks not read from files) and the region
+  // read from them with --crop (crop_w 0: the whole images). Kept through mips and crops made
+  // later (stack_ops.h), so a stack is the crop itself only while it has the crop's size.
+  int source_width = 0, source_height = 0;
+  int crop_x = 0, crop_y = 0, crop_w = 0, crop_h = 0;
+  bool is_read_crop() const { return crop_w > 0 && width() == crop_w && full_height() == crop_h; }
 
   bool has_mask() const { return !mask.empty(); }
   StackBand band;  // which rows of a distributed stack these are (default: the whole stack)

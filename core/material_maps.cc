@@ -10,8 +10,10 @@ const char* ShadingModelName(ShadingModel m) { return Model(m).name(); }
 
 namespace {
 
-Image CropPlanes(const Image& img, int x, int y, int w, int h) {
-  if (img.empty()) return {};
+// A texel-sized plane cut to the region; planes of any other size (not texel planes, or a
+// malformed truth map) are dropped rather than read out of bounds.
+Image CropPlanes(const Image& img, int full_w, int full_h, int x, int y, int w, int h) {
+  if (img.empty() || img.width() != full_w || img.height() != full_h) return {};
   Image out(w, h, img.channels());
   for (int c = 0; c < img.channels(); ++c)
     for (int r = 0; r < h; ++r)
@@ -33,7 +35,7 @@ MaterialMaps CropMaps(const MaterialMaps& m, int x, int y, int w, int h) {
         &MaterialMaps::hl2, &MaterialMaps::mask, &MaterialMaps::ambient,
         &MaterialMaps::normal_scale, &MaterialMaps::specular_color, &MaterialMaps::coefficients,
         &MaterialMaps::interpolation_error, &MaterialMaps::lobe_shape})
-    out.*plane = CropPlanes(m.*plane, x, y, w, h);
+    out.*plane = CropPlanes(m.*plane, m.width, m.height, x, y, w, h);
   return out;
 }
 

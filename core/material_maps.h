@@ -65,8 +65,9 @@ struct MaterialMaps {
   Image lobe_shape;
 };
 
-// The maps of the region [x, x + w) × [y, y + h) (texel-sized planes cut; the rbf basis table,
-// which is not texel-sized, kept). The region must lie inside the maps.
+// The maps of the region [x, x + w) × [y, y + h): texel-sized planes cut, the rbf basis table
+// (not texel-sized) kept, any plane of another size dropped. The region must lie inside the
+// maps.
 MaterialMaps CropMaps(const MaterialMaps& maps, int x, int y, int w, int h);
 
 }  // namespace matfit

@@ -26,7 +26,7 @@ LightStack EmptyLike(const LightStack& s, int w, int h, bool native) {
   out.band = s.band;
   out.mask_source = s.mask_source;
   out.source_width = s.source_width, out.source_height = s.source_height;
-  out.crop_x = s.crop_x, out.crop_y = s.crop_y;
+  out.crop_x = s.crop_x, out.crop_y = s.crop_y, out.crop_w = s.crop_w, out.crop_h = s.crop_h;
   return out;
 }
 

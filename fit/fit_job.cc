@@ -77,23 +77,21 @@ class Stages {
 Status Cancelled() { return Status(StatusCode::kCancelled, "cancelled"); }
 
 // The truth maps of the stack's region: a dataset read with --crop is compared with the same
-// region of its truth (maps of the whole images' size are cut; any other size is left to fail
-// the size check).
+// region of its truth (maps of the whole images' size are cut; a stack at a lower mip, or truth
+// of another size, is left to fail the size check).
 StatusOr<MaterialMaps> TruthOfRegion(StatusOr<MaterialMaps> truth, const LightStack& stack) {
-  const bool cropped = stack.source_width > 0 && (stack.width() != stack.source_width ||
-                                                  stack.full_height() != stack.source_height);
-  if (!truth.ok() || !cropped || truth->width != stack.source_width ||
+  if (!truth.ok() || !stack.is_read_crop() || truth->width != stack.source_width ||
       truth->height != stack.source_height)
     return truth;
-  return CropMaps(*truth, stack.crop_x, stack.crop_y, stack.width(), stack.full_height());
+  return CropMaps(*truth, stack.crop_x, stack.crop_y, stack.crop_w, stack.crop_h);
 }
 
-// report.json's "crop": the region of the source images the stack holds, when not all of them.
+// report.json's "crop": the region of the source images read with --crop (also when the pack
+// is at a lower mip of it).
 std::optional<FitReportInputs::Region> CropRegion(const LightStack& s) {
-  if (s.source_width <= 0 || (s.width() == s.source_width && s.full_height() == s.source_height))
-    return std::nullopt;
-  return FitReportInputs::Region{s.crop_x,        s.crop_y,       s.width(),
-                                 s.full_height(), s.source_width, s.source_height};
+  if (s.crop_w <= 0) return std::nullopt;
+  return FitReportInputs::Region{s.crop_x, s.crop_y,       s.crop_w,
+                                 s.crop_h, s.source_width, s.source_height};
 }
 
 // The steps after scoring, on the whole stack's maps (rank 0 of a distributed fit): truth,
@@ -263,7 +261,7 @@ StatusOr<FitJobResult> RunFitJob(const FitJobOptions& o, const StageProgress& pr
     std::string failed;
     if (!AllOk(*comm, stack.ok(), stack.ok() ? "" : stack.status().message(), &failed))
       return stack.ok() ? DataError(failed) : stack.status();
-    JoinBands(&*stack, comm);
+    MATFIT_RETURN_IF_ERROR(JoinBands(&*stack, comm));  // the same outcome on every rank
   }
   if (!stack.ok()) return stack.status();
   FitJobResult r;

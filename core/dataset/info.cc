@@ -124,9 +124,7 @@ DatasetInfo ComputeDatasetInfo(const LightStack& s) {
   info.mask_source = s.mask_source;
   info.source_width = s.source_width, info.source_height = s.source_height;
   info.crop_x = s.crop_x, info.crop_y = s.crop_y;
-  info.cropped =
-      s.source_width > 0 && (s.source_width != s.width() || s.source_height != s.full_height() ||
-                             s.crop_x != 0 || s.crop_y != 0);
+  info.cropped = s.crop_w > 0;
   info.masked_texels = texel_counts[1];
   const int n = s.num_images();
 

@@ -89,7 +89,10 @@ Status ReadImageList(const fs::path& dir, const std::string& list_path, const Re
   std::error_code ec;
   for (const TextLine& l : *lines) {
     const fs::path f = dir / l.text;
-    if (fs::path(l.text).is_absolute() || !fs::is_regular_file(f, ec))
+    // A name outside the folder is refused before the file system is asked about it (a server
+    // dataset must not learn what exists outside it).
+    if (fs::path(l.text).is_absolute() || !LpNameInside(l.text, dir, o.confine_to) ||
+        !fs::is_regular_file(f, ec))
       return NotFound(AtLine(
           DatasetRelative(list_path, o.confine_to), l.number,
           "image '" + l.text + "' not found in the dataset folder; names are relative to it"));

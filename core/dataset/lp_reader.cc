@@ -1,6 +1,7 @@
 // RTI `.lp` light files: first line N, then N lines "file lx ly lz" (paths relative to the
 // .lp file; file names may contain spaces, the last three tokens are the direction).
 // An optional mask.png beside the .lp file is read as the sample mask.
+#include <algorithm>
 #include <cctype>
 #include <filesystem>
 
@@ -14,35 +15,58 @@ namespace matfit {
 namespace {
 namespace fs = std::filesystem;
 
-// A path written on another system: a Windows drive ("C:\\..", "C:/..") or UNC ("\\\\host")
-// path, or any path with backslash separators.
-bool IsWindowsPath(const std::string& p) {
-  return p.find('\\') != std::string::npos ||
-         (p.size() >= 2 && std::isalpha(static_cast<unsigned char>(p[0])) && p[1] == ':');
+// A Windows absolute path: a drive ("C:\\..", "C:/..") or UNC ("\\\\host\\share") prefix.
+bool IsWindowsAbsolute(const std::string& p) {
+  const bool drive = p.size() >= 3 && std::isalpha(static_cast<unsigned char>(p[0])) &&
+                     p[1] == ':' && (p[2] == '\\' || p[2] == '/');
+  return drive || p.rfind("\\\\", 0) == 0;
+}
+
+// The name with backslashes read as separators (relative Windows paths: "exports\\img.jpg").
+std::string Slashed(std::string p) {
+  std::replace(p.begin(), p.end(), '\\', '/');
+  return p;
+}
+
+// Whether `p` lies inside `root` by name (`..` resolved lexically; links are judged when the
+// file is opened, by ResolveInDataset).
+bool LexicallyInside(const fs::path& p, const std::string& root) {
+  const fs::path a = fs::absolute(p).lexically_normal(), r = fs::absolute(root).lexically_normal();
+  auto ai = a.begin();
+  for (auto ri = r.begin(); ri != r.end(); ++ri, ++ai) {
+    if (ri->empty()) continue;  // a trailing separator
+    if (ai == a.end() || *ai != *ri) return false;
+  }
+  return true;
 }
 
 }  // namespace
 
 bool IsForeignPath(const std::string& name) {
-  return IsWindowsPath(name) || fs::path(name).is_absolute();
+  return IsWindowsAbsolute(name) || fs::path(Slashed(name)).is_absolute();
 }
 
 std::string ForeignBaseName(const std::string& name) {
-  const size_t cut = name.find_last_of(IsWindowsPath(name) ? "/\\:" : "/");
+  const size_t cut = name.find_last_of(IsWindowsAbsolute(name) ? "/\\:" : "/\\");
   return cut == std::string::npos ? name : name.substr(cut + 1);
+}
+
+bool LpNameInside(const std::string& name, const fs::path& base, const std::string& confine_to) {
+  if (IsForeignPath(name)) return false;
+  return confine_to.empty() || LexicallyInside(base / Slashed(name), confine_to);
 }
 
 std::string ResolveLpImage(const std::string& name, const fs::path& base,
                            const std::string& confine_to, bool* by_base_name) {
   std::error_code ec;
   *by_base_name = false;
-  // Relative names are the format's: beside the .lp file. Absolute POSIX paths are used as
-  // they are, except in a confined (server) dataset, which never looks outside its folder.
-  if (!IsWindowsPath(name)) {
-    const fs::path as_written = fs::path(name).is_absolute() ? fs::path(name) : base / name;
-    if ((confine_to.empty() || !fs::path(name).is_absolute()) &&
-        fs::is_regular_file(as_written, ec))
-      return as_written.string();
+  // As written: a relative name beside the .lp file (backslashes as separators), an absolute
+  // POSIX path only for the CLI. A confined (server) dataset never probes a name outside it.
+  if (!IsWindowsAbsolute(name)) {
+    const std::string rel = Slashed(name);
+    const fs::path as_written = fs::path(rel).is_absolute() ? fs::path(rel) : base / rel;
+    const bool allowed = confine_to.empty() || LpNameInside(name, base, confine_to);
+    if (allowed && fs::is_regular_file(as_written, ec)) return as_written.string();
   }
   // Files from another machine (absolute, Windows, or a sub-folder that is not here): the base
   // name beside the .lp file, as RTIBuilder users copy the images.
@@ -96,11 +120,13 @@ StatusOr<LightStack> ReadLp(const std::string& path, const ReadOptions& o) {
     if (file.empty()) {
       const std::string leaf = ForeignBaseName(name);
       auto shown = [&](const fs::path& p) { return DatasetRelative(p.string(), o.confine_to); };
-      return NotFound(AtLine(shown(path), l.number,
-                             "image '" + name + "' not found" +
-                                 (IsForeignPath(name) ? "" : " as '" + shown(base / name) + "'") +
-                                 (leaf != name ? " nor as '" + shown(base / leaf) + "'" : "") +
-                                 "; put the image beside the .lp file or fix its path"));
+      return NotFound(AtLine(
+          shown(path), l.number,
+          "image '" + name + "' not found" +
+              (LpNameInside(name, base, o.confine_to) ? " as '" + shown(base / Slashed(name)) + "'"
+                                                      : "") +
+              (leaf != name ? " nor as '" + shown(base / leaf) + "'" : "") +
+              "; put the image beside the .lp file or fix its path"));
     }
     if (by_base_name && ++fallbacks == 1) first_fallback = name;
     files.push_back(file);

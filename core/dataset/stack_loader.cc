@@ -8,6 +8,7 @@
 
 #include "core/parallel.h"
 #include "core/path_util.h"
+#include "core/stack_band.h"
 #include "core/warnings.h"
 
 namespace matfit {
@@ -138,17 +139,14 @@ StatusOr<LightStack> Load(const std::vector<std::string>& files, std::vector<Lig
   }
   if (progress) progress(n, n);
   // A rank's band keeps its part of the alpha mask as it is: whether the whole mask is empty or
-  // full is a question about every band.
+  // full is a question about every band (JoinBands, core/stack_band.h, answers it).
   if (alpha_images > 0 && banded) {
     stack.mask_source =
         "alpha channel (" + std::to_string(alpha_images) + " of " + std::to_string(n) + " images)";
   } else if (alpha_images > 0) {
     const int64_t inside = std::count(stack.mask.begin(), stack.mask.end(), uint8_t(1));
     const std::string of = std::to_string(alpha_images) + " of " + std::to_string(n) + " images";
-    if (inside == 0)
-      return DataError("the alpha channel of the images (" + of +
-                       " have one) is transparent at every pixel, so no pixel would be fitted; "
-                       "save the images without alpha, or make the sample opaque");
+    if (inside == 0) return AlphaTransparentError("alpha channel (" + of + ")");
     if (inside == int64_t(stack.mask.size())) {
       stack.mask.clear();  // opaque everywhere: every texel, no mask needed
       stack.mask_source = "none: the alpha channel (" + of + ") is opaque everywhere";
@@ -217,7 +215,7 @@ StatusOr<LightStack> LoadStack(const std::vector<std::string>& files,
   const int w = region.w, h = region.h;
   if (o.crop) options.col0 = region.x, options.cols = region.w;
   if (!o.headers_only) {
-    options.row0 = region.y + o.row0;
+    options.row0 = region.y + (o.rows > 0 ? o.row0 : 0);  // row0 alone means nothing
     options.rows = o.rows > 0 ? o.rows : (o.crop ? region.h : 0);
     options.alpha_mask = !options.all_channels;  // RGBA / grey+alpha: alpha is the mask
   }
@@ -234,7 +232,8 @@ StatusOr<LightStack> LoadStack(const std::vector<std::string>& files,
                      "; select fewer images or one view, or crop or downscale them");
   auto provenance = [&](LightStack* s) {
     s->source_width = source_w, s->source_height = source_h;
-    s->crop_x = region.x, s->crop_y = region.y;
+    if (o.crop)
+      s->crop_x = region.x, s->crop_y = region.y, s->crop_w = region.w, s->crop_h = region.h;
   };
   if (o.headers_only) {
     LightStack stack(w, h, ch, 0);  // the size and the lights, no images

@@ -55,13 +55,17 @@ namespace matfit {
 // `.lp` image names (lp_reader.cc). Whether `name` is a path of another system or absolute:
 // a Windows drive or UNC path, backslash separators, or a POSIX absolute path.
 bool IsForeignPath(const std::string& name);
-// The file name part of `name`, splitting on '\\' and ':' as well for Windows paths.
+// The file name part of `name` (after the last '/' or '\\', and a Windows drive's ':').
 std::string ForeignBaseName(const std::string& name);
 // The image file an `.lp` entry names: the path as written (relative to `base`, the .lp's
 // folder; an absolute POSIX path only when not confined), else the base name in `base`
 // (*by_base_name true); empty when neither exists.
 std::string ResolveLpImage(const std::string& name, const std::filesystem::path& base,
                            const std::string& confine_to, bool* by_base_name);
+// Whether the relative `.lp` name lies inside the dataset by name (always, unconfined): only
+// then is it looked for as written, or shown in messages.
+bool LpNameInside(const std::string& name, const std::filesystem::path& base,
+                  const std::string& confine_to);
 // Last component of a folder path, ignoring trailing slashes ("a/b/" → "b").
 std::string FolderName(const std::string& dir);
 // lights.txt in `dir` or its parent folder, or empty. With `confine_to`, the parent folder is

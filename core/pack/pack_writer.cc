@@ -19,6 +19,7 @@
 #include "core/pack/gltf.h"
 #include "core/pack/pack.h"
 #include "core/pack/ptm_export.h"
+#include "core/pack/rti_export.h"
 #include "core/pack/shader_params.h"
 #include "core/parallel.h"
 #include "core/version.h"
@@ -108,11 +109,15 @@ Status ZipFolder(const std::string& folder, const std::string& zip_path) {
 // fitted normal: inside the mask, status ok (0), unverifiable (7) or suspect (8) — the codes of
 // fit/fit_types.h whose normal was fitted. height.exr in texel units (mean 0), height.png 16-bit
 // from its minimum (0) to its maximum (65535), the range in material.json.
+constexpr int64_t kMaxHeightTexels = int64_t(4096) * 4096;
+
 template <typename Put, typename Keep>
 Status PutHeightMaps(const MaterialMaps& m, const std::vector<uint8_t>& status, Put& put,
                      Keep& keep, const ImageWriteOptions& exr, const ImageWriteOptions& lin16,
                      json* maps) {
   const int64_t n = int64_t(m.width) * m.height;
+  // The solve holds about 90 bytes per texel: beyond 4096² (1.5 GB) the pack has no height map.
+  if (n > kMaxHeightTexels) return Status::Ok();
   std::vector<uint8_t> trusted(size_t(n), 1);
   for (int64_t p = 0; p < n; ++p) {
     const uint8_t st = size_t(p) < status.size() ? status[p] : 0;
@@ -332,7 +337,7 @@ Status WritePack(const MaterialMaps& m, const std::vector<uint8_t>& status, cons
     for (const char* k : {"deviation_percent", "rmse", "psnr_db", "flagged_texels", "fit_seconds"})
       if (r.is_object() && r.contains(k)) report_summary[k] = r[k];
   }
-  // Files other tools open: PTM (RTIViewer, the RTI web viewers) for ptm fits.
+  // Files other tools open: PTM (RTIViewer, the RTI web viewers) for ptm fits, HSH .rti for hsh.
   json exports = json::array();
   if (m.model == ShadingModel::kPtm) {
     const char* values = m.basis_srgb ? "8-bit sRGB codes, as RTI tools fit them"
@@ -345,6 +350,17 @@ Status WritePack(const MaterialMaps& m, const std::vector<uint8_t>& status, cons
       if (!bytes.ok()) break;  // not a 6-term ptm of 1 or 3 channels
       MATFIT_RETURN_IF_ERROR(WriteFileAtomic((root / file).string(), *bytes));
       exports.push_back({{"file", file}, {"format", name}, {"values", values}});
+    }
+  }
+  if (m.model == ShadingModel::kHsh) {
+    if (auto bytes = EncodeRti(m); bytes.ok()) {  // hsh2 / hsh3 (RTI tools stop at 9 terms)
+      MATFIT_RETURN_IF_ERROR(WriteFileAtomic((root / "material.rti").string(), *bytes));
+      exports.push_back(
+          {{"file", "material.rti"},
+           {"format", "HSH 1.2 (RTIBuilder / RTIViewer .rti)"},
+           {"values", m.basis_srgb ? "sRGB-encoded values in [0, 1], as RTI tools fit them"
+                                   : "linear radiance (a viewer shows it darker than an sRGB "
+                                     "fit; fit hsh2-srgb or hsh3-srgb for RTI viewers)"}});
     }
   }
   json material = {

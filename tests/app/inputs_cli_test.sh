@@ -100,6 +100,11 @@ for d in stone-ptm stone-ptm-srgb; do
   expect_contains "$d exports" "$(tr -d ' \n' <$d/material.json)" '"exports":[{"file":"material.ptm"'
 done
 [ ! -e stone-pack/material.ptm ] && ok || bad "a lambert pack has a .ptm"
+# HSH .rti for hsh2/hsh3 packs (bytes checked by tests/core/rti_export_test.cc).
+"$bin" fit stone --model hsh3-srgb --out stone-hsh --quiet >/dev/null || bad "fit stone hsh3-srgb"
+expect_contains "rti header" "$(head -n 5 stone-hsh/material.rti | tr '\n' ' ')" "#HSH1.2 #written by matfit 3 96 96 3 9 2 1"
+expect_contains "rti exports" "$(tr -d ' \n' <stone-hsh/material.json)" '"file":"material.rti"'
+[ ! -e stone-ptm/material.rti ] && ok || bad "a ptm pack has an .rti"
 
 echo "inputs_cli_test: $pass passed, $fail failed"
 [ "$fail" -eq 0 ]

@@ -13,8 +13,10 @@
 #include <vector>
 
 #include "core/dataset/dataset.h"
+#include "core/dataset/stack_loader.h"
 #include "core/dataset/writer.h"
 #include "core/image_io.h"
+#include "core/material_maps.h"
 #include "core/stack_ops.h"
 #include "core/synth/synth.h"
 #include "tests/core/test_util.h"
@@ -123,6 +125,26 @@ TEST(LpPaths, RelativePathsThatExistAreReadWithoutANote) {
   EXPECT_FALSE(HasWarning(*s, "lp-path-fallback"));
 }
 
+TEST(LpPaths, RelativeBackslashPathsAreSubfolders) {
+  TempDir tmp;
+  const LightStack truth = WriteSet(tmp.path(), "rti", Layout::kLp);
+  fs::create_directories(tmp / "rti/jpeg-exports");
+  for (const auto& e : fs::directory_iterator(tmp / "rti"))
+    if (e.path().extension() == ".png" && e.path().filename() != "mask.png")
+      fs::rename(e.path(), tmp / "rti/jpeg-exports" / e.path().filename());
+  const std::string lp = LpFile(tmp / "rti");
+  RewriteLp(lp, [](const std::string& n) { return "jpeg-exports\\" + n; });
+  auto s = ReadDataset(lp);
+  ASSERT_TRUE(s.ok()) << s.status().ToString();
+  EXPECT_LT(testing::MaxAbsDiff(*s, truth), 1e-4);
+  EXPECT_FALSE(HasWarning(*s, "lp-path-fallback"));  // found as written
+  // "a:1.png" is a file name, not a Windows drive.
+  EXPECT_FALSE(IsForeignPath("a:1.png"));
+  EXPECT_TRUE(IsForeignPath("a:\\1.png"));
+  EXPECT_TRUE(IsForeignPath("\\\\host\\share\\1.png"));
+  EXPECT_EQ(ForeignBaseName("D:/rti/x 1.png"), "x 1.png");
+}
+
 TEST(LpPaths, AMissingImageNamesBothPlacesLookedIn) {
   TempDir tmp;
   WriteSet(tmp.path(), "rti", Layout::kLp);
@@ -155,6 +177,14 @@ TEST(LpPaths, AConfinedDatasetNeverReadsAnAbsolutePathOutsideIt) {
   ASSERT_TRUE(s.ok()) << s.status().ToString();
   for (const auto& f : s->image_files) EXPECT_EQ(f.find("/outside/"), std::string::npos) << f;
   EXPECT_TRUE(HasWarning(*s, "lp-path-fallback"));
+  // A relative name leading out of the folder is not looked at either.
+  RewriteLp(lp,
+            [](const std::string& n) { return "../outside/" + n.substr(n.find_last_of('/') + 1); });
+  auto rel = ReadDataset(lp, o);
+  ASSERT_TRUE(rel.ok()) << rel.status().ToString();
+  for (const auto& f : rel->image_files) EXPECT_EQ(f.find("/outside/"), std::string::npos) << f;
+  EXPECT_TRUE(HasWarning(*rel, "lp-path-fallback"));
+  RewriteLp(lp, [](const std::string& n) { return outside + n.substr(n.find_last_of('/') + 1); });
   // Not confined (the CLI), the absolute path as written is the user's own file: it is read.
   auto cli = ReadDataset(lp);
   ASSERT_TRUE(cli.ok());
@@ -225,6 +255,18 @@ TEST(LightsTxtNaming, AnExplicitListGivesTheOrder) {
   EXPECT_NE(bad.status().message().find("images.txt:13"), std::string::npos)
       << bad.status().message();
   EXPECT_NE(bad.status().message().find("'extra.png'"), std::string::npos);
+  // A server dataset refuses a name leading out of its folder, naming it as written.
+  fs::create_directories(tmp / "elsewhere");
+  fs::copy_file(tmp / "obj/z_0.png", tmp / "elsewhere/z_0.png");
+  WriteText(tmp / "obj/images.txt", "../elsewhere/z_0.png\n" + list.substr(list.find('\n') + 1));
+  ReadOptions confined;
+  confined.confine_to = tmp / "obj";
+  auto out = ReadDataset(tmp / "obj", confined);
+  ASSERT_FALSE(out.ok());
+  EXPECT_NE(out.status().message().find("image '../elsewhere/z_0.png' not found in the dataset"),
+            std::string::npos)
+      << out.status().message();
+  EXPECT_EQ(out.status().message().find(tmp.path()), std::string::npos) << out.status().message();
 }
 
 TEST(LightCount, MoreImagesThanLightsIsAnErrorInEveryNaming) {
@@ -378,6 +420,13 @@ TEST(Crop, ReadsExactlyTheRegionOfEveryImageAndMask) {
       EXPECT_EQ(part->source_height, 16);
       EXPECT_EQ(part->crop_x, 3);
       EXPECT_EQ(part->crop_y, 5);
+      EXPECT_TRUE(part->is_read_crop());
+      // A mip of the region (--model auto) is not the region: its truth is not cut to it.
+      auto mip = DownsampleStack(*part, 2);
+      ASSERT_TRUE(mip.ok());
+      EXPECT_FALSE(mip->is_read_crop());
+      EXPECT_EQ(mip->crop_w, 11);  // the read region stays on record (report.json "crop")
+      EXPECT_FALSE(whole->is_read_crop());
       // A band of the crop (a rank of a distributed fit): rows 2..4 of the region.
       o.row0 = 2, o.rows = 3;
       auto band = ReadDataset(dir, o);
@@ -401,6 +450,19 @@ TEST(Crop, ARegionOutsideTheImagesIsAnErrorNamingIt) {
   EXPECT_NE(s.status().message().find("20x16 images"), std::string::npos);
   o.headers_only = true;  // the server's submission check refuses it too
   EXPECT_FALSE(ReadDataset(tmp / "obj", o).ok());
+}
+
+TEST(Crop, MapsOfAnotherSizeAreDroppedNotReadPastTheirEnd) {
+  MaterialMaps m;
+  m.width = 8, m.height = 6;
+  m.normal = Image(8, 6, 3, 0.5f);
+  m.specular = Image(1, 1, 1, 0.3f);   // a malformed truth map
+  m.roughness = Image(8, 3, 1, 0.2f);  // right width, wrong height
+  const MaterialMaps c = CropMaps(m, 2, 1, 5, 4);
+  EXPECT_EQ(c.normal.width(), 5);
+  EXPECT_EQ(c.normal.height(), 4);
+  EXPECT_TRUE(c.specular.empty());
+  EXPECT_TRUE(c.roughness.empty());
 }
 
 TEST(Crop, ParsesXYWidthHeight) {
