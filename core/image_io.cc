@@ -191,18 +191,17 @@ StatusOr<NativeImage> ReadImageNative(const std::string& path, const ImageReadOp
   fi.file_channels = file_ch;
   fi.encoding = ChooseEncoding(h, options, &fi.encoding_reason);
 
-  const int row0 = options.rows > 0 ? options.row0 : 0;
-  const int rows = options.rows > 0 ? options.rows : h.height;
-  if (row0 < 0 || row0 + rows > h.height)
-    return DataError("image '" + shown + "' has " + std::to_string(h.height) + " rows; rows " +
-                     std::to_string(row0) + ".." + std::to_string(row0 + rows - 1) +
+  // The rows and columns asked for (count 0: all); each range must lie inside the image.
+  auto range = [&](int first, int count, int size, const char* what, int* b, int* n) -> Status {
+    *b = count > 0 ? first : 0, *n = count > 0 ? count : size;
+    if (*b >= 0 && *b + *n <= size) return Status::Ok();
+    return DataError("image '" + shown + "' has " + std::to_string(size) + " " + what + "; " +
+                     what + " " + std::to_string(*b) + ".." + std::to_string(*b + *n - 1) +
                      " were asked for: all images of a stack must have the same size");
-  const int col0 = options.cols > 0 ? options.col0 : 0;
-  const int cols = options.cols > 0 ? options.cols : h.width;
-  if (col0 < 0 || col0 + cols > h.width)
-    return DataError("image '" + shown + "' has " + std::to_string(h.width) + " columns; columns " +
-                     std::to_string(col0) + ".." + std::to_string(col0 + cols - 1) +
-                     " were asked for: all images of a stack must have the same size");
+  };
+  int row0, rows, col0, cols;
+  MATFIT_RETURN_IF_ERROR(range(options.row0, options.rows, h.height, "rows", &row0, &rows));
+  MATFIT_RETURN_IF_ERROR(range(options.col0, options.cols, h.width, "columns", &col0, &cols));
   NativeImage img;
   img.width = cols, img.height = rows, img.channels = keep_ch;
   const int64_t n = int64_t(cols) * rows;
