@@ -1,5 +1,9 @@
 #include "tests/core/test_util.h"
 
+#include "core/dataset/writer.h"
+#include "core/stack_ops.h"
+#include "core/synth/synth.h"
+
 #include <unistd.h>
 
 #include <atomic>
@@ -59,6 +63,27 @@ Image WavePattern(int w, int h, int ch) {
         img.Plane(c)[size_t(y) * w + x] =
             0.5f + 0.45f * std::sin(0.21f * x + 1.3f * c) * std::cos(0.17f * y - 0.4f * c);
   return img;
+}
+
+LightStack WriteSynthSet(const std::string& dir, const std::string& name, Layout layout, int bits) {
+  synth::SynthOptions o;
+  o.material = "plaster";
+  o.lights = "dome:12";
+  o.size = 20;
+  o.layout = layout;
+  o.bits = bits;
+  auto r = synth::Synthesize(o);
+  EXPECT_TRUE(r.ok()) << r.status().ToString();
+  auto crop = CropStack(r->stack, 0, 0, 20, 16);  // non-square: rows and columns differ
+  EXPECT_TRUE(crop.ok());
+  DatasetWriteOptions wo;
+  wo.layout = layout;
+  wo.bits = bits;
+  wo.object_name = name;
+  const std::string out = dir + "/" + name;
+  std::filesystem::create_directories(out);
+  EXPECT_TRUE(WriteDataset(*crop, wo, out).ok());
+  return std::move(*crop);
 }
 
 }  // namespace matfit::testing

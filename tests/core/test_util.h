@@ -6,6 +6,7 @@
 #include <filesystem>
 #include <string>
 
+#include "core/dataset/dataset.h"
 #include "core/image.h"
 #include "core/light_stack.h"
 
@@ -50,6 +51,11 @@ std::string SharedDataDir();
 double MaxAbsDiff(const LightStack& a, const LightStack& b);
 
 void WriteText(const std::string& path, const std::string& text);
+
+// A 12-light 20x16 plaster set (16- or 8-bit) in `layout`, written to dir/name (truth/ too);
+// returns the stack written (float).
+LightStack WriteSynthSet(const std::string& dir, const std::string& name, Layout layout,
+                         int bits = 16);
 
 // A smooth image in (0.05, 0.95) that differs per channel: codec and band-read round trips.
 Image WavePattern(int w, int h, int ch);
