@@ -119,6 +119,10 @@ bool EncodeInto(OIIO::ImageOutput* out, const std::string& file_name,
     spec.attribute("compression", w.compact ? "piz" : "none");
   if (std::strcmp(out->format_name(), "png") == 0)
     spec.attribute("png:compressionLevel", w.compact ? 6 : 1);
+  if (std::strcmp(out->format_name(), "jpeg") == 0 && w.jpeg_quality > 0) {
+    spec.attribute("Compression", "jpeg:" + std::to_string(std::clamp(w.jpeg_quality, 1, 100)));
+    spec.attribute("jpeg:subsampling", "4:4:4");
+  }
   const OIIO::TypeDesc buffer_type = is_float ? OIIO::TypeDesc::FLOAT : type;
   if (proxy) out->set_ioproxy(proxy);
   if (!out->open(file_name, spec)) return false;

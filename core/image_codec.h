@@ -51,6 +51,7 @@ struct WriteSpec {
   bool srgb = false;                // colour space tag: sRGB, else linear (gamma 1)
   bool compact = false;             // PNG zlib level 6 (else 1); EXR PIZ (else uncompressed)
   std::string software;
+  int jpeg_quality = 0;  // JPEG: 1 … 100 with 4:4:4 chroma; 0 = the encoder's default
   int strip_rows = 1;
   // Rows [y0, y1) interleaved: uint8/uint16 codes for integer samples, float otherwise. The
   // pointer stays valid until the next call.

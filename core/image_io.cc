@@ -330,6 +330,7 @@ bool Encode(const Image& image, const std::string& format, const ImageWriteOptio
   const bool srgb = options.transfer == TransferFunction::kSrgb;
   spec.srgb = srgb;
   spec.compact = options.compact;
+  spec.jpeg_quality = options.jpeg_quality;
   // --force replaces only files matfit wrote; this tag is how it knows (core/output_marker.h).
   spec.software = std::string("matfit ") + kMatfitVersion;
   // Quantise ourselves (round to nearest) so that 8-bit sRGB codes are exact. The planes are

@@ -102,6 +102,8 @@ struct ImageWriteOptions {
   // (hsh3) smaller (noisy floats barely compress) for about 3× the encode time
   // (docs/benchmarks.md).
   bool compact = false;
+  // JPEG only: quality 1 … 100 with full-resolution chroma (4:4:4); 0 = the encoder's default.
+  int jpeg_quality = 0;
 };
 
 // Writes `image` (values clamped to [0, 1] for integer formats) to `path`, format from the

@@ -9,7 +9,6 @@
 #include <filesystem>
 #include <functional>
 #include <nlohmann/json.hpp>
-#include <tuple>
 
 #include "core/atomic_file.h"
 #include "core/height_from_normals.h"
@@ -18,8 +17,7 @@
 #include "core/output_marker.h"
 #include "core/pack/gltf.h"
 #include "core/pack/pack.h"
-#include "core/pack/ptm_export.h"
-#include "core/pack/rti_export.h"
+#include "core/pack/pack_exports.h"
 #include "core/pack/shader_params.h"
 #include "core/parallel.h"
 #include "core/version.h"
@@ -337,32 +335,9 @@ Status WritePack(const MaterialMaps& m, const std::vector<uint8_t>& status, cons
     for (const char* k : {"deviation_percent", "rmse", "psnr_db", "flagged_texels", "fit_seconds"})
       if (r.is_object() && r.contains(k)) report_summary[k] = r[k];
   }
-  // Files other tools open: PTM (RTIViewer, the RTI web viewers) for ptm fits, HSH .rti for hsh.
+  // Files other tools open: PTM, HSH .rti, the relight web layout (core/pack/pack_exports.h).
   json exports = json::array();
-  if (m.model == ShadingModel::kPtm) {
-    const char* values = m.basis_srgb ? "8-bit sRGB codes, as RTI tools fit them"
-                                      : "linear radiance x 255 (a viewer shows it darker than "
-                                        "an sRGB fit; fit ptm-srgb for RTI viewers)";
-    for (const auto& [format, file, name] :
-         {std::tuple{PtmFormat::kRgb, "material.ptm", "PTM_1.2 PTM_FORMAT_RGB"},
-          std::tuple{PtmFormat::kLrgb, "material_lrgb.ptm", "PTM_1.2 PTM_FORMAT_LRGB"}}) {
-      auto bytes = EncodePtm(m, format);
-      if (!bytes.ok()) break;  // not a 6-term ptm of 1 or 3 channels
-      MATFIT_RETURN_IF_ERROR(WriteFileAtomic((root / file).string(), *bytes));
-      exports.push_back({{"file", file}, {"format", name}, {"values", values}});
-    }
-  }
-  if (m.model == ShadingModel::kHsh) {
-    if (auto bytes = EncodeRti(m); bytes.ok()) {  // hsh2 / hsh3 (RTI tools stop at 9 terms)
-      MATFIT_RETURN_IF_ERROR(WriteFileAtomic((root / "material.rti").string(), *bytes));
-      exports.push_back(
-          {{"file", "material.rti"},
-           {"format", "HSH 1.2 (RTIBuilder / RTIViewer .rti)"},
-           {"values", m.basis_srgb ? "sRGB-encoded values in [0, 1], as RTI tools fit them"
-                                   : "linear radiance (a viewer shows it darker than an sRGB "
-                                     "fit; fit hsh2-srgb or hsh3-srgb for RTI viewers)"}});
-    }
-  }
+  MATFIT_RETURN_IF_ERROR(WritePackExports(m, root.string(), &exports));
   json material = {
       {"schema", "matfit.material/1"},
       {"model",

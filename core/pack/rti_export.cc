@@ -27,6 +27,27 @@ void RtiHshBasis(int terms, double lx, double ly, double lz, double* w) {
   w[8] = std::sqrt(30 / pi) * std::sin(2 * phi) * (c * c - c);
 }
 
+Status RtiHshTermMap(int terms, int* from, double* sign) {
+  if (terms != 4 && terms != 9) return InvalidArgument("RTI HSH has 4 or 9 terms");
+  const int order = terms == 4 ? 2 : 3;
+  // RTI term i is matfit term l² + l + m for RTI's l² + l − m, times a sign found where no term
+  // vanishes (the two bases agree there up to that sign, which the check below confirms).
+  const Vec3 l = Normalize(Vec3{0.31, 0.47, 0.83});
+  double mine[shading::kMaxHshTerms], rti[9];
+  shading::HshBasis(order, l, mine);
+  RtiHshBasis(terms, l.x, l.y, l.z, rti);
+  for (int band = 0; band * band < terms; ++band)
+    for (int mm = -band; mm <= band; ++mm) {
+      const int i = band * band + band - mm, j = band * band + band + mm;
+      from[i] = j;
+      sign[i] = mine[j] * rti[i] > 0 ? 1.0 : -1.0;
+      if (std::abs(std::abs(mine[j]) - std::abs(rti[i])) > 1e-9 * (1 + std::abs(rti[i])))
+        return Status(StatusCode::kInternal,
+                      "the RTI HSH basis and matfit's differ in term " + std::to_string(i));
+    }
+  return Status::Ok();
+}
+
 StatusOr<std::string> EncodeRti(const MaterialMaps& m) {
   const int terms = m.basis_terms;
   const int ch = terms > 0 ? m.coefficients.channels() / terms : 0;
@@ -34,26 +55,9 @@ StatusOr<std::string> EncodeRti(const MaterialMaps& m) {
       m.coefficients.channels() != ch * terms || m.coefficients.width() != m.width ||
       m.coefficients.height() != m.height)
     return InvalidArgument("an .rti file holds an hsh fit of 4 or 9 terms and 1 or 3 channels");
-  const int order = terms == 4 ? 2 : 3;
-  // RTI term i is matfit term l² + l + m for RTI's l² + l − m, times a sign found where no term
-  // vanishes (the two bases agree there up to that sign, which the check below confirms).
   int from[9];
   double sign[9];
-  {
-    const Vec3 l = Normalize(Vec3{0.31, 0.47, 0.83});
-    double mine[shading::kMaxHshTerms], rti[9];
-    shading::HshBasis(order, l, mine);
-    RtiHshBasis(terms, l.x, l.y, l.z, rti);
-    for (int band = 0; band * band < terms; ++band)
-      for (int mm = -band; mm <= band; ++mm) {
-        const int i = band * band + band - mm, j = band * band + band + mm;
-        from[i] = j;
-        sign[i] = mine[j] * rti[i] > 0 ? 1.0 : -1.0;
-        if (std::abs(std::abs(mine[j]) - std::abs(rti[i])) > 1e-9 * (1 + std::abs(rti[i])))
-          return Status(StatusCode::kInternal,
-                        "the RTI HSH basis and matfit's differ in term " + std::to_string(i));
-      }
-  }
+  MATFIT_RETURN_IF_ERROR(RtiHshTermMap(terms, from, sign));
   const int W = m.width, H = m.height;
   const int64_t n = int64_t(W) * H;
   auto coef = [&](int64_t p, int band, int i) {

@@ -17,6 +17,9 @@ namespace matfit {
 // band (RTI: m from +l down to −l; matfit: m ascending) and sign; EncodeRti maps between them.
 void RtiHshBasis(int terms, double lx, double ly, double lz, double* out);
 
+// RTI term i (of 4 or 9) = sign[i] × matfit HshBasis term from[i]; checked numerically.
+Status RtiHshTermMap(int terms, int* from, double* sign);
+
 // The file's bytes: a "#HSH1.2" comment line, then the lines "3" (HSH), "W H 3" (bands),
 // "terms 2 1" (terms, basis type, bytes per coefficient), then binary little-endian float32
 // scale[terms] and bias[terms], then per row (the BOTTOM row first), per texel, per band (r, g,

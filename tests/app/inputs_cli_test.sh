@@ -105,6 +105,15 @@ done
 expect_contains "rti header" "$(head -n 5 stone-hsh/material.rti | tr '\n' ' ')" "#HSH1.2 #written by matfit 3 96 96 3 9 2 1"
 expect_contains "rti exports" "$(tr -d ' \n' <stone-hsh/material.json)" '"file":"material.rti"'
 [ ! -e stone-ptm/material.rti ] && ok || bad "a ptm pack has an .rti"
+# The relight / OpenLIME web layout for ptm and hsh packs (read back against the fit by
+# tests/core/relight_export_test.cc): info.json + plane_<i>.jpg, three coefficient planes each.
+expect_contains "relight ptm" "$(tr -d ' \n\t' <stone-ptm-srgb/relight/info.json)" '"nplanes":18'
+expect_contains "relight hsh" "$(tr -d ' \n\t' <stone-hsh/relight/info.json)" '"type":"hsh"'
+[ -s stone-ptm-srgb/relight/plane_5.jpg ] && [ ! -e stone-ptm-srgb/relight/plane_6.jpg ] && ok ||
+  bad "a ptm web layout has 6 planes"
+[ -s stone-hsh/relight/plane_8.jpg ] && ok || bad "an hsh3 web layout has 9 planes"
+expect_contains "relight exports" "$(tr -d ' \n' <stone-hsh/material.json)" '"file":"relight/info.json"'
+[ ! -e stone-pack/relight ] && ok || bad "a lambert pack has a relight layout"
 
 echo "inputs_cli_test: $pass passed, $fail failed"
 [ "$fail" -eq 0 ]
