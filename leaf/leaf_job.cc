@@ -15,6 +15,7 @@
 #include "core/version.h"
 #include "core/warnings.h"
 #include "fit/fit_types.h"
+#include "leaf/overlay.h"
 #include "leaf/scan.h"
 
 namespace matfit::leaf {
@@ -54,40 +55,6 @@ double Since(std::chrono::steady_clock::time_point t0) {
 }
 
 json Bbox(const Component& c) { return {c.x0, c.y0, c.x1 - c.x0 + 1, c.y1 - c.y0 + 1}; }
-
-// Colour overlay of the segmentation: leaves in distinct hues, twigs white, markers blue, specks
-// yellow, on the darkened transmission.
-Image Overlay(const SheetAnalysis& a) {
-  const auto& s = a.segmentation;
-  Image vis(a.width, a.height, 3);
-  std::vector<const Component*> by_label(s.components.size() + 1, nullptr);
-  int max_label = 0;
-  for (const auto& c : s.components) max_label = std::max(max_label, c.label);
-  by_label.assign(max_label + 1, nullptr);
-  for (const auto& c : s.components) by_label[c.label] = &c;
-  for (int64_t i = 0; i < vis.plane_size(); ++i) {
-    const int l = s.labels[i];
-    float col[3];
-    const float t = 0.5f * std::min(1.0f, a.luminance.Plane(0)[i]);
-    col[0] = col[1] = col[2] = t;
-    if (l > 0 && by_label[l]) {
-      const Component& c = *by_label[l];
-      switch (c.kind) {
-        case ComponentKind::kLeaf: {
-          const float hue = float(c.id * 0.618034 - std::floor(c.id * 0.618034));
-          for (int k = 0; k < 3; ++k)
-            col[k] = 0.35f + 0.6f * std::max(0.0f, 1 - std::abs(std::fmod(hue * 3 + k, 3.0f) - 1));
-          break;
-        }
-        case ComponentKind::kTwig: col[0] = col[1] = col[2] = 1; break;
-        case ComponentKind::kMarker: col[0] = col[1] = 0.1f, col[2] = 1; break;
-        case ComponentKind::kSpeck: col[0] = col[1] = 1, col[2] = 0; break;
-      }
-    }
-    for (int k = 0; k < 3; ++k) vis.Plane(k)[i] = col[k];
-  }
-  return vis;
-}
 
 std::string LeafReport(const LeafMaterial& L, const LeafMaterialOptions& o, int64_t flagged) {
   json e = json::array();
@@ -282,6 +249,7 @@ StatusOr<LeafJobResult> RunLeafJob(const LeafJobOptions& o, const LeafProgress& 
                            {"name", name},
                            {"pack", name},
                            {"bbox", Bbox(c)},
+                           {"centroid", {c.cx, c.cy}},  // where segmentation.png numbers it
                            {"crop", {L->crop_x, L->crop_y, L->maps.width, L->maps.height}},
                            {"area_px", c.area_px},
                            {"area_mm2", scale_known ? json(a_mm2) : json()},
@@ -340,7 +308,8 @@ StatusOr<LeafJobResult> RunLeafJob(const LeafJobOptions& o, const LeafProgress& 
   // Rank 0 (or the only process) writes the sheet's files and leaves.json and commits.
   auto write = [&]() -> Status {
     if (!step("write", 0, 1)) return Status(StatusCode::kCancelled, "cancelled");
-    MATFIT_RETURN_IF_ERROR(WriteImage((root / "segmentation.png").string(), Overlay(*sheet),
+    MATFIT_RETURN_IF_ERROR(WriteImage((root / "segmentation.png").string(),
+                                      SegmentationOverlay(*sheet),
                                       {PixelFormat::kUint8, TransferFunction::kLinear}));
     MATFIT_RETURN_IF_ERROR(WriteImage((root / "transmission.exr").string(), sheet->transmission,
                                       {PixelFormat::kHalf, TransferFunction::kLinear}));

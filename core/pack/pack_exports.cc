@@ -51,8 +51,8 @@ Status WritePackExports(const MaterialMaps& m, const std::string& root_path,
     ImageWriteOptions jpg{PixelFormat::kUint8, TransferFunction::kLinear};
     jpg.jpeg_quality = 100;
     for (size_t i = 0; i < web->planes.size(); ++i)
-      MATFIT_RETURN_IF_ERROR(WriteImage(
-          (dir / ("plane_" + std::to_string(i) + ".jpg")).string(), web->planes[i], jpg));
+      MATFIT_RETURN_IF_ERROR(WriteImage((dir / ("plane_" + std::to_string(i) + ".jpg")).string(),
+                                        web->planes[i], jpg));
     MATFIT_RETURN_IF_ERROR(WriteFileAtomic((dir / "info.json").string(), web->info_json));
     exports->push_back(
         {{"file", "relight/info.json"},

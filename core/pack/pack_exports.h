@@ -12,7 +12,6 @@ namespace matfit {
 
 // Writes the exports the fit allows into the pack folder `root` (atomic per file) and appends
 // one entry per export to *exports (material.json's "exports": file, format, values).
-Status WritePackExports(const MaterialMaps& maps, const std::string& root,
-                        nlohmann::json* exports);
+Status WritePackExports(const MaterialMaps& maps, const std::string& root, nlohmann::json* exports);
 
 }  // namespace matfit

@@ -127,9 +127,9 @@ double FitValue(const MaterialMaps& m, int x, int y, int c, const Vec3& l) {
 }
 
 struct Errors {
-  double worst_steps = 0;    // max |file coefficient − fit's| in code steps (scale / 255)
-  double mean_steps = 0;     // mean of the same
-  double worst_ratio = 0;    // max |file value − fit value| / (half a step per term + JPEG)
+  double worst_steps = 0;  // max |file coefficient − fit's| in code steps (scale / 255)
+  double mean_steps = 0;   // mean of the same
+  double worst_ratio = 0;  // max |file value − fit value| / (half a step per term + JPEG)
   double worst_value = 0;
 };
 
@@ -192,9 +192,9 @@ Errors RoundTrip(const MaterialMaps& m, double jpeg_steps) {
 constexpr double kJpegSteps = 4.5;
 
 TEST(RelightExport, PtmAndHshReadBackAsTheFitWithinQuantisation) {
-  for (const auto& [model, terms] : {std::pair{ShadingModel::kPtm, 6},
-                                     std::pair{ShadingModel::kHsh, 4},
-                                     std::pair{ShadingModel::kHsh, 9}}) {
+  for (const auto& [model, terms] :
+       {std::pair{ShadingModel::kPtm, 6}, std::pair{ShadingModel::kHsh, 4},
+        std::pair{ShadingModel::kHsh, 9}}) {
     const Errors e = RoundTrip(RandomFit(model, 37, 23, 3, terms, unsigned(terms)), kJpegSteps);
     SCOPED_TRACE(terms);
     EXPECT_LE(e.worst_ratio, 1.0) << "worst |file − fit| " << e.worst_value;
