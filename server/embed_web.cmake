@@ -1,6 +1,6 @@
 # cmake -DOUT=file.cc -DWEB=render/web -DSHADERS=render/shaders -P embed_web.cmake: the viewer's
 # files as C++ raw strings, so that `matfit serve` serves the viewer from any working folder.
-set(NAMES index.html viewer.js preamble.glsl shading.glsl material.frag fullscreen.vert)
+set(NAMES index.html viewer.js home.html home.js preamble.glsl shading.glsl material.frag fullscreen.vert)
 set(BODY "")
 foreach(name ${NAMES})
   if(name MATCHES "\\.(html|js)$")

@@ -65,6 +65,10 @@ bool RejectMalformedTarget(const httplib::Request& req, httplib::Response& res) 
   return false;
 }
 
+const char* const kPageContentSecurityPolicy =
+    "default-src 'self'; style-src 'self' 'unsafe-inline'; img-src 'self' data: blob:; "
+    "object-src 'none'; base-uri 'none'; form-action 'self'; frame-ancestors 'self'";
+
 void AddSecurityHeaders(httplib::Response& res) {
   res.set_header("X-Content-Type-Options", "nosniff");
   if (res.status >= 400) {  // an error is never cached (e.g. a preview on a full disk)
@@ -74,6 +78,8 @@ void AddSecurityHeaders(httplib::Response& res) {
   if (res.get_header_value("Content-Type").rfind("text/html", 0) != 0)
     res.set_header("Content-Security-Policy",
                    "default-src 'none'; frame-ancestors 'none'; sandbox");
+  else  // the embedded pages (landing page, viewer): their own scripts, styles and requests only
+    res.set_header("Content-Security-Policy", kPageContentSecurityPolicy);
 }
 
 std::string PackFileType(const std::string& name) {
@@ -82,7 +88,8 @@ std::string PackFileType(const std::string& name) {
   if (ext == ".gltf") return "model/gltf+json";
   if (ext == ".png") return "image/png";
   if (ext == ".exr") return "image/x-exr";
-  return "application/octet-stream";  // .bin, and anything else
+  if (ext == ".jpg") return "image/jpeg";  // the relight web layout's planes
+  return "application/octet-stream";       // .bin, and anything else
 }
 
 std::string ViewerFileType(const std::string& name) {

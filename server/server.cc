@@ -290,8 +290,10 @@ void Server::Impl::RegisterRoutes() {
     if (RejectMalformedTarget(req, res)) return httplib::Server::HandlerResponse::Handled;
     if (!auth_on) return httplib::Server::HandlerResponse::Unhandled;
     const std::string& p = req.path;
-    const bool open = p == "/healthz" || p == "/metrics" || p == "/api/v1/healthz" ||
-                      p == "/api/v1/metrics" || p.rfind("/api/v1/viewer/static/", 0) == 0;
+    // Static pages and the model list hold nothing of anyone's: readable without a token.
+    const bool open = p == "/" || p == "/healthz" || p == "/metrics" || p == "/api/v1/healthz" ||
+                      p == "/api/v1/metrics" || p == "/api/v1/models" ||
+                      p.rfind("/api/v1/viewer/static/", 0) == 0;
     const bool write = req.method == "POST" || req.method == "DELETE" || req.method == "PUT";
     if (open && !write) return httplib::Server::HandlerResponse::Unhandled;
     if (!write && options.public_read) return httplib::Server::HandlerResponse::Unhandled;
@@ -422,6 +424,7 @@ void Server::Impl::RegisterRoutes() {
   http.Get("/api/v1/metrics", metrics_page);
   RegisterJobRoutes();
   RegisterPackRoutes();
+  RegisterHomeRoutes();
 }
 
 Status Server::Start() {

@@ -105,6 +105,7 @@ struct Server::Impl {
   void RegisterRoutes();
   void RegisterJobRoutes();
   void RegisterPackRoutes();
+  void RegisterHomeRoutes();  // routes_home.cc: the landing page, the model list
   void WorkerLoop();
   void RunOne(const JobRecord& job);
   void HeartbeatLoop();

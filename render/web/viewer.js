@@ -37,6 +37,16 @@ function compile(gl, type, source, name) {
   return sh;
 }
 
+// The switcher's name for a pack: a leaf's number (as segmentation.png labels it) and folder,
+// else the fit's method (or model).
+function packLabel(m, url, i) {
+  const method = m.model?.method || m.model?.name || 'pack ' + i;
+  const leaf = m.model?.parameters?.leaf_id;
+  if (leaf === undefined) return method;
+  const folder = url.replace(/\/+$/, '').split('/').pop();
+  return `leaf ${leaf} (${folder}, ${method})`;
+}
+
 async function main() {
   const q = new URLSearchParams(location.search);
   const packs = (q.get('pack') || '../pack/').split(',').filter((p) => p);
@@ -110,7 +120,9 @@ async function main() {
     }
     v = mv;
     const model = MODEL_NAMES[v.model_index] || materials[i].model?.name;
-    document.getElementById('title').textContent = `matfit viewer: ${model}`;
+    const leaf = materials[i].model?.parameters?.leaf_id !== undefined;
+    document.getElementById('title').textContent =
+        `matfit viewer: ${leaf ? packLabel(materials[i], packs[i], i) : model}`;
     const summary = materials[i].report_summary || {};
     document.getElementById('info').textContent =
         `${v.width} × ${v.height} texels, model ${model}` +
@@ -161,15 +173,22 @@ async function main() {
     gl.drawArrays(gl.TRIANGLES, 0, 3);
     document.getElementById('light').textContent =
         `light θ ${state.theta.toFixed(1)}°, φ ${state.phi.toFixed(1)}°`;
+    lightTheta.value = String(state.theta);
+    lightPhi.value = String(state.phi);
   }
+  // Light sliders: θ from the zenith (up to 180° for two-sided leaves: lit from behind), φ.
+  const lightTheta = document.getElementById('light-theta');
+  const lightPhi = document.getElementById('light-phi');
+  const rimOf = () => (v.leaf_base >= 0 ? 180 : 85);
+  lightTheta.addEventListener('input', () => { state.theta = Number(lightTheta.value); draw(); });
+  lightPhi.addEventListener('input', () => { state.phi = Number(lightPhi.value); draw(); });
 
   // The light follows the pointer: distance from the centre → θ (0–85°), angle → φ.
   canvas.addEventListener('pointermove', (e) => {
     const r = canvas.getBoundingClientRect();
     const x = 2 * (e.clientX - r.left) / r.width - 1, y = 1 - 2 * (e.clientY - r.top) / r.height;
     // Leaves are two-sided: past the rim the light goes behind the leaf (θ up to 180°).
-    const rim = v.leaf_base >= 0 ? 180 : 85;
-    state.theta = Math.min(1, Math.hypot(x, y)) * rim;
+    state.theta = Math.min(1, Math.hypot(x, y)) * rimOf();
     state.phi = Math.atan2(y, x) * 180 / Math.PI;
     draw();
   });
@@ -191,14 +210,43 @@ async function main() {
   materials.forEach((m, i) => {
     const opt = document.createElement('option');
     opt.value = String(i);
-    opt.textContent = `${m.model?.method || m.model?.name || 'pack ' + i}`;
+    opt.textContent = packLabel(m, packs[i], i);
     select.appendChild(opt);
   });
+  const anyLeaf = materials.some((m) => m.model?.parameters?.leaf_id !== undefined);
+  document.getElementById('model-label').firstChild.textContent = anyLeaf ? 'leaf ' : 'model ';
   document.getElementById('model-label').hidden = materials.length < 2;
-  select.addEventListener('input', async () => { await loadPack(Number(select.value)); draw(); });
+  async function choose(i) {
+    select.value = String(i);
+    await loadPack(i);
+    // The θ range follows the pack: up to 180° for leaves (light from behind), else 85°.
+    lightTheta.max = String(rimOf());
+    state.theta = Math.min(state.theta, rimOf());
+    draw();
+  }
+  select.addEventListener('input', () => choose(Number(select.value)));
+  // Keyboard: arrows move the light (Shift: 1° steps), [ and ] step through the packs.
+  document.addEventListener('keydown', (e) => {
+    if (e.target instanceof HTMLInputElement || e.target instanceof HTMLSelectElement) return;
+    const step = e.shiftKey ? 1 : 5;
+    const wrap = (a) => ((a + 540) % 360) - 180;
+    if (e.key === 'ArrowLeft') state.phi = wrap(state.phi - step);
+    else if (e.key === 'ArrowRight') state.phi = wrap(state.phi + step);
+    else if (e.key === 'ArrowUp') state.theta = Math.max(0, state.theta - step);
+    else if (e.key === 'ArrowDown') state.theta = Math.min(rimOf(), state.theta + step);
+    else if (e.key === '[' || e.key === ']') {
+      const n = materials.length, i = Number(select.value);
+      if (n > 1) choose((i + (e.key === ']' ? 1 : n - 1)) % n);
+      e.preventDefault();
+      return;
+    } else return;
+    e.preventDefault();
+    draw();
+  });
   const first = Math.min(materials.length - 1, Math.max(0, Number(q.get('select') || 0)));
   select.value = String(first);
   const model = await loadPack(first);
+  lightTheta.max = String(rimOf());
   if (q.get('measured')) {
     document.getElementById('measured').src = q.get('measured');
     document.getElementById('measured-figure').hidden = false;

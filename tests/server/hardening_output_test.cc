@@ -168,12 +168,18 @@ TEST_F(HardeningTest, ControlBytesInPathsAre400AndPackFilesKeepTheirRoutesType) 
     EXPECT_NE(csp.find("default-src 'none'"), std::string::npos) << path << ": " << csp;
     EXPECT_NE(csp.find("sandbox"), std::string::npos) << path << ": " << csp;
   }
-  // The viewer page is HTML (it runs scripts), and gets nosniff too.
-  auto page = client_->Get("/api/v1/viewer/static/index.html");
-  ASSERT_TRUE(page);
-  EXPECT_EQ(page->status, 200);
-  EXPECT_EQ(page->get_header_value("Content-Type"), "text/html; charset=utf-8");
-  EXPECT_EQ(page->get_header_value("X-Content-Type-Options"), "nosniff");
+  // The viewer and landing pages are HTML (they run scripts): nosniff too, and a policy that
+  // allows only the server's own scripts, requests and images (no plugins, no other origins).
+  for (const char* html : {"/api/v1/viewer/static/index.html", "/"}) {
+    auto page = client_->Get(html);
+    ASSERT_TRUE(page);
+    EXPECT_EQ(page->status, 200);
+    EXPECT_EQ(page->get_header_value("Content-Type"), "text/html; charset=utf-8");
+    EXPECT_EQ(page->get_header_value("X-Content-Type-Options"), "nosniff");
+    const std::string csp = page->get_header_value("Content-Security-Policy");
+    EXPECT_NE(csp.find("default-src 'self'"), std::string::npos) << html << ": " << csp;
+    EXPECT_NE(csp.find("object-src 'none'"), std::string::npos) << html << ": " << csp;
+  }
 }
 
 TEST_F(HardeningTest, PacksAndJobRecordsHoldNoServerPaths) {
