@@ -19,8 +19,9 @@ void RegisterFit(CLI::App& app, int* exit_code);
 void RegisterRender(CLI::App& app, int* exit_code);
 void RegisterLeaf(CLI::App& app, int* exit_code);
 void RegisterServe(CLI::App& app, int* exit_code);
-void RegisterTokens(CLI::App& app, int* exit_code);   // a cluster's bearer tokens
-void RegisterCapture(CLI::App& app, int* exit_code);  // capture, calibrate-lights, devices
+void RegisterTokens(CLI::App& app, int* exit_code);           // a cluster's bearer tokens
+void RegisterCapture(CLI::App& app, int* exit_code);          // capture, calibrate-lights, devices
+void RegisterCalibrateLights(CLI::App& app, int* exit_code);  // via RegisterCapture
 void RegisterBench(CLI::App& app, int* exit_code);
 
 // Shared help texts: the same flag means the same thing in every subcommand.

@@ -64,8 +64,23 @@ StatusOr<LightEstimate> EstimateLight(const Image& img, const SphereFit& s,
     for (int x = 0; x < w; ++x)
       if (std::hypot(x - s.cx, y - s.cy) < r_in) peak = std::max(peak, value(int64_t(y) * w + x));
   if (!(peak > 0)) return DataError("no highlight on the sphere (the image is black inside it)");
+  if (!(o.highlight_fraction > 0 && o.highlight_fraction < 1))
+    return InvalidArgument("highlight fraction must be in (0, 1)");
+  if (o.perspective && !(o.focal_px > 0))
+    return InvalidArgument("perspective calibration needs --focal-px > 0");
   const double thr = (1 - o.highlight_fraction) * peak;
+  // The view direction at pixel (x, y): toward the camera (orthographic: +z).
+  auto view = [&](double x, double y) {
+    if (!o.perspective) return Vec3{0, 0, 1};
+    const double px = (w - 1) / 2.0, py = (h - 1) / 2.0;
+    return Normalize(Vec3{-(x - px), (y - py), o.focal_px});
+  };
+  // Every highlight pixel's mirror direction R = 2(n·v)n − v, averaged with weight v − thr.
+  // Orthographic, a pixel covers the same solid angle of R wherever it is on the sphere
+  // (dω_R = 4 dA / r²), so a highlight symmetric about the light averages to it exactly; an
+  // image-space centroid is pulled toward the sphere's centre by the foreshortening.
   double sx = 0, sy = 0, sw = 0;
+  Vec3 sum{0, 0, 0};
   int count = 0;
   for (int y = 0; y < h; ++y)
     for (int x = 0; x < w; ++x) {
@@ -73,28 +88,18 @@ StatusOr<LightEstimate> EstimateLight(const Image& img, const SphereFit& s,
       const float v = value(int64_t(y) * w + x);
       if (v < thr) continue;
       const double wt = v - thr + 1e-6;
+      const double nx = (x - s.cx) / s.radius, ny = -(y - s.cy) / s.radius;
+      const Vec3 n{nx, ny, std::sqrt(std::max(0.0, 1 - nx * nx - ny * ny))};
+      const Vec3 vv = view(x, y);
+      const double nv = n.x * vv.x + n.y * vv.y + n.z * vv.z;
+      sum = {sum.x + wt * (2 * nv * n.x - vv.x), sum.y + wt * (2 * nv * n.y - vv.y),
+             sum.z + wt * (2 * nv * n.z - vv.z)};
       sx += wt * x, sy += wt * y, sw += wt, ++count;
     }
-  if (!(o.highlight_fraction > 0 && o.highlight_fraction < 1))
-    return InvalidArgument("highlight fraction must be in (0, 1)");
   if (!(sw > 0)) return DataError("no highlight pixels on the sphere");
   LightEstimate e;
   e.hx = sx / sw, e.hy = sy / sw, e.peak = peak, e.pixels = count;
-  const double nx = (e.hx - s.cx) / s.radius, ny = -(e.hy - s.cy) / s.radius;
-  const double nz = std::sqrt(std::max(0.0, 1 - nx * nx - ny * ny));
-  const Vec3 n{nx, ny, nz};
-  Vec3 v{0, 0, 1};
-  if (o.perspective) {
-    if (!(o.focal_px > 0)) return InvalidArgument("perspective calibration needs --focal-px > 0");
-    const double px = (w - 1) / 2.0, py = (h - 1) / 2.0;
-    const double vx = -(e.hx - px), vy = (e.hy - py), vz = o.focal_px;  // toward the camera
-    const double len = std::sqrt(vx * vx + vy * vy + vz * vz);
-    v = {vx / len, vy / len, vz / len};
-  }
-  const double nv = n.x * v.x + n.y * v.y + n.z * v.z;
-  Vec3 l{2 * nv * n.x - v.x, 2 * nv * n.y - v.y, 2 * nv * n.z - v.z};
-  const double len = std::sqrt(l.x * l.x + l.y * l.y + l.z * l.z);
-  e.direction = {l.x / len, l.y / len, l.z / len};
+  e.direction = Normalize(sum);
   return e;
 }
 
