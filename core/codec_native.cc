@@ -42,6 +42,10 @@ class NativeBackend : public Backend {
     // PNG with alpha goes to OpenImageIO (straight alpha: colour stored as given, read back as
     // stored).
     if (format == "png") return integer && (spec.channels == 1 || spec.channels == 3);
+    // JPEG at an explicit quality (the relight planes); other JPEG writes keep OpenImageIO's.
+    if (format == "jpg")
+      return spec.sample == Sample::kUint8 && (spec.channels == 1 || spec.channels == 3) &&
+             spec.jpeg_quality > 0 && !in_memory;
     return format == "exr" && !integer && !in_memory;
   }
 
@@ -49,6 +53,7 @@ class NativeBackend : public Backend {
              std::string* memory, std::string* error) override {
     if (format == "png") return WritePng(spec, path, memory, error);
     if (format == "exr" && !memory) return WriteExr(spec, path, error);
+    if (format == "jpg" && !memory) return WriteJpeg(spec, path, error);
     *error = "the native codecs do not write '" + format + "'" + (memory ? " in memory" : "");
     return false;
   }

@@ -18,5 +18,7 @@ std::unique_ptr<Reader> OpenExr(const std::string& path, std::string* error);
 bool WritePng(const WriteSpec& spec, const std::string& path, std::string* memory,
               std::string* error);
 bool WriteExr(const WriteSpec& spec, const std::string& path, std::string* error);
+// 8-bit grey or RGB at spec.jpeg_quality (> 0), 4:4:4 (core/codec_jpeg_write.cc).
+bool WriteJpeg(const WriteSpec& spec, const std::string& path, std::string* error);
 
 }  // namespace matfit::codec

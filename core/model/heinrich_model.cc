@@ -79,7 +79,38 @@ class HeinrichModel final : public ModelBase<HeinrichModel> {
         {"specular", "specular.png", &m.specular_color, MapEncoding::kLinear8,
          "L_spec clamped to [0,1] (glTF specular colour)"}};
     for (const PackMap& pm : maps) MATFIT_RETURN_IF_ERROR(put(pm));
+    // glTF (Gltf below): R = t a + t |n_raw| (n̂·l) is a Lambertian base colour t |n_raw| plus a
+    // term the light's direction does not change, t a: emission at unit light.
+    Image base, emissive;
+    if (GltfBake(m, &base, &emissive)) {
+      MATFIT_RETURN_IF_ERROR(
+          put({"gltf_base_color", "gltf_base_color.png", &base, MapEncoding::kSrgb8,
+               "glTF base colour t |n_raw| (clamped to 1)"}));
+      MATFIT_RETURN_IF_ERROR(
+          put({"gltf_emissive", "gltf_emissive.png", &emissive, MapEncoding::kSrgb8,
+               "glTF emission t a: the ambient term at unit light"}));
+    }
     return Status::Ok();
+  }
+  // t |n_raw| and max(0, t a) per channel; false without the maps. *clipped counts values cut
+  // to [0, 1].
+  static bool GltfBake(const MaterialMaps& m, Image* base, Image* emissive,
+                       int64_t* clipped = nullptr) {
+    if (m.albedo.channels() != 3 || m.ambient.channels() != 3) return false;
+    const int64_t n = int64_t(m.width) * m.height;
+    *base = Image(m.width, m.height, 3), *emissive = Image(m.width, m.height, 3);
+    int64_t cut = 0;
+    for (int c = 0; c < 3; ++c)
+      for (int64_t p = 0; p < n; ++p) {
+        const float t = m.albedo.Plane(c)[p],
+                    s = m.normal_scale.empty() ? 1 : m.normal_scale.Plane(0)[p];
+        const float b = t * s, e = t * m.ambient.Plane(c)[p];
+        cut += (b > 1 || e < 0 || e > 1) ? 1 : 0;
+        base->Plane(c)[p] = std::clamp(b, 0.0f, 1.0f);
+        emissive->Plane(c)[p] = std::clamp(e, 0.0f, 1.0f);
+      }
+    if (clipped) *clipped = cut;
+    return true;
   }
   void PackParameters(const MaterialMaps& m, std::map<std::string, double>* out) const override {
     (*out)["specular_flat_normal"] = m.specular_flat_normal ? 1 : 0;
@@ -103,6 +134,20 @@ class HeinrichModel final : public ModelBase<HeinrichModel> {
   void Gltf(const MaterialMaps& m, const std::vector<uint8_t>&,
             const std::map<std::string, double>& fit_parameters,
             GltfMaterialDesc* g) const override {
+    Image base, emissive;
+    int64_t clipped = 0;
+    if (GltfBake(m, &base, &emissive, &clipped)) {
+      g->base_color_uri = "maps/gltf_base_color.png";
+      g->emissive_uri = "maps/gltf_emissive.png";
+      g->approximations.push_back(
+          "heinrich's unnormalised normal and ambient term: base colour = t |n_raw| "
+          "(maps/gltf_base_color.png), emission = t a (maps/gltf_emissive.png), exact at unit "
+          "light for lights in front (glTF clamps n.l at 0 where the model does not); the "
+          "emission does not follow the light's intensity");
+      if (clipped > 0)
+        g->approximations.push_back(std::to_string(clipped) +
+                                    " texel channel values cut to [0, 1] for the glTF maps");
+    }
     if (m.specular_color.empty()) return;
     g->specular_color_uri = "maps/specular.png";
     g->specular_factor = 1.0;

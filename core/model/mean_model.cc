@@ -2,6 +2,7 @@
 #include <algorithm>
 
 #include "core/model/model_impl.h"
+#include "core/pack/gltf.h"
 
 namespace matfit::model_impl {
 namespace {
@@ -33,6 +34,16 @@ class MeanModel final : public ModelBase<MeanModel> {
     return Status::Ok();
   }
   bool AddShaderPlanes(const MaterialMaps&, ShaderPlaneSink*) const override { return true; }
+  // The mean is what the sample shows under any light: in glTF, emission (no reflection).
+  void Gltf(const MaterialMaps&, const std::vector<uint8_t>&, const std::map<std::string, double>&,
+            GltfMaterialDesc* g) const override {
+    g->emissive_uri = g->base_color_uri;
+    g->base_color_factor = 0.0;
+    g->approximations.push_back(
+        "the mean model does not depend on the light: the glTF emits the mean texture "
+        "(emissiveTexture = maps/albedo.png, baseColorFactor 0), as matfit shows it at unit "
+        "light; it does not follow a viewer's light intensity");
+  }
 };
 
 }  // namespace

@@ -40,11 +40,13 @@ std::string MakeQuadGltf(const GltfMaterialDesc& m, const std::string& bin_uri,
     textures.push_back({{"source", int(images.size()) - 1}, {"sampler", 0}});
     return int(textures.size()) - 1;
   };
-  json mat = {{"name", m.name},
-              {"pbrMetallicRoughness",
-               {{"baseColorTexture", {{"index", add_texture(m.base_color_uri)}}},
-                {"metallicFactor", 0.0},
-                {"roughnessFactor", m.roughness}}}};
+  json mat = {
+      {"name", m.name},
+      {"pbrMetallicRoughness",
+       {{"baseColorTexture", {{"index", add_texture(m.base_color_uri)}}},
+        {"baseColorFactor", {m.base_color_factor, m.base_color_factor, m.base_color_factor, 1.0}},
+        {"metallicFactor", 0.0},
+        {"roughnessFactor", m.roughness}}}};
   if (!m.metallic_roughness_uri.empty()) {
     mat["pbrMetallicRoughness"]["metallicRoughnessTexture"] = {
         {"index", add_texture(m.metallic_roughness_uri)}};
@@ -69,6 +71,10 @@ std::string MakeQuadGltf(const GltfMaterialDesc& m, const std::string& bin_uri,
         {"diffuseTransmissionColorFactor", {1.0, 1.0, 1.0}},
         {"diffuseTransmissionColorTexture", {{"index", tex}}}};
     used.push_back("KHR_materials_diffuse_transmission");
+  }
+  if (!m.emissive_uri.empty()) {
+    mat["emissiveTexture"] = {{"index", add_texture(m.emissive_uri)}};
+    mat["emissiveFactor"] = {1.0, 1.0, 1.0};
   }
   if (m.double_sided) mat["doubleSided"] = true;
   if (m.alpha_mask) mat["alphaMode"] = "MASK", mat["alphaCutoff"] = 0.5;

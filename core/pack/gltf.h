@@ -10,6 +10,7 @@ namespace matfit {
 struct GltfMaterialDesc {
   std::string name;
   std::string base_color_uri;          // sRGB PNG
+  double base_color_factor = 1.0;      // baseColorFactor (rgb; alpha 1)
   std::string normal_uri;              // empty: no normal map
   std::string specular_color_uri;      // KHR_materials_specular colour texture; empty: none
   double specular_factor = 1.0;        // KHR_materials_specular specularFactor (0 = no specular)
@@ -19,6 +20,11 @@ struct GltfMaterialDesc {
   // Thin two-sided sheets (leaves): KHR_materials_diffuse_transmission from an RGBA texture
   // (RGB = transmission colour, A = transmission factor); empty: none.
   std::string diffuse_transmission_uri;
+  // Emission (sRGB texture × emissiveFactor 1): what a model adds independently of the light's
+  // direction at unit light (heinrich's ambient term); empty: none.
+  std::string emissive_uri;
+  // What the glTF approximates of the fit, for material.json ("gltf_approximations").
+  std::vector<std::string> approximations;
   bool double_sided = false;
   bool alpha_mask = false;               // alphaMode MASK on the base colour's alpha (cutoff 0.5)
   double width_m = 0.1, height_m = 0.1;  // quad size in metres

@@ -16,6 +16,7 @@
 #include "core/model/model.h"
 #include "core/output_marker.h"
 #include "core/pack/gltf.h"
+#include "core/pack/gltf_bake.h"
 #include "core/pack/pack.h"
 #include "core/pack/pack_exports.h"
 #include "core/pack/shader_params.h"
@@ -249,6 +250,17 @@ Status WritePack(const MaterialMaps& m, const std::vector<uint8_t>& status, cons
     MATFIT_RETURN_IF_ERROR(put("gltf_diffuse_transmission", "gltf_diffuse_transmission.png", trans,
                                srgb8, "glTF diffuse transmission: rgb = rho_t/t, a = t (linear)"));
   }
+  // Relighting bases in glTF terms: the least-squares Lambertian of the fit's own prediction.
+  const bool lambertian_bake = model.gltf_lambertian_bake();
+  if (lambertian_bake) {
+    Image& base = owned.emplace_back();
+    Image& normal = owned.emplace_back();
+    LambertianBake(m, &base, &normal);
+    MATFIT_RETURN_IF_ERROR(put("gltf_base_color", "gltf_base_color.png", base, srgb8,
+                               "glTF base colour: the fit's least-squares Lambertian albedo"));
+    MATFIT_RETURN_IF_ERROR(put("gltf_normal", "gltf_normal.png", keep(NormalColour(normal)), lin16,
+                               "glTF normal of that Lambertian, OpenGL +Y"));
+  }
   tasks.push_back(
       [&] { return WriteImage((root / "preview.png").string(), Preview(m, status), srgb8); });
   json previews = json::array({"preview.png"});
@@ -315,6 +327,14 @@ Status WritePack(const MaterialMaps& m, const std::vector<uint8_t>& status, cons
   }
   if (has_normal) g.normal_uri = "maps/normal.png";
   g.specular_factor = 0.0;
+  if (lambertian_bake) {
+    g.base_color_uri = "maps/gltf_base_color.png", g.normal_uri = "maps/gltf_normal.png";
+    g.approximations.push_back(
+        "a relighting basis has no glTF form: the glTF shows its least-squares Lambertian "
+        "(normal and albedo fitted to the model's own prediction for lights within 60 degrees "
+        "of the normal, core/pack/gltf_bake.h); highlights and shadows the basis holds are "
+        "averaged out");
+  }
   model.Gltf(m, status, info.model_parameters, &g);
   const double mm = info.mm_per_texel > 0 ? info.mm_per_texel : 0.5;  // unknown: 0.5 mm/texel
   g.width_m = m.width * mm / 1000, g.height_m = m.height * mm / 1000;
@@ -352,6 +372,7 @@ Status WritePack(const MaterialMaps& m, const std::vector<uint8_t>& status, cons
         {"normal_map", "OpenGL (+Y up), rgb = n*0.5+0.5, 16-bit PNG"},
         {"reflectance", "pixel = intensity * R, R = pi * f_r * max(0, n.l)"}}},
       {"gltf", "material.gltf"},
+      {"gltf_approximations", g.approximations},
       {"exports", exports},
       {"previews", previews},
       {"viewer", viewer},

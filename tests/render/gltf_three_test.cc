@@ -1,0 +1,248 @@
+// The packs' glTF as other tools show it: three.js (from npm, tools/gltf) loads material.gltf in
+// headless Chromium and renders the quad under a directional light, and the picture is compared
+// with matfit's own render of the same pack (the CPU reference renderer) at the same light:
+// mean absolute difference in 8-bit sRGB levels. Camera: orthographic, straight down, one pixel
+// per texel. Light: three.js's physically based units, so intensity π gives the irradiance that
+// matfit's unit light does (pixel = ρ n·l for a Lambertian surface; three.js's Lambert BRDF is
+// ρ/π). Output: sRGB, no tone mapping, as `matfit render`.
+#include <gtest/gtest.h>
+#include <httplib.h>
+
+#include <cmath>
+#include <filesystem>
+#include <nlohmann/json.hpp>
+#include <string>
+#include <thread>
+
+#include <unistd.h>
+
+#include "core/pack/pack.h"
+#include "core/pack/pack_reader.h"
+#include "core/synth/materials.h"
+#include "core/synth/synth.h"
+#include "fit/method.h"
+#include "render/cpu_renderer.h"
+#include "tests/render/browser.h"
+
+namespace matfit::render {
+namespace {
+
+namespace fs = std::filesystem;
+
+constexpr const char* kPage = R"html(<!doctype html>
+<html><head><meta charset="utf-8">
+<script type="importmap">
+{"imports": {"three": "/three/build/three.module.js", "three/addons/": "/three/examples/jsm/"}}
+</script></head>
+<body style="margin:0;background:#000">
+<pre id="probe"></pre>
+<script type="module">
+import * as THREE from 'three';
+import {GLTFLoader} from 'three/addons/loaders/GLTFLoader.js';
+const q = new URLSearchParams(location.search);
+const size = Number(q.get('size')), theta = Number(q.get('theta')) * Math.PI / 180,
+      phi = Number(q.get('phi')) * Math.PI / 180;
+const probe = document.getElementById('probe');
+try {
+  const gltf = await new GLTFLoader().loadAsync(q.get('pack') + 'material.gltf');
+  const renderer = new THREE.WebGLRenderer({antialias: false, preserveDrawingBuffer: true});
+  renderer.setPixelRatio(1);
+  renderer.setSize(size, size);
+  renderer.outputColorSpace = THREE.SRGBColorSpace;
+  renderer.toneMapping = THREE.NoToneMapping;
+  document.body.appendChild(renderer.domElement);
+  const scene = new THREE.Scene();
+  scene.add(gltf.scene);
+  const box = new THREE.Box3().setFromObject(gltf.scene);
+  const hx = Math.max(box.max.x - box.min.x, box.max.y - box.min.y) / 2;
+  const camera = new THREE.OrthographicCamera(-hx, hx, hx, -hx, 0.01, 10);
+  camera.position.set(0, 0, 1);
+  camera.lookAt(0, 0, 0);
+  const light = new THREE.DirectionalLight(0xffffff, Math.PI);
+  light.position.set(Math.sin(theta) * Math.cos(phi), Math.sin(theta) * Math.sin(phi),
+                     Math.cos(theta));
+  scene.add(light, light.target);
+  renderer.render(scene, camera);
+  const gl = renderer.getContext();
+  const px = new Uint8Array(size * size * 4);
+  gl.readPixels(0, 0, size, size, gl.RGBA, gl.UNSIGNED_BYTE, px);
+  let bin = '';
+  for (let y = size - 1; y >= 0; --y)  // top row first
+    for (let i = 0; i < size * 4; ++i) bin += String.fromCharCode(px[y * size * 4 + i]);
+  probe.textContent = JSON.stringify({rgba8_base64: btoa(bin), three: THREE.REVISION});
+} catch (e) {
+  probe.textContent = JSON.stringify({error: String(e)});
+}
+</script></body></html>
+)html";
+
+struct Browser {
+  httplib::Server server;
+  std::thread thread;
+  int port = 0, runs = 0;
+  fs::path tmp;
+  Browser() {
+    tmp = fs::temp_directory_path() / ("matfit-gltf-three-" + std::to_string(getpid()));
+    fs::remove_all(tmp);
+    fs::create_directories(tmp / "packs");
+    server.Get("/gltf.html", [](const httplib::Request&, httplib::Response& res) {
+      res.set_content(kPage, "text/html; charset=utf-8");
+    });
+    server.set_mount_point("/three", MATFIT_SOURCE_DIR "/tools/gltf/node_modules/three");
+    server.set_mount_point("/packs", (tmp / "packs").string());
+    server.set_file_extension_and_mimetype_mapping("js", "text/javascript");
+    server.set_file_extension_and_mimetype_mapping("gltf", "model/gltf+json");
+    port = server.bind_to_any_port("127.0.0.1");
+    thread = std::thread([this] { server.listen_after_bind(); });
+  }
+  ~Browser() {
+    server.stop();
+    thread.join();
+    fs::remove_all(tmp);
+  }
+  // three.js's picture of the pack `name` (RGBA8, top row first), or an error text.
+  std::string Render(const std::string& chromium, const std::string& name, int size, double theta,
+                     double phi, std::string* error) {
+    const std::string url = "http://127.0.0.1:" + std::to_string(port) + "/gltf.html?pack=/packs/" +
+                            name + "/&size=" + std::to_string(size) +
+                            "&theta=" + std::to_string(theta) + "&phi=" + std::to_string(phi);
+    // A fresh profile per run (a browser still closing keeps its profile locked), and a second
+    // try when the page had not drawn when Chromium stopped.
+    for (int attempt = 0; attempt < 2; ++attempt) {
+      const std::string dom =
+          RunCommand("timeout 120 " + chromium + kHeadlessFlags +
+                     " --user-data-dir=" + (tmp / ("profile-" + std::to_string(runs++))).string() +
+                     " --virtual-time-budget=60000 --dump-dom '" + url + "' 2>/dev/null");
+      const size_t a = dom.find("<pre id=\"probe\">"), b = dom.find("</pre>", a);
+      if (a == std::string::npos) {
+        *error = "no probe in the page";
+        continue;
+      }
+      const auto probe = nlohmann::json::parse(dom.substr(a + 16, b - a - 16), nullptr, false);
+      if (probe.is_object() && probe.contains("rgba8_base64"))
+        return Base64Decode(probe["rgba8_base64"].get<std::string>());
+      *error = dom.substr(a, std::min<size_t>(b - a, 600));
+    }
+    return "";
+  }
+};
+
+// Mean |three.js − matfit| in 8-bit sRGB levels over the rgb of every pixel, and both means.
+struct Compared {
+  double mad = 0, mean_three = 0, mean_matfit = 0;
+};
+Compared Compare(const std::string& px, const Image& ref, int size) {
+  Compared c;
+  const int64_t n = int64_t(size) * size;
+  for (int64_t p = 0; p < n; ++p)
+    for (int ch = 0; ch < 3; ++ch) {
+      const double a = uint8_t(px[size_t(p * 4 + ch)]), b = std::round(255 * ref.Plane(ch)[p]);
+      c.mad += std::abs(a - b), c.mean_three += a, c.mean_matfit += b;
+    }
+  c.mad /= 3.0 * double(n), c.mean_three /= 3.0 * double(n), c.mean_matfit /= 3.0 * double(n);
+  return c;
+}
+
+struct Case {
+  const char* material;
+  const char* model;
+};
+
+// Fits `c.model` to the synthetic `c.material` (60 lights) and writes its pack as packs/NAME.
+std::string FitPack(const Case& c, int size, Browser* browser, PackContents* pack) {
+  synth::SynthOptions so;
+  so.material = c.material, so.lights = "dome:60", so.size = size, so.layout = Layout::kLp;
+  auto data = synth::Synthesize(so);
+  EXPECT_TRUE(data.ok()) << data.status().ToString();
+  if (!data.ok()) return "";
+  auto fit = fit::MakeMethod(c.model)->Fit(data->stack, {});
+  EXPECT_TRUE(fit.ok()) << fit.status().ToString();
+  if (!fit.ok()) return "";
+  const std::string name = std::string(c.material) + "-" + c.model;
+  PackInfo info;
+  info.method = c.model;
+  const std::string dir = (browser->tmp / "packs" / name).string();
+  EXPECT_TRUE(WritePack(fit->maps, fit->status, info, {}, dir).ok());
+  auto read = ReadPack(dir);
+  EXPECT_TRUE(read.ok()) << read.status().ToString();
+  if (!read.ok()) return "";
+  *pack = std::move(*read);
+  return name;
+}
+
+// three.js vs matfit for one pack and light; false when three.js drew nothing usable.
+bool Measure(const std::string& chromium, Browser* browser, const std::string& name,
+             const PackContents& pack, int size, double theta, double phi, Compared* d) {
+  std::string error;
+  const std::string px = browser->Render(chromium, name, size, theta, phi, &error);
+  EXPECT_EQ(px.size(), size_t(size) * size * 4) << name << ": " << error;
+  if (px.size() != size_t(size) * size * 4) return false;
+  RenderOptions o;
+  o.size = size, o.theta_deg = theta, o.phi_deg = phi;
+  auto ref = RenderCpu(pack.maps, o);
+  EXPECT_TRUE(ref.ok()) << ref.status().ToString();
+  if (!ref.ok()) return false;
+  *d = Compare(px, *ref, size);
+  std::printf("%s θ %.0f φ %.0f: three.js mean %.1f, matfit %.1f, mean |diff| %.2f levels\n",
+              name.c_str(), theta, phi, d->mean_three, d->mean_matfit, d->mad);
+  return true;
+}
+
+bool Ready(std::string* chromium) {
+  *chromium = FindChromium();
+  return !chromium->empty() &&
+         fs::exists(MATFIT_SOURCE_DIR "/tools/gltf/node_modules/three/build/three.module.js");
+}
+constexpr const char* kSkip =
+    "chromium or three.js missing (scripts/install-deps.sh installs chromium, "
+    "scripts/install-node-tools.sh three.js)";
+
+// Models whose glTF carries the fit exactly (lambert, cook-torrance), by a bake (heinrich's
+// ambient and unnormalised normal; the mean as emission), or by the least-squares Lambertian
+// stand-in of a relighting basis, which is exact for a matte sample when the basis can be
+// Lambertian (hsh, rbf): within 6 sRGB levels at three front lights.
+TEST(GltfInThreeJs, FrontLitPacksLookAsInMatfit) {
+  std::string chromium;
+  if (!Ready(&chromium)) GTEST_SKIP() << kSkip;
+  Browser browser;
+  const int size = 48;
+  for (const Case& c : {Case{"plaster", "lambert"}, Case{"plaster", "heinrich"},
+                        Case{"plastic-ct", "cook-torrance"}, Case{"plastic", "mean"},
+                        Case{"plaster", "hsh3"}, Case{"plaster", "rbf"}}) {
+    PackContents pack;
+    const std::string name = FitPack(c, size, &browser, &pack);
+    ASSERT_FALSE(name.empty());
+    for (const auto& [theta, phi] : {std::pair{0.0, 0.0}, {30.0, 45.0}, {50.0, 200.0}}) {
+      Compared d;
+      ASSERT_TRUE(Measure(chromium, &browser, name, pack, size, theta, phi, &d));
+      EXPECT_LE(d.mad, 6.0) << name << " at θ " << theta << ", φ " << phi;
+    }
+  }
+}
+
+// Not matched yet (measured, docs/pack.md): the specular lobes of blinn-phong, lafortune and
+// heinrich's specular term against glTF's GGX + Fresnel, the highlights a relighting basis
+// holds on a glossy sample, which its Lambertian stand-in averages out, and a PTM's quadratic,
+// which is not Lambertian even on a matte sample (its stand-in is; 6.1 levels at θ 0).
+// Printed at θ 0° and 30°.
+TEST(GltfInThreeJs, SpecularFitsAreMeasured) {
+  std::string chromium;
+  if (!Ready(&chromium)) GTEST_SKIP() << kSkip;
+  Browser browser;
+  const int size = 48;
+  for (const Case& c : {Case{"plastic", "blinn-phong"}, Case{"plastic", "lafortune1"},
+                        Case{"plastic", "heinrich"}, Case{"plaster", "ptm"}, Case{"plastic", "ptm"},
+                        Case{"plastic", "hsh3"}, Case{"plastic", "rbf"}}) {
+    PackContents pack;
+    const std::string name = FitPack(c, size, &browser, &pack);
+    ASSERT_FALSE(name.empty());
+    for (const double theta : {0.0, 30.0}) {
+      Compared d;
+      ASSERT_TRUE(Measure(chromium, &browser, name, pack, size, theta, 45, &d));
+      EXPECT_GT(d.mean_three, 20) << name << ": three.js drew (nearly) nothing";
+    }
+  }
+}
+
+}  // namespace
+}  // namespace matfit::render
