@@ -6,6 +6,25 @@
 
 namespace matfit::capture {
 
+bool FitCircle(const std::vector<double>& xs, const std::vector<double>& ys, double* cx, double* cy,
+               double* r) {
+  // Kåsa: x² + y² + D x + E y + F = 0 in least squares.
+  const int n = int(std::min(xs.size(), ys.size()));
+  if (n < 3) return false;
+  Eigen::MatrixXd m(n, 3);
+  Eigen::VectorXd b(n);
+  for (int i = 0; i < n; ++i) {
+    m(i, 0) = xs[size_t(i)], m(i, 1) = ys[size_t(i)], m(i, 2) = 1;
+    b(i) = -(xs[size_t(i)] * xs[size_t(i)] + ys[size_t(i)] * ys[size_t(i)]);
+  }
+  const Eigen::Vector3d s = m.colPivHouseholderQr().solve(b);
+  *cx = -s(0) / 2, *cy = -s(1) / 2;
+  const double r2 = *cx * *cx + *cy * *cy - s(2);
+  if (!(r2 > 0)) return false;
+  *r = std::sqrt(r2);
+  return true;
+}
+
 StatusOr<SphereFit> FitSphere(const Image& mask) {
   const int w = mask.width(), h = mask.height();
   auto in = [&](int x, int y) {
@@ -25,21 +44,13 @@ StatusOr<SphereFit> FitSphere(const Image& mask) {
   if (area < 50 || xs.size() < 20)
     return DataError("the sphere mask has " + std::to_string(area) +
                      " pixels; it must show the whole sphere (white = sphere)");
-  // Kåsa: x² + y² + D x + E y + F = 0 in least squares.
   const int n = int(xs.size());
-  Eigen::MatrixXd m(n, 3);
-  Eigen::VectorXd b(n);
-  for (int i = 0; i < n; ++i) {
-    m(i, 0) = xs[size_t(i)], m(i, 1) = ys[size_t(i)], m(i, 2) = 1;
-    b(i) = -(xs[size_t(i)] * xs[size_t(i)] + ys[size_t(i)] * ys[size_t(i)]);
-  }
-  const Eigen::Vector3d s = m.colPivHouseholderQr().solve(b);
   SphereFit f;
-  f.cx = -s(0) / 2, f.cy = -s(1) / 2;
-  const double r2 = f.cx * f.cx + f.cy * f.cy - s(2);
-  if (!(r2 > 0)) return DataError("the sphere mask is not round enough to fit a circle");
+  double r0 = 0;
+  if (!FitCircle(xs, ys, &f.cx, &f.cy, &r0))
+    return DataError("the sphere mask is not round enough to fit a circle");
   // Boundary pixel centres lie half a pixel inside the silhouette edge.
-  f.radius = std::sqrt(r2) + 0.5;
+  f.radius = r0 + 0.5;
   double sse = 0;
   for (int i = 0; i < n; ++i)
     sse += std::pow(std::hypot(xs[size_t(i)] - f.cx, ys[size_t(i)] - f.cy) + 0.5 - f.radius, 2);

@@ -40,6 +40,9 @@ struct LightEstimate {
 };
 
 StatusOr<SphereFit> FitSphere(const Image& mask);
+// The algebraic (Kåsa) least-squares circle through the points; false when it degenerates.
+bool FitCircle(const std::vector<double>& xs, const std::vector<double>& ys, double* cx, double* cy,
+               double* r);
 StatusOr<LightEstimate> EstimateLight(const Image& img, const SphereFit& s,
                                       const SphereCalibrationOptions& o);
 

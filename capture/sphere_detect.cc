@@ -1,6 +1,5 @@
 #include "capture/sphere_detect.h"
 
-#include <Eigen/Dense>
 #include <algorithm>
 #include <cmath>
 #include <numbers>
@@ -58,25 +57,6 @@ double Bilinear(const cv::Mat& f, double x, double y) {
   auto at = [&](int yy, int xx) { return double(f.at<float>(yy, xx)); };
   return (1 - fy) * ((1 - fx) * at(y0, x0) + fx * at(y0, x0 + 1)) +
          fy * ((1 - fx) * at(y0 + 1, x0) + fx * at(y0 + 1, x0 + 1));
-}
-
-// Kåsa circle fit to (xs, ys) in least squares.
-bool Kasa(const std::vector<double>& xs, const std::vector<double>& ys, double* cx, double* cy,
-          double* r) {
-  const int n = int(xs.size());
-  if (n < 8) return false;
-  Eigen::MatrixXd m(n, 3);
-  Eigen::VectorXd b(n);
-  for (int i = 0; i < n; ++i) {
-    m(i, 0) = xs[size_t(i)], m(i, 1) = ys[size_t(i)], m(i, 2) = 1;
-    b(i) = -(xs[size_t(i)] * xs[size_t(i)] + ys[size_t(i)] * ys[size_t(i)]);
-  }
-  const Eigen::Vector3d s = m.colPivHouseholderQr().solve(b);
-  *cx = -s(0) / 2, *cy = -s(1) / 2;
-  const double r2 = *cx * *cx + *cy * *cy - s(2);
-  if (!(r2 > 0)) return false;
-  *r = std::sqrt(r2);
-  return true;
 }
 
 struct Candidate {
@@ -170,7 +150,7 @@ StatusOr<SphereFit> RefineSphere(const Image& mean, double cx, double cy, double
   SphereFit fit;
   double x0 = cx, y0 = cy, r0 = r;
   for (int pass = 0; pass < 3; ++pass) {
-    if (!Kasa(xs, ys, &x0, &y0, &r0)) return DataError("the sphere edge is not a circle");
+    if (!FitCircle(xs, ys, &x0, &y0, &r0)) return DataError("the sphere edge is not a circle");
     std::vector<double> res(xs.size());
     for (size_t i = 0; i < xs.size(); ++i)
       res[i] = std::abs(std::hypot(xs[i] - x0, ys[i] - y0) - r0);

@@ -20,26 +20,15 @@
 #include <memory>
 #include <set>
 
+#include "tests/render/browser.h"
 #include "tests/server/server_fixture.h"
 
 namespace matfit::server::testing_fixture {
 namespace {
 
-std::string Chromium() {
-  for (const char* c : {"/usr/bin/chromium", "/usr/bin/chromium-browser"})
-    if (fs::exists(c)) return c;
-  return "";
-}
+std::string Chromium() { return ::matfit::render::FindChromium(); }
 
-std::string RunCommand(const std::string& cmd) {
-  std::string out;
-  std::unique_ptr<FILE, int (*)(FILE*)> pipe(popen(cmd.c_str(), "r"), pclose);
-  if (!pipe) return out;
-  std::array<char, 65536> buf;
-  size_t n;
-  while ((n = fread(buf.data(), 1, buf.size(), pipe.get())) > 0) out.append(buf.data(), n);
-  return out;
-}
+using ::matfit::render::RunCommand;
 
 // The harness: steps run in order; each records into R; the result goes to <pre id="result">.
 constexpr const char* kHarness = R"html(<!doctype html>
