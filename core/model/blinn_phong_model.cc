@@ -1,6 +1,10 @@
 // Blinn–Phong (METHODS.md §4): Lambert + k_s max(0, n·h)^e max(0, n·l). Maps: specular (k_s),
 // exponent.
+#include <algorithm>
+#include <cmath>
+
 #include "core/model/model_impl.h"
+#include "core/pack/gltf.h"
 #include "core/pack/pack.h"
 
 namespace matfit::model_impl {
@@ -32,18 +36,22 @@ class BlinnPhongModel final : public ModelBase<BlinnPhongModel> {
     });
   }
   Status WritePackMaps(const MaterialMaps& m, const PutPackMapFn& put) const override {
-    return PutLobeMaps(m, put, "Blinn-Phong k_s",
-                       MetallicRoughness(m, [](const MaterialMaps& mm, int64_t p) {
-                         return float(RoughnessFromBlinnPhongExponent(mm.exponent.Plane(0)[p]));
-                       }));
+    MATFIT_RETURN_IF_ERROR(PutLobeMaps(
+        m, put, "Blinn-Phong k_s", MetallicRoughness(m, [](const MaterialMaps& mm, int64_t p) {
+          return float(RoughnessFromBlinnPhongExponent(mm.exponent.Plane(0)[p]));
+        })));
+    // glTF specular colour: each texel's F0 relative to the material's (Gltf below).
+    return PutGltfSpecular(m, m.specular, put);
   }
   Status ReadPackMaps(const LoadPackMapFn& load, const std::map<std::string, double>&,
                       MaterialMaps* m) const override {
     return LoadLobeMaps(load, m);
   }
-  void Gltf(const MaterialMaps&, const std::vector<uint8_t>&, const std::map<std::string, double>&,
-            GltfMaterialDesc* g) const override {
+  void Gltf(const MaterialMaps& m, const std::vector<uint8_t>& status,
+            const std::map<std::string, double>&, GltfMaterialDesc* g) const override {
     LobeGltf(g);
+    (void)status;
+    GltfSpecular(m, m.specular, "Blinn-Phong lobe k_s (n.h)^e (n.l)", g);
   }
   bool AddShaderPlanes(const MaterialMaps& m, ShaderPlaneSink* s) const override {
     return s->Add(m.specular, 1, "specular") && s->Add(m.exponent, 1, "exponent");

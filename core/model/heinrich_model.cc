@@ -77,8 +77,9 @@ class HeinrichModel final : public ModelBase<HeinrichModel> {
         {"specular_exact", "specular.exr", &m.specular_color, MapEncoding::kFloat,
          "L_spec residual of sample #1 (may be negative)"},
         {"specular", "specular.png", &m.specular_color, MapEncoding::kLinear8,
-         "L_spec clamped to [0,1] (glTF specular colour)"}};
+         "L_spec clamped to [0,1]"}};
     for (const PackMap& pm : maps) MATFIT_RETURN_IF_ERROR(put(pm));
+    MATFIT_RETURN_IF_ERROR(PutGltfSpecular(m, SpecularPeak(m), put));
     // glTF (Gltf below): R = t a + t |n_raw| (n̂·l) is a Lambertian base colour t |n_raw| plus a
     // term the light's direction does not change, t a: emission at unit light.
     Image base, emissive;
@@ -91,6 +92,19 @@ class HeinrichModel final : public ModelBase<HeinrichModel> {
                "glTF emission t a: the ambient term at unit light"}));
     }
     return Status::Ok();
+  }
+  // The lobe's peak per texel: the mean of L_spec over the channels (glTF's F0 texture is grey
+  // here: one colour per material would need a colour texture per channel's share).
+  static Image SpecularPeak(const MaterialMaps& m) {
+    if (m.specular_color.empty()) return Image();
+    Image peak(m.width, m.height, 1);
+    const int ch = m.specular_color.channels();
+    for (int64_t p = 0; p < peak.plane_size(); ++p) {
+      double s = 0;
+      for (int c = 0; c < ch; ++c) s += m.specular_color.Plane(c)[p];
+      peak.Plane(0)[p] = float(s / ch);
+    }
+    return peak;
   }
   // t |n_raw| and max(0, t a) per channel; false without the maps. *clipped counts values cut
   // to [0, 1].
@@ -149,10 +163,9 @@ class HeinrichModel final : public ModelBase<HeinrichModel> {
                                     " texel channel values cut to [0, 1] for the glTF maps");
     }
     if (m.specular_color.empty()) return;
-    g->specular_color_uri = "maps/specular.png";
-    g->specular_factor = 1.0;
     auto e = fit_parameters.find("exponent");
     if (e != fit_parameters.end()) g->roughness = RoughnessFromBlinnPhongExponent(e->second);
+    GltfSpecular(m, SpecularPeak(m), "heinrich's specular L_spec (n_s.h)^e", g);
   }
   bool AddShaderPlanes(const MaterialMaps& m, ShaderPlaneSink* s) const override {
     if (!s->Add(m.ambient, 3, "ambient")) return false;

@@ -80,6 +80,50 @@ Status LoadLobeMaps(const LoadPackMapFn& load, MaterialMaps* m) {
   return load("lobe_shape", &m->lobe_shape);
 }
 
+namespace {
+
+double LobeF0(const MaterialMaps& m, const Image& peak, int64_t p) {
+  const double ks = peak.Plane(0)[p], e = m.exponent.Plane(0)[p];
+  return std::isfinite(ks) && std::isfinite(e) && e > -2 ? std::max(0.0, 8 * ks / (e + 2)) : 0.0;
+}
+
+double ReferenceF0(const MaterialMaps& m, const Image& peak) {
+  if (peak.empty() || m.exponent.empty()) return 0;
+  std::vector<double> f0;
+  for (int64_t p = 0; p < peak.plane_size(); ++p) f0.push_back(LobeF0(m, peak, p));
+  if (f0.empty()) return 0;
+  const size_t k = std::min(f0.size() - 1, f0.size() * 99 / 100);
+  std::nth_element(f0.begin(), f0.begin() + long(k), f0.end());
+  return std::min(f0[k], 0.81);
+}
+
+}  // namespace
+
+Status PutGltfSpecular(const MaterialMaps& m, const Image& peak, const PutPackMapFn& put) {
+  const double ref = ReferenceF0(m, peak);
+  if (!(ref > 0)) return Status::Ok();
+  Image rel(m.width, m.height, 1);
+  for (int64_t p = 0; p < rel.plane_size(); ++p)
+    rel.Plane(0)[p] = float(std::clamp(LobeF0(m, peak, p) / ref, 0.0, 1.0));
+  return put({"gltf_specular", "gltf_specular.png", &rel, MapEncoding::kSrgb8,
+              "glTF specular colour: each texel's F0 = 8 peak / (e + 2) over the IOR's F0"});
+}
+
+void GltfSpecular(const MaterialMaps& m, const Image& peak, const char* lobe, GltfMaterialDesc* g) {
+  const double ref = ReferenceF0(m, peak);
+  if (!(ref > 0)) return;
+  const double r0 = std::sqrt(ref);
+  g->ior = (1 + r0) / (1 - r0);
+  g->specular_color_uri = "maps/gltf_specular.png";
+  g->specular_factor = 1.0;
+  g->approximations.push_back(std::string(lobe) +
+                              " as GGX: roughness (2/(e+2))^(1/4), F0 = 8 peak/(e+2) (the same "
+                              "head-on peak) as IOR " +
+                              std::to_string(g->ior) +
+                              " times maps/gltf_specular.png; the lobes' tails and glTF's "
+                              "Fresnel differ");
+}
+
 void LobeGltf(GltfMaterialDesc* g) {
   g->metallic_roughness_uri = "maps/metallic_roughness.png";
   g->specular_factor = 1.0;

@@ -61,5 +61,12 @@ Image MetallicRoughness(const MaterialMaps& m, float (*roughness_at)(const Mater
 Status LoadLobeMaps(const LoadPackMapFn& load, MaterialMaps* m);
 // glTF for the lobe models: metallic-roughness texture, specular on.
 void LobeGltf(GltfMaterialDesc* g);
+// A Phong-type lobe peak · (n·h)^e (exponent plane m.exponent) as glTF's GGX: roughness
+// (2/(e+2))^{1/4} and the F0 with the same head-on peak, F0 = 4 α² peak = 8 peak / (e + 2)
+// (glTF's specular at n = h = l = v is F0 D(1)/4 per unit irradiance × π, D(1) = 1/(π α²)).
+// The material's F0 (99th percentile over texels, at most 0.81) becomes the IOR and each
+// texel's share of it maps/gltf_specular.png (specularColorTexture).
+Status PutGltfSpecular(const MaterialMaps& m, const Image& peak, const PutPackMapFn& put);
+void GltfSpecular(const MaterialMaps& m, const Image& peak, const char* lobe, GltfMaterialDesc* g);
 
 }  // namespace matfit::model_impl
