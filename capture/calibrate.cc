@@ -3,6 +3,7 @@
 #include <Eigen/Dense>
 #include <algorithm>
 #include <cmath>
+#include <vector>
 
 namespace matfit::capture {
 
@@ -70,10 +71,15 @@ StatusOr<LightEstimate> EstimateLight(const Image& img, const SphereFit& s,
     return v;
   };
   const double r_in = 0.98 * s.radius;  // stay off the limb
+  auto inside = [&](int x, int y) {
+    return x >= 0 && y >= 0 && x < w && y < h && std::hypot(x - s.cx, y - s.cy) < r_in;
+  };
   float peak = 0;
+  int64_t at = -1;
   for (int y = 0; y < h; ++y)
     for (int x = 0; x < w; ++x)
-      if (std::hypot(x - s.cx, y - s.cy) < r_in) peak = std::max(peak, value(int64_t(y) * w + x));
+      if (inside(x, y) && value(int64_t(y) * w + x) > peak)
+        peak = value(int64_t(y) * w + x), at = int64_t(y) * w + x;
   if (!(peak > 0)) return DataError("no highlight on the sphere (the image is black inside it)");
   if (!(o.highlight_fraction > 0 && o.highlight_fraction < 1))
     return InvalidArgument("highlight fraction must be in (0, 1)");
@@ -86,6 +92,23 @@ StatusOr<LightEstimate> EstimateLight(const Image& img, const SphereFit& s,
     const double px = (w - 1) / 2.0, py = (h - 1) / 2.0;
     return Normalize(Vec3{-(x - px), (y - py), o.focal_px});
   };
+  // The highlight: the 8-connected region of pixels ≥ thr grown from the peak (other bright
+  // reflections in the sphere, a window or a second lamp, are not part of it).
+  std::vector<uint8_t> in_spot(size_t(w) * h, 0);
+  std::vector<int64_t> stack{at};
+  in_spot[size_t(at)] = 1;
+  while (!stack.empty()) {
+    const int64_t i = stack.back();
+    stack.pop_back();
+    const int x = int(i % w), y = int(i / w);
+    for (int dy = -1; dy <= 1; ++dy)
+      for (int dx = -1; dx <= 1; ++dx) {
+        const int xx = x + dx, yy = y + dy;
+        if (!inside(xx, yy)) continue;
+        const int64_t j = int64_t(yy) * w + xx;
+        if (!in_spot[size_t(j)] && value(j) >= thr) in_spot[size_t(j)] = 1, stack.push_back(j);
+      }
+  }
   // Every highlight pixel's mirror direction R = 2(n·v)n − v, averaged with weight v − thr.
   // Orthographic, a pixel covers the same solid angle of R wherever it is on the sphere
   // (dω_R = 4 dA / r²), so a highlight symmetric about the light averages to it exactly; an
@@ -95,9 +118,8 @@ StatusOr<LightEstimate> EstimateLight(const Image& img, const SphereFit& s,
   int count = 0;
   for (int y = 0; y < h; ++y)
     for (int x = 0; x < w; ++x) {
-      if (std::hypot(x - s.cx, y - s.cy) >= r_in) continue;
+      if (!in_spot[size_t(y) * w + x]) continue;
       const float v = value(int64_t(y) * w + x);
-      if (v < thr) continue;
       const double wt = v - thr + 1e-6;
       const double nx = (x - s.cx) / s.radius, ny = -(y - s.cy) / s.radius;
       const Vec3 n{nx, ny, std::sqrt(std::max(0.0, 1 - nx * nx - ny * ny))};

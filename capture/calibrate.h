@@ -1,8 +1,9 @@
 // Light directions from images of a mirror (chrome) sphere (compute only).
 //   Sphere: centre and radius from the mask — an algebraic (Kåsa) circle fit to its boundary
 //   pixels, started from the centroid and √(area/π).
-//   Highlight: the pixels within `highlight_fraction` of the brightest value inside the sphere
-//   (on the max over channels), weighted by how far above that threshold they are.
+//   Highlight: the 8-connected region, grown from the brightest pixel inside the sphere (on the
+//   max over channels), of pixels within `highlight_fraction` of it, each weighted by how far
+//   above that threshold it is (other bright reflections in the sphere are left out).
 //   Normal at a pixel (orthographic): n = ((x − cx)/r, −(y − cy)/r, √(1 − …)), y up.
 //   Light: the weighted mean of the highlight pixels' mirror directions of the view,
 //   R = 2(n·v)n − v, normalised, with v = (0, 0, 1), or, with a perspective camera of focal

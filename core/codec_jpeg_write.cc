@@ -52,7 +52,17 @@ bool Compress(const WriteSpec& spec, FILE* f, WriteErrors* err) {
     cinfo.comp_info[c].h_samp_factor = cinfo.comp_info[c].v_samp_factor = 1;
   jpeg_start_compress(&cinfo, TRUE);
   for (int y = 0; y < spec.height; ++y) {
-    JSAMPROW row = static_cast<JSAMPROW>(const_cast<void*>(spec.rows(y, y + 1)));
+    const void* data = nullptr;
+    try {  // the row source allocates; nothing may unwind through libjpeg
+      data = spec.rows(y, y + 1);
+    } catch (...) {
+    }
+    if (!data) {
+      std::snprintf(err->message, sizeof err->message, "no memory for row %d", y);
+      jpeg_destroy_compress(&cinfo);
+      return false;
+    }
+    JSAMPROW row = static_cast<JSAMPROW>(const_cast<void*>(data));
     jpeg_write_scanlines(&cinfo, &row, 1);
   }
   jpeg_finish_compress(&cinfo);
@@ -68,18 +78,17 @@ bool WriteJpeg(const WriteSpec& spec, const std::string& path, std::string* erro
     *error = "the native JPEG writer takes 1 or 3 channels of 8 bits at a given quality";
     return false;
   }
-  FILE* f = std::fopen(path.c_str(), "wb");
+  std::unique_ptr<FILE, int (*)(FILE*)> f(std::fopen(path.c_str(), "wb"), std::fclose);
   if (!f) {
     *error = std::string("cannot create it: ") + std::strerror(errno);
     return false;
   }
   WriteErrors err;
-  if (!Compress(spec, f, &err)) {
-    std::fclose(f);
+  if (!Compress(spec, f.get(), &err)) {
     *error = err.message[0] ? err.message : "JPEG encoder failed";
     return false;
   }
-  return FlushAndClose(f, error);
+  return FlushAndClose(f.release(), error);
 }
 
 }  // namespace matfit::codec

@@ -20,7 +20,9 @@ NumberLayout LayoutNumber(int number, double cx, double cy, int scale) {
   l.scale = std::max(1, scale);
   l.digits = int(std::to_string(std::max(0, number)).size());
   const int w = (4 * l.digits - 1) * l.scale, h = 5 * l.scale;
-  l.x0 = int(std::lround(cx - w / 2.0)), l.y0 = int(std::lround(cy - h / 2.0));
+  // Pixel centres at integers: a span of w pixels is centred on cx when it starts at
+  // cx − (w − 1)/2.
+  l.x0 = int(std::lround(cx - (w - 1) / 2.0)), l.y0 = int(std::lround(cy - (h - 1) / 2.0));
   return l;
 }
 

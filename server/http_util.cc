@@ -71,6 +71,8 @@ const char* const kPageContentSecurityPolicy =
 
 void AddSecurityHeaders(httplib::Response& res) {
   res.set_header("X-Content-Type-Options", "nosniff");
+  // Pages may carry ?token= (viewer links): never pass the URL on to another site.
+  res.set_header("Referrer-Policy", "no-referrer");
   if (res.status >= 400) {  // an error is never cached (e.g. a preview on a full disk)
     res.headers.erase("Cache-Control");
     res.set_header("Cache-Control", "no-store");
