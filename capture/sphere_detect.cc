@@ -188,26 +188,36 @@ StatusOr<std::vector<SphereFit>> DetectSpheres(const SphereEvidence& ev,
   const cv::Mat img = Stretched(small_mean, 1.5);
   std::vector<cv::Vec4f> circles;  // x, y, r, votes
   cv::HoughCircles(img, circles, cv::HOUGH_GRADIENT_ALT, 1.5, rmin, 60, 0.7, rmin, rmax);
+  // Each photo's brightest pixel, once (the highlight test compares against it).
+  std::vector<float> photo_max;
+  for (const Image& p : ev.small)
+    photo_max.push_back(p.empty() ? 0.0f : *std::max_element(p.data().begin(), p.data().end()));
   std::vector<Candidate> cands;
   for (size_t i = 0; i < circles.size() && i < 40; ++i) {
     Candidate c{circles[i][0], circles[i][1], circles[i][2]};
     // Highlight: the photo's brightest pixel in the disc is a small spot well above the disc's
-    // median, and bright against the photo.
+    // median, and bright against the photo. Only the disc's bounding box is read.
+    const double rr = 0.95 * c.r;
+    const int x0 = std::max(0, int(c.x - rr)), x1 = std::min(w - 1, int(c.x + rr) + 1),
+              y0 = std::max(0, int(c.y - rr)), y1 = std::min(h - 1, int(c.y + rr) + 1);
     int lit = 0;
-    for (const Image& p : ev.small) {
-      std::vector<float> in;
-      float peak = 0, all = 0;
-      for (int y = 0; y < h; ++y)
-        for (int x = 0; x < w; ++x) {
-          const float v = p.At(0, y, x);
-          all = std::max(all, v);
-          if (std::hypot(x - c.x, y - c.y) < 0.95 * c.r) in.push_back(v), peak = std::max(peak, v);
-        }
+    std::vector<float> in;
+    for (size_t k = 0; k < ev.small.size(); ++k) {
+      const Image& p = ev.small[k];
+      in.clear();
+      float peak = 0;
+      for (int y = y0; y <= y1; ++y)
+        for (int x = x0; x <= x1; ++x)
+          if (std::hypot(x - c.x, y - c.y) < rr) {
+            const float v = p.At(0, y, x);
+            in.push_back(v), peak = std::max(peak, v);
+          }
       if (in.empty() || !(peak > 0)) continue;
       size_t bright = 0;
       for (float v : in) bright += v >= 0.5f * peak;
       const double med = Percentile(in, 0.5);
-      if (bright <= std::max<size_t>(4, in.size() / 50) && peak >= 0.25f * all && peak > 4 * med)
+      if (bright <= std::max<size_t>(4, in.size() / 50) && peak >= 0.25f * photo_max[k] &&
+          peak > 4 * med)
         ++lit;
     }
     c.highlight = double(lit) / double(ev.small.size());
@@ -245,8 +255,8 @@ StatusOr<std::vector<SphereFit>> DetectSpheres(const SphereEvidence& ev,
   if (int(out.size()) < o.spheres)
     return DataError("found " + std::to_string(out.size()) + " of " + std::to_string(o.spheres) +
                      " reflective sphere(s) in the photos (" + std::to_string(cands.size()) +
-                     " round shapes, none other with a highlight in most photos); give the "
-                     "sphere as --sphere X,Y,R (pixels)");
+                     " round shapes; a mirror sphere also shows the light as a small spot in "
+                     "at least half the photos); give the sphere as --sphere X,Y,R (pixels)");
   return out;
 }
 
