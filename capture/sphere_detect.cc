@@ -146,7 +146,8 @@ StatusOr<SphereFit> RefineSphere(const Image& mean, double cx, double cy, double
   if (xs.size() < kRays / 4)
     return DataError("no clear sphere edge near (" + std::to_string(int(cx)) + ", " +
                      std::to_string(int(cy)) + ") r " + std::to_string(int(r)) +
-                     " (edge found on " + std::to_string(xs.size()) + " of 360 rays)");
+                     " (edge found on " + std::to_string(xs.size()) +
+                     " of 360 rays; the sphere must stand out from its surround in the photos)");
   SphereFit fit;
   double x0 = cx, y0 = cy, r0 = r;
   for (int pass = 0; pass < 3; ++pass) {
@@ -171,7 +172,9 @@ StatusOr<SphereFit> RefineSphere(const Image& mean, double cx, double cy, double
   if (std::abs(r0 - r) > 0.25 * r || std::hypot(x0 - cx, y0 - cy) > 0.25 * r)
     return DataError("the sphere edge near (" + std::to_string(int(cx)) + ", " +
                      std::to_string(int(cy)) + ") r " + std::to_string(int(r)) +
-                     " is not where the sphere was expected");
+                     " is not where the sphere was expected (" + std::to_string(int(x0)) + ", " +
+                     std::to_string(int(y0)) + ") r " + std::to_string(int(r0)) +
+                     "); give X,Y,R within a quarter radius of the sphere");
   return fit;
 }
 

@@ -58,6 +58,8 @@ TEST(SegmentationNumbers, DrawnNumeralsReadBack) {
   // Numerals near an edge are clipped, not written out of bounds.
   DrawNumber(&img, 99, 0, 0, 5);
   DrawNumber(&img, 99, 119, 59, 5);
+  for (const auto& [x, y] : {std::pair{0, 0}, std::pair{119, 59}})
+    EXPECT_TRUE(img.At(1, y, x) == 0.0f || img.At(1, y, x) == 1.0f) << "no numeral at a corner";
 }
 
 TEST(SegmentationNumbers, ScaleFollowsTheSheetAndFitsTheLeaf) {
