@@ -10,6 +10,7 @@
 
 #include "app/commands.h"
 #include "capture/calibrate.h"
+#include "capture/near_light.h"
 #include "capture/sphere_detect.h"
 #include "core/atomic_file.h"
 #include "core/image_io.h"
@@ -26,6 +27,7 @@ struct CalibrateArgs {
   std::vector<std::string> spheres;  // "auto" or "X,Y,R" each
   double focal_px = 0, highlight_fraction = 0.5;
   bool perspective = false, quiet = false, force = false;
+  bool distant_lights = false;  // several spheres: mean directions, no positions
 };
 
 // Images of the folder other than the mask, ordered by the last number in the name.
@@ -161,7 +163,13 @@ int RunCalibrate(CalibrateArgs a) {
   if (format == "auto") format = fs::path(a.out).extension() == ".lp" ? "lp" : "lights-txt";
   if (format != "lp" && format != "lights-txt")
     return Fail("calibrate-lights", "--format must be lp or lights-txt");
+  // Two or more spheres (orthographic camera): each light's position, triangulated from the
+  // rays the spheres reflect it along (capture/near_light.h); all or none.
+  const bool positions = spheres.size() >= 2 && !a.distant_lights && !a.perspective;
+  std::vector<capture::TriangulatedLight> placed;
+  std::string not_placed;
   std::string text = std::to_string(images.size()) + "\n";
+  std::vector<std::string> lines;
   double spread_sum = 0, spread_max = 0;
   for (const auto& f : images) {
     auto img = ReadImage(f);
@@ -183,7 +191,19 @@ int RunCalibrate(CalibrateArgs a) {
                     l->hy, l->pixels);
       where += buf;
     }
-    const Vec3 d = Normalize(sum);
+    Vec3 d = Normalize(sum);
+    if (positions && not_placed.empty()) {
+      std::vector<capture::SphereRay> rays;
+      for (size_t k = 0; k < spheres.size(); ++k)
+        rays.push_back(capture::RayFromSphere(spheres[k], img->width(), img->height(), seen[k]));
+      auto p = capture::TriangulateLight(rays);
+      if (p.ok()) {
+        placed.push_back(*p);
+        d = Normalize(p->position);  // as seen from the image centre
+      } else {
+        not_placed = fs::path(f).filename().string() + ": " + p.status().message();
+      }
+    }
     for (size_t i = 0; i < seen.size(); ++i)
       for (size_t j = 0; j < i; ++j) {
         const double s = capture::AngleDeg(seen[i], seen[j]);
@@ -195,22 +215,60 @@ int RunCalibrate(CalibrateArgs a) {
                     fs::path(f).filename().string().c_str(), d.x, d.y, d.z);
     else
       std::snprintf(line, sizeof line, "%.6f %.6f %.6f\n", d.x, d.y, d.z);
-    text += line;
-    if (!a.quiet)
-      std::printf("%-24s highlight %s → (%.4f, %.4f, %.4f)\n",
+    lines.push_back(line);
+    if (!a.quiet) {
+      std::printf("%-24s highlight %s → (%.4f, %.4f, %.4f)",
                   fs::path(f).filename().string().c_str(), where.c_str(), d.x, d.y, d.z);
+      if (positions && not_placed.empty() && !placed.empty())
+        std::printf(" at (%.1f, %.1f, %.1f) px, rays %.2f px apart", placed.back().position.x,
+                    placed.back().position.y, placed.back().position.z, placed.back().rms);
+      std::printf("\n");
+    }
   }
+  const bool write_positions = positions && not_placed.empty();
+  if (positions && !not_placed.empty()) {
+    return Fail("calibrate-lights",
+                ("near-light positions could not be placed: " + not_placed +
+                 "; pass --distant-lights to write the spheres' mean directions instead")
+                    .c_str());
+  }
+  for (const std::string& l : lines) text += l;
   if (spheres.size() > 1) {
     const double pairs = double(images.size() * spheres.size() * (spheres.size() - 1) / 2);
     std::printf("spheres     agree within %.2f° mean, %.2f° max%s\n", spread_sum / pairs,
                 spread_max,
-                spread_sum / pairs > 1.0
+                spread_sum / pairs > 1.0 && !write_positions
                     ? ": the lights are near (each sphere sees its own direction); the file "
                       "holds their mean, a distant-light approximation"
                     : "");
   }
   // After the lights, where light-file readers stop: how --force knows matfit wrote the file.
   text += std::string(kTextOutputTrailer) + " calibrate-lights\n";
+  const std::string positions_file =
+      (fs::path(a.out).parent_path() / "light_positions.txt").string();
+  if (write_positions) {
+    if (Status st = CheckOutput(positions_file, a.force); !st.ok())
+      return Fail("calibrate-lights", st.message().c_str());
+    std::string pos =
+        "# light positions: x right, y up, z toward the camera; origin at the "
+        "image centre; source pixels\n" +
+        std::to_string(placed.size()) + "\n";
+    double rms = 0, nearest = INFINITY;
+    for (const auto& p : placed) {
+      char line[128];
+      std::snprintf(line, sizeof line, "%.4f %.4f %.4f\n", p.position.x, p.position.y,
+                    p.position.z);
+      pos += line;
+      rms = std::max(rms, p.rms), nearest = std::min(nearest, Length(p.position));
+    }
+    pos += std::string(kTextOutputTrailer) + " calibrate-lights\n";
+    if (Status st = WriteFileAtomic(positions_file, pos); !st.ok())
+      return Fail("calibrate-lights", st.message().c_str());
+    std::printf(
+        "positions   %s (%zu near lights, nearest %.1f px from the image centre, rays "
+        "within %.2f px)\n",
+        positions_file.c_str(), placed.size(), nearest, rms);
+  }
   if (Status st = WriteFileAtomic(a.out, text); !st.ok())
     return Fail("calibrate-lights", st.message().c_str());
   std::printf("lights      %s (%zu directions, %s)\n", a.out.c_str(), images.size(),
@@ -234,7 +292,10 @@ void RegisterCalibrateLights(CLI::App& app, int* exit_code) {
   c->add_option("--out", cal->out, "light file to write (.lp or lights.txt)")->required();
   c->add_option("--format", cal->format, "auto (from --out), lp or lights-txt")
       ->capture_default_str();
-  c->add_flag("--perspective", cal->perspective, "perspective camera (needs --focal-px)");
+  c->add_flag("--perspective", cal->perspective,
+              "perspective camera (needs --focal-px; directions only, no positions)");
+  c->add_flag("--distant-lights", cal->distant_lights,
+              "with several spheres: write their mean directions, not near-light positions");
   c->add_option("--focal-px", cal->focal_px, "focal length in pixels (perspective)");
   c->add_option("--highlight-fraction", cal->highlight_fraction,
                 "pixels within this fraction of the peak form the highlight")

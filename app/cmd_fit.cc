@@ -178,6 +178,13 @@ void RegisterFit(CLI::App& app, int* exit_code) {
       ->capture_default_str();
   sub->add_option("--color-space", args->color_space, "auto, srgb or linear")
       ->capture_default_str();
+  sub->add_flag("--distant-lights", j.read.distant_lights,
+                "ignore light_positions.txt: treat every light as distant, along its direction "
+                "from the image centre");
+  sub->add_option("--near-tolerance", j.fit.near_tolerance_deg,
+                  "near lights: largest angle (degrees) between a texel's light direction and "
+                  "the one its tile is fitted with")
+      ->capture_default_str();
   sub->add_option("--threads", args->threads, kThreadsHelp)->capture_default_str();
   sub->add_option("--tile", j.fit.tile, "work unit ≈ tile² texels")->capture_default_str();
   sub->add_flag("--flat-specular-normal", j.fit.heinrich_flat_specular_normal,

@@ -135,6 +135,10 @@ void RegisterSynth(CLI::App& app, int* exit_code) {
   sub->add_option("--shot-noise", o.perturb.shot_photons, "photons at full scale (0 = off)")
       ->capture_default_str();
   sub->add_flag("--shadows", o.shadows, "cast shadows from the height field");
+  sub->add_option("--near-lights", o.near_lights,
+                  "near (point) lights at this distance in texels from the image centre, with "
+                  "per-texel directions and 1/r² fall-off (writes light_positions.txt); 0 = "
+                  "distant");
   sub->add_option("--clip", o.perturb.clip, "saturate at this level in (0, 1] (0 = off)")
       ->capture_default_str();
   sub->add_option("--misregister", o.perturb.misregister_px, "max random shift per image, px")

@@ -110,6 +110,7 @@ LightStack LightStack::ToFloat() const {
   out.view_theta_deg = view_theta_deg, out.view_phi_deg = view_phi_deg;
   out.mask = mask;
   out.mm_per_texel = mm_per_texel;
+  out.near_frame = near_frame;
   out.band = band;
   out.layout = layout, out.source = source, out.object_name = object_name;
   out.image_files = image_files;
@@ -167,6 +168,7 @@ LightStack SelectImages(const LightStack& s, const std::vector<int>& idx) {
   out.view_theta_deg = s.view_theta_deg, out.view_phi_deg = s.view_phi_deg;
   out.mask = s.mask;
   out.mm_per_texel = s.mm_per_texel;
+  out.near_frame = s.near_frame;
   out.band = s.band;
   out.layout = s.layout, out.source = s.source, out.object_name = s.object_name;
   pick(s.image_files, out.image_files);

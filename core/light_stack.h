@@ -39,6 +39,19 @@ struct LightSample {
   Vec3 direction{0, 0, 1};            // unit, toward the light
   Vec3 intensity{1, 1, 1};            // relative RGB intensity (1 = nominal)
   double theta_deg = 0, phi_deg = 0;  // direction as parsed or derived (METHODS.md §0)
+  // A near (point) light: its position in the stack's NearFrame. `direction` and `intensity`
+  // are then as seen from the frame's origin (the image centre); core/near_lights.h gives them
+  // at any texel (direction to the light, intensity falling off as 1/r²).
+  bool has_position = false;
+  Vec3 position{0, 0, 0};
+};
+
+// Where the stack's texels lie in the frame of the lights' positions (docs/formats.md,
+// "light_positions.txt"): texel (x, y) (column, row) at (x0 + x·step, y0 − y·step, 0); x right,
+// y up, z toward the camera, origin at the centre of the images as read, one unit per source
+// pixel. Crops and mips keep it (core/stack_ops.h).
+struct NearFrame {
+  double x0 = 0, y0 = 0, step = 1;
 };
 
 // A unit-intensity light along `direction` (normalised), its angles derived from it.
@@ -156,6 +169,9 @@ class LightStack {
   std::vector<uint8_t> mask;
   // Physical size of one texel in millimetres; 0 = unknown.
   double mm_per_texel = 0;
+  // Near lights: where the texels lie among the lights' positions (used when they have one).
+  NearFrame near_frame;
+  bool has_light_positions() const { return !lights_.empty() && lights_[0].has_position; }
 
   // Provenance, filled by readers: layout name, source folder, one file per image.
   std::string layout, source, object_name;

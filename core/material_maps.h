@@ -70,4 +70,9 @@ struct MaterialMaps {
 // maps.
 MaterialMaps CropMaps(const MaterialMaps& maps, int x, int y, int w, int h);
 
+// Copies tile's texel-sized planes into the region of `into` at (x, y) (the inverse of CropMaps);
+// a plane `into` lacks, or holds at another size, is allocated (zero) at its full size first. The
+// region must lie inside.
+void PasteMaps(const MaterialMaps& tile, int x, int y, MaterialMaps* into);
+
 }  // namespace matfit

@@ -19,6 +19,7 @@ LightStack EmptyLike(const LightStack& s, int w, int h, bool native) {
   out.view_direction = s.view_direction;
   out.view_theta_deg = s.view_theta_deg, out.view_phi_deg = s.view_phi_deg;
   out.mm_per_texel = s.mm_per_texel;
+  out.near_frame = s.near_frame;
   out.layout = s.layout, out.source = s.source, out.object_name = s.object_name;
   out.image_files = s.image_files;
   out.encodings = s.encodings, out.encoding_reasons = s.encoding_reasons;
@@ -38,6 +39,7 @@ StatusOr<LightStack> CropStack(const LightStack& s, int x, int y, int w, int h) 
                            std::to_string(x) + "+" + std::to_string(y) + " is outside the " +
                            std::to_string(s.width()) + "x" + std::to_string(s.height()) + " stack");
   LightStack out = EmptyLike(s, w, h, /*native=*/true);
+  out.near_frame.x0 += x * s.near_frame.step, out.near_frame.y0 -= y * s.near_frame.step;
   auto crop = [&](auto src, auto dst) {  // one plane, samples copied as stored
     for (int r = 0; r < h; ++r)
       std::copy_n(src.data() + int64_t(y + r) * s.width() + x, w, dst.data() + int64_t(r) * w);
@@ -67,6 +69,9 @@ StatusOr<LightStack> DownsampleStack(const LightStack& s, int f) {
   if (f == 1) return CropStack(s, 0, 0, s.width(), s.height());
   LightStack out = EmptyLike(s, w, h, /*native=*/false);  // block means are not codes
   out.mm_per_texel = s.mm_per_texel * f;
+  // Block (bx, by) is centred on source texel (bx·f + (f − 1)/2, by·f + (f − 1)/2).
+  const double half = 0.5 * (f - 1) * s.near_frame.step;
+  out.near_frame = {s.near_frame.x0 + half, s.near_frame.y0 - half, s.near_frame.step * f};
   // A band of a distributed stack whose first row is a multiple of f (fit/bands.h): the same
   // band of the downsampled stack (the rows of an incomplete last block are dropped, as here).
   if (s.band.row0 % f != 0)
@@ -125,6 +130,7 @@ LightStack QuantiseStack(const LightStack& s, int bits) {
   out.view_direction = s.view_direction;
   out.view_theta_deg = s.view_theta_deg, out.view_phi_deg = s.view_phi_deg;
   out.mm_per_texel = s.mm_per_texel;
+  out.near_frame = s.near_frame;
   out.layout = s.layout, out.source = s.source, out.object_name = s.object_name;
   out.image_files = s.image_files;
   out.mask = s.mask;

@@ -33,6 +33,10 @@ bool FitOptions::Check(std::string* why) const {
     *why = "--tile must be in [8, 4096], got " + std::to_string(tile);
     return false;
   }
+  if (!(near_tolerance_deg > 0 && near_tolerance_deg <= 10)) {
+    *why = "--near-tolerance must be in (0, 10] degrees, got " + std::to_string(near_tolerance_deg);
+    return false;
+  }
   if (!(robust_scale >= 0 && robust_scale <= 10)) {
     *why = "--robust-scale must be in [0, 10] (0 = least squares), got " +
            std::to_string(robust_scale);

@@ -37,12 +37,19 @@ struct FitOptions {
   // blinn-phong / cook-torrance: fit the lobe shape (e, roughness) per texel instead of once
   // per material.
   bool per_texel_lobe = false;
+  // blinn-phong / cook-torrance / lafortune: the material's lobe shape, given (fitting
+  // coordinates, SharedLobeShape in fit/methods.h) instead of estimated from this stack; empty:
+  // estimate it. Near-light fits (fit/near_fit.h) estimate it once over every tile.
+  std::vector<double> lobe_shape;
   // Nonlinear fits: Cauchy loss scale σ on residuals (linear units of the normalised samples;
   // 0 = plain least squares). Residual cast shadows and interreflections weigh less: on the
   // psm cat, held-out RMSE 0.0280 → 0.0270 (blinn-phong) at σ = 0.05 (docs/benchmarks.md).
   double robust_scale = 0.05;
   double exponent_min = 1, exponent_max = 1024;  // heinrich exponent search range, 1 ≤ min < max
-  ProgressFn progress;                           // tiles done / total; returning false cancels
+  // Near lights (light_positions.txt): the largest angle between a texel's light direction
+  // and the one its tile is fitted with (fit/near_fit.h), degrees, (0, 10].
+  double near_tolerance_deg = 0.25;
+  ProgressFn progress;  // tiles done / total; returning false cancels
 
   bool Check(std::string* why) const;
 };

@@ -30,6 +30,12 @@ struct BlinnPhongLobe {
     m->exponent = std::move(shape);
     if (params->count("lobe_shape_0")) (*params)["exponent"] = std::exp((*params)["lobe_shape_0"]);
   }
+  // Maps → fitting-coordinate shape planes (the inverse of StoreShape); empty when absent.
+  static Image LoadShape(const MaterialMaps& m) {
+    Image shape = m.exponent;
+    for (float& v : shape.data()) v = std::log(std::max(v, 1e-30f));
+    return shape;
+  }
   template <typename T>
   static void Prepare(const T* s, T* shape) {  // fitting coordinates → model parameters
     using std::exp;
@@ -55,6 +61,7 @@ struct CookTorranceLobe {
     m->roughness = std::move(shape);
     if (params->count("lobe_shape_0")) (*params)["roughness"] = (*params)["lobe_shape_0"];
   }
+  static Image LoadShape(const MaterialMaps& m) { return m.roughness; }
   template <typename T>
   static void Prepare(const T* s, T* shape) {
     shape[0] = s[0];
@@ -79,6 +86,12 @@ struct LafortuneLobes {
     for (int j = 0; j < L; ++j)
       for (float& v : shape.Plane(2 * j + 1)) v = std::exp(v);
     m->lobe_shape = std::move(shape);
+  }
+  static Image LoadShape(const MaterialMaps& m) {
+    Image shape = m.lobe_shape;
+    for (int j = 0; j < L && !shape.empty(); ++j)
+      for (float& v : shape.Plane(2 * j + 1)) v = std::log(std::max(v, 1e-30f));
+    return shape;
   }
   template <typename T>
   static void Prepare(const T* s, T* shape) {

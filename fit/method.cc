@@ -3,11 +3,10 @@
 #include <functional>
 
 #include "fit/methods.h"
+#include "fit/near_fit.h"
 
 namespace matfit::fit {
 namespace {
-
-using FitFn = std::function<StatusOr<FitResult>(const LightStack&, const FitOptions&)>;
 
 class FunctionMethod : public FitMethod {
  public:
@@ -27,7 +26,7 @@ class FunctionMethod : public FitMethod {
   int light_parameters() const override { return light_params_; }
   int parameters_per_channel() const override { return per_channel_; }
   StatusOr<FitResult> Fit(const LightStack& s, const FitOptions& o) const override {
-    return fn_(s, o);
+    return s.has_light_positions() ? FitNearLights(name_, fn_, s, o) : fn_(s, o);
   }
 
  private:

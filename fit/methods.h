@@ -27,6 +27,16 @@ StatusOr<FitResult> FitCookTorrance(const LightStack& stack, const FitOptions& o
 // lafortune (METHODS.md §4): 1 or 2 isotropic lobes (C_z = 1; amplitude, C_xy and exponent per
 // lobe), same two-stage per-texel LM with one lobe shape per material by default.
 StatusOr<FitResult> FitLafortune(const LightStack& stack, const FitOptions& options, int lobes);
+// The lobe models' (blinn-phong, cook-torrance, lafortune1, lafortune2) material-wide shape in
+// fitting coordinates from per-texel-lobe maps of the stack (FitOptions::per_texel_lobe), the
+// estimator the fits use: per shape parameter, the median over ok texels whose first amplitude
+// is above a tenth of its 90th percentile. NotFound when no texel shows a lobe; InvalidArgument
+// for another method.
+StatusOr<std::vector<double>> SharedLobeShape(const std::string& method, const LightStack& stack,
+                                              const MaterialMaps& maps,
+                                              const std::vector<uint8_t>& status);
+// Whether `method` is one of those (its shape is one per material unless per_texel_lobe).
+bool HasSharedLobeShape(const std::string& method);
 
 // ptm (METHODS.md §4): 6 polynomial coefficients per channel in (u, v) = (l_x, l_y), one
 // pseudo-inverse for all texels. Coefficients in maps.coefficients (plane c·6 + j).

@@ -7,10 +7,12 @@
 #include <cstring>
 #include <limits>
 #include <map>
+#include <memory>
 #include <mutex>
 
 #include "core/color.h"
 #include "core/model/model.h"
+#include "core/near_lights.h"
 #include "core/parallel.h"
 #include "core/simd_clones.h"
 #include "core/stack_band.h"
@@ -186,6 +188,33 @@ ReconstructionMetrics ReduceReconstruction(const LightStack& s, const std::vecto
   return m;
 }
 
+// Near lights (core/near_lights.h): light i's prediction over texels [p0, p0 + len), each texel
+// lit along its own direction and scaled by its own fall-off, so that raw / I − pred is the
+// residual in units of the light's nominal intensity. pred[c · len + t] for c < C.
+struct NearScratch {
+  std::vector<int64_t> texels = std::vector<int64_t>(kEvalRun);
+  std::vector<Vec3f> l = std::vector<Vec3f>(kEvalRun), v = std::vector<Vec3f>(kEvalRun);
+  std::vector<float> falloff = std::vector<float>(kEvalRun), rgb = std::vector<float>(3 * kEvalRun);
+};
+
+void NearPrediction(const LightStack& s, const ModelDescriptor& model, const MaterialMaps& maps,
+                    const LightSample& light, int64_t p0, int len, int C, NearScratch* k,
+                    float* pred) {
+  const Vec3f view(s.view_direction);
+  for (int t = 0; t < len; ++t) {
+    const int64_t p = p0 + t;
+    const Vec3 x = NearTexelPosition(s, double(p % s.width()), double(p / s.width()));
+    k->texels[size_t(t)] = p;
+    k->l[size_t(t)] = Vec3f(Normalize(light.position - x));
+    k->v[size_t(t)] = view;
+    k->falloff[size_t(t)] = float(NearFalloff(light, x));
+  }
+  model.EvaluateSamples(maps, k->texels.data(), k->l.data(), k->v.data(), len, k->rgb.data());
+  for (int c = 0; c < C; ++c)
+    for (int t = 0; t < len; ++t)
+      pred[size_t(c) * len + t] = k->falloff[size_t(t)] * k->rgb[size_t(c) * len + t];
+}
+
 }  // namespace
 
 StackScore ScoreStack(const LightStack& s, const std::vector<int>& images, const MaterialMaps& maps,
@@ -204,6 +233,8 @@ StackScore ScoreStack(const LightStack& s, const std::vector<int>& images, const
   std::vector<Vec3f> dirs;
   for (int i : images) dirs.emplace_back(s.lights()[size_t(i)].direction);
   const BatchEvaluator eval(maps, dirs, Vec3f(s.view_direction));
+  const bool near = s.has_light_positions();
+  const ModelDescriptor& model = Model(maps.model);
   const std::vector<float> inv = InverseIntensities(s);
   const float clip_level =
       StackMayBeClipped(s) ? kClipLevel : std::numeric_limits<float>::infinity();
@@ -221,6 +252,7 @@ StackScore ScoreStack(const LightStack& s, const std::vector<int>& images, const
             scratch(size_t(kMaxChannels) * kEvalRun);
         std::vector<double> acc(kEvalRun), sum(kEvalRun);
         std::vector<int> k(kEvalRun), m(kEvalRun);
+        std::unique_ptr<NearScratch> near_scratch(near ? new NearScratch : nullptr);
         float ok[kEvalRun];
         for (int64_t r = r0; r < r1; ++r) {
           const int64_t p0 = r * kEvalRun;
@@ -237,8 +269,12 @@ StackScore ScoreStack(const LightStack& s, const std::vector<int>& images, const
           }
           for (int j = 0; j < n; ++j) {
             const int i = images[size_t(j)];
-            const int in_group = j % eval.group();  // predictions come a group of lights at once
-            if (in_group == 0)
+            // Predictions come a group of lights at once (near lights: one, texel by texel).
+            const int in_group = near ? 0 : j % eval.group();
+            if (near)
+              NearPrediction(s, model, maps, s.lights()[size_t(i)], p0, len, C, near_scratch.get(),
+                             pred.data());
+            else if (in_group == 0)
               eval.EvaluateLights(j, std::min(eval.group(), n - j), p0, len, C, pred.data());
             LightChannels l;
             for (int c = 0; c < C; ++c) {

@@ -7,6 +7,7 @@
 
 #include "core/color.h"
 #include "core/model/model.h"
+#include "core/near_lights.h"
 #include "core/stack_band.h"
 #include "core/stack_ops.h"
 #include "core/warnings.h"
@@ -38,6 +39,33 @@ struct HeldOutSums {
   std::string fold_error;  // the first failed fold's message
   bool any = false;
 };
+
+// Near lights (core/near_lights.h): fine row y's predictions under `light`, each fine texel lit
+// along its own direction with its own fall-off, from the coarse texel above it (level k).
+struct NearRowScratch {
+  std::vector<int64_t> texels;
+  std::vector<Vec3f> l, v;
+  std::vector<float> falloff, rgb, pred;
+};
+
+void NearRow(const LightStack& fine, const MaterialMaps& maps, const LightSample& light, int y,
+             int k, int CW, int cy, int C, NearRowScratch* s) {
+  const int W = fine.width();
+  s->texels.resize(size_t(W)), s->l.resize(size_t(W));
+  s->v.assign(size_t(W), Vec3f(fine.view_direction));
+  s->falloff.resize(size_t(W)), s->rgb.resize(size_t(3) * W), s->pred.resize(size_t(C) * W);
+  for (int x = 0; x < W; ++x) {
+    const Vec3 p = NearTexelPosition(fine, x, y);
+    s->texels[size_t(x)] = int64_t(cy) * CW + std::min(CW - 1, x >> k);
+    s->l[size_t(x)] = Vec3f(Normalize(light.position - p));
+    s->falloff[size_t(x)] = float(NearFalloff(light, p));
+  }
+  Model(maps.model)
+      .EvaluateSamples(maps, s->texels.data(), s->l.data(), s->v.data(), W, s->rgb.data());
+  for (int c = 0; c < C; ++c)
+    for (int x = 0; x < W; ++x)
+      s->pred[size_t(c) * W + x] = s->falloff[size_t(x)] * s->rgb[size_t(c) * W + x];
+}
 
 // Folds over images (image i in fold i mod K). `coarse` is the level-(L+k) stack, `fine` the
 // level-L one; texel (x, y) of fine is predicted by texel (x >> k, y >> k) of coarse. Each
@@ -74,6 +102,9 @@ StatusOr<HeldOutSums> Score(const FitMethod& m, const LightStack& fine, const Li
     for (int i : test) test_dirs.emplace_back(fine.lights()[i].direction);
     const BatchEvaluator eval(fit->maps, test_dirs, v);
     const int W = fine.width(), CW = coarse.width(), CH = coarse.height();
+    // Near lights: each fine texel under its own light (the coarse texel's maps).
+    const bool near = fine.has_light_positions();
+    NearRowScratch nr;
     std::vector<float> pred(test.size() * size_t(C) * CW), scratch(static_cast<size_t>(W));
     std::vector<uint8_t> scored(static_cast<size_t>(W));
     for (int cy = 0; cy < CH; ++cy) {
@@ -97,15 +128,17 @@ StatusOr<HeldOutSums> Score(const FitMethod& m, const LightStack& fine, const Li
         for (size_t ti = 0; ti < test.size(); ++ti) {
           const int i = test[ti];
           const double w = std::max(0.0f, test_dirs[ti].z);
+          if (near) NearRow(fine, fit->maps, fine.lights()[size_t(i)], y, k, CW, cy, C, &nr);
           for (int c = 0; c < C; ++c) {
             const float* row = fine.Row(i, c, y, 0, W, scratch.data());
             const float* pr = pred.data() + (ti * C + size_t(c)) * CW;
+            const float* npr = near ? nr.pred.data() + size_t(c) * W : nullptr;
             const float s = inv[size_t(i) * C + c];
             for (int x = 0; x < W; ++x) {
               const float raw = row[x];
               if (!scored[size_t(x)] || !std::isfinite(raw) || (clip && raw >= kClipLevel))
                 continue;
-              const float predicted = pr[std::min(CW - 1, x >> k)];
+              const float predicted = near ? npr[x] : pr[std::min(CW - 1, x >> k)];
               // sRGB: the codes of the sample and of the prediction times the light's intensity
               // (as fit/metrics.h scores held-out lights), in units of full scale.
               const double d =

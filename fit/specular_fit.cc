@@ -30,6 +30,45 @@
 namespace matfit::fit {
 namespace {
 
+// The median shape (fitting coordinates) over ok texels with a clear lobe: first amplitude above
+// a tenth of its 90th percentile. Quantiles over the whole stack: a band of a distributed one
+// gathers every band's values (a quantile does not depend on their order). False: no such texel.
+bool MedianShape(const LightStack& s, const std::vector<uint8_t>& status, const float* strength,
+                 const std::vector<const float*>& shapes, std::vector<double>* out) {
+  std::vector<float> st;
+  for (int64_t p = 0; p < s.plane_size(); ++p)
+    if (status[p] == kTexelOk) st.push_back(strength[p]);
+  st = ConcatOverBands(s, st);
+  if (st.empty()) return false;
+  std::nth_element(st.begin(), st.begin() + st.size() * 9 / 10, st.end());
+  const float clear = 0.1f * st[st.size() * 9 / 10];
+  out->assign(shapes.size(), 0.0);
+  for (size_t k = 0; k < shapes.size(); ++k) {
+    std::vector<float> v;
+    for (int64_t p = 0; p < s.plane_size(); ++p)
+      if (status[p] == kTexelOk && strength[p] > clear) v.push_back(shapes[k][p]);
+    v = ConcatOverBands(s, v);
+    if (v.empty()) return false;
+    std::nth_element(v.begin(), v.begin() + v.size() / 2, v.end());
+    (*out)[k] = v[v.size() / 2];
+  }
+  return true;
+}
+
+template <typename Lobe>
+StatusOr<std::vector<double>> SharedShapeFromMaps(const LightStack& s, const MaterialMaps& m,
+                                                  const std::vector<uint8_t>& status) {
+  const Image shape = Lobe::LoadShape(m);
+  if (shape.empty() || m.specular.empty() || shape.channels() != Lobe::kShapes)
+    return InvalidArgument(std::string(Lobe::kModel) + ": maps without per-texel lobe shapes");
+  std::vector<const float*> planes;
+  for (int k = 0; k < Lobe::kShapes; ++k) planes.push_back(shape.Plane(k).data());
+  std::vector<double> out;
+  if (!MedianShape(s, status, m.specular.Plane(0).data(), planes, &out))
+    return NotFound("no texel shows a specular lobe");
+  return out;
+}
+
 template <typename Lobe>
 StatusOr<FitResult> FitLobe(const LightStack& s, const FitOptions& o, const std::string& name) {
   constexpr int A = Lobe::kAmps, S = Lobe::kShapes, kMax = 5 + A + S;
@@ -127,30 +166,19 @@ StatusOr<FitResult> FitLobe(const LightStack& s, const FitOptions& o, const std:
   };
   bool ok = stage(std::false_type{}, {});
   if (ok && !o.per_texel_lobe) {
-    // Quantiles over the whole stack: a band of a distributed one gathers every band's values
-    // (a quantile does not depend on their order).
-    std::vector<float> strength;
-    for (int64_t p = 0; p < s.plane_size(); ++p)
-      if (r.status[p] == kTexelOk) strength.push_back(xs.Plane(5)[p]);
-    strength = ConcatOverBands(s, strength);
     std::array<double, S> shape{};
+    std::vector<double> median;
     bool have = false;
-    if (!strength.empty()) {
-      std::nth_element(strength.begin(), strength.begin() + strength.size() * 9 / 10,
-                       strength.end());
-      const float clear = 0.1f * strength[strength.size() * 9 / 10];
-      for (int k = 0; k < S; ++k) {
-        std::vector<float> v;
-        for (int64_t p = 0; p < s.plane_size(); ++p)
-          if (r.status[p] == kTexelOk && xs.Plane(5)[p] > clear)
-            v.push_back(xs.Plane(5 + A + k)[p]);
-        v = ConcatOverBands(s, v);
-        if (v.empty()) break;
-        std::nth_element(v.begin(), v.begin() + v.size() / 2, v.end());
-        shape[k] = v[v.size() / 2];
-        have = k == S - 1;
-      }
+    if (!o.lobe_shape.empty()) {  // given (a near-light fit's, estimated over every tile)
+      if (int(o.lobe_shape.size()) != S)
+        return InvalidArgument(name + ": lobe_shape needs " + std::to_string(S) + " values");
+      median = o.lobe_shape, have = true;
+    } else {
+      std::vector<const float*> planes;
+      for (int k = 0; k < S; ++k) planes.push_back(xs.Plane(5 + A + k).data());
+      have = MedianShape(s, r.status, xs.Plane(5).data(), planes, &median);
     }
+    if (have) std::copy(median.begin(), median.end(), shape.begin());
     if (have) {
       for (int k = 0; k < S; ++k) r.parameters["lobe_shape_" + std::to_string(k)] = shape[k];
       ok = stage(std::true_type{}, shape);
@@ -187,6 +215,21 @@ StatusOr<FitResult> FitBlinnPhong(const LightStack& s, const FitOptions& o) {
 StatusOr<FitResult> FitCookTorrance(const LightStack& s, const FitOptions& o) {
   return FitLobe<lobe::CookTorranceLobe>(s, o, "cook-torrance");
 }
+bool HasSharedLobeShape(const std::string& method) {
+  return method == "blinn-phong" || method == "cook-torrance" || method == "lafortune1" ||
+         method == "lafortune2";
+}
+
+StatusOr<std::vector<double>> SharedLobeShape(const std::string& method, const LightStack& s,
+                                              const MaterialMaps& m,
+                                              const std::vector<uint8_t>& status) {
+  if (method == "blinn-phong") return SharedShapeFromMaps<lobe::BlinnPhongLobe>(s, m, status);
+  if (method == "cook-torrance") return SharedShapeFromMaps<lobe::CookTorranceLobe>(s, m, status);
+  if (method == "lafortune1") return SharedShapeFromMaps<lobe::LafortuneLobes<1>>(s, m, status);
+  if (method == "lafortune2") return SharedShapeFromMaps<lobe::LafortuneLobes<2>>(s, m, status);
+  return InvalidArgument(method + " has no material-wide lobe shape");
+}
+
 StatusOr<FitResult> FitLafortune(const LightStack& s, const FitOptions& o, int lobes) {
   if (lobes == 1) return FitLobe<lobe::LafortuneLobes<1>>(s, o, "lafortune1");
   if (lobes == 2) return FitLobe<lobe::LafortuneLobes<2>>(s, o, "lafortune2");

@@ -8,7 +8,9 @@
 
 #include "core/dataset/btf_names.h"
 #include "core/dataset/stack_loader.h"
+#include "core/near_lights.h"
 #include "core/path_util.h"
+#include "core/text_file.h"
 
 namespace matfit {
 namespace {
@@ -190,7 +192,65 @@ StatusOr<Layout> DetectLayout(const std::string& path, std::string* reason,
                    "--layout");
 }
 
+namespace {
+
+// light_positions.txt beside the lights (the folder, or the .lp file's folder): N, then N lines
+// x y z in source pixels (docs/formats.md). Sets each light's position and its nominal
+// direction (seen from the image centre); absent file: the stack is left as read.
+Status ApplyLightPositions(const std::string& path, const ReadOptions& o, LightStack* s) {
+  std::error_code ec;
+  const fs::path dir = fs::is_directory(path, ec) ? fs::path(path) : fs::path(path).parent_path();
+  const fs::path file = dir / "light_positions.txt";
+  if (o.distant_lights || !fs::exists(file, ec)) return Status::Ok();
+  auto lines = ReadTextLines(file.string(), o.confine_to);
+  if (!lines.ok()) return lines.status();
+  const std::string name = o.confine_to.empty() ? file.string() : "light_positions.txt";
+  int n = 0;
+  if (lines->empty() || lines->front().tokens.size() != 1 ||
+      !ParseInt(lines->front().tokens[0], &n))
+    return DataError(name + ": the first line must be the number of lights");
+  if (n != int(s->lights().size()) || int(lines->size()) != n + 1)
+    return DataError(name + ": holds " + std::to_string(int(lines->size()) - 1) +
+                     " positions (header " + std::to_string(n) + ") for " +
+                     std::to_string(s->lights().size()) +
+                     " images; give one position per image, in the images' order");
+  for (int i = 0; i < n; ++i) {
+    const TextLine& line = (*lines)[size_t(i) + 1];
+    double v[3];
+    if (line.tokens.size() != 3 || !ParseFiniteDouble(line.tokens[0], &v[0]) ||
+        !ParseFiniteDouble(line.tokens[1], &v[1]) || !ParseFiniteDouble(line.tokens[2], &v[2]))
+      return DataError(
+          AtLine(name, line.number, "expected x y z (source pixels), got '" + line.text + "'"));
+    LightSample& l = s->lights()[size_t(i)];
+    l.has_position = true, l.position = Vec3(v[0], v[1], v[2]);
+  }
+  // Texel (x, y) of the images as read sits at pixel (crop_x + x + ½, crop_y + y + ½) of the
+  // source images, whose centre is the frame's origin (x right, y up).
+  const int W = s->source_width > 0 ? s->source_width : s->width();
+  const int H = s->source_height > 0 ? s->source_height : s->full_height();
+  s->near_frame = {s->crop_x + 0.5 - 0.5 * W, 0.5 * H - s->crop_y - 0.5 - s->band.row0, 1.0};
+  if (Status st = CheckLightPositions(*s); !st.ok()) return DataError(name + ": " + st.message());
+  for (LightSample& l : s->lights()) {
+    const LightSample seen = LightFromDirection(l.position);
+    l.direction = seen.direction, l.theta_deg = seen.theta_deg, l.phi_deg = seen.phi_deg;
+  }
+  return Status::Ok();
+}
+
+StatusOr<LightStack> ReadLayout(const std::string& path, const ReadOptions& options);
+
+}  // namespace
+
 StatusOr<LightStack> ReadDataset(const std::string& path, const ReadOptions& options) {
+  auto stack = ReadLayout(path, options);
+  if (!stack.ok()) return stack;
+  if (Status st = ApplyLightPositions(path, options, &*stack); !st.ok()) return st;
+  return stack;
+}
+
+namespace {
+
+StatusOr<LightStack> ReadLayout(const std::string& path, const ReadOptions& options) {
   std::string why;
   if (!options.Check(&why)) return InvalidArgument(why);
   Layout layout = options.layout;
@@ -220,5 +280,7 @@ StatusOr<LightStack> ReadDataset(const std::string& path, const ReadOptions& opt
   }
   return InvalidArgument("no reader for layout");
 }
+
+}  // namespace
 
 }  // namespace matfit

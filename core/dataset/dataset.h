@@ -57,6 +57,9 @@ struct ReadOptions {
   // Only this region of every image and mask (--crop); it must lie inside the images. Bands
   // (row0, rows) count rows of the region.
   std::optional<CropRect> crop;
+  // Ignore light_positions.txt (near lights): every light is distant, along its nominal
+  // direction (--distant-lights).
+  bool distant_lights = false;
 
   bool Check(std::string* why) const;
 };

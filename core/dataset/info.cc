@@ -10,6 +10,7 @@
 #include <nlohmann/json.hpp>
 #include <span>
 
+#include "core/near_lights.h"
 #include "core/parallel.h"
 #include "core/stack_band.h"
 
@@ -126,6 +127,25 @@ DatasetInfo ComputeDatasetInfo(const LightStack& s) {
   info.crop_x = s.crop_x, info.crop_y = s.crop_y;
   info.cropped = s.crop_w > 0;
   info.masked_texels = texel_counts[1];
+  if (s.has_light_positions()) {
+    info.near_lights = true;
+    info.near_distance_min = 1e300;
+    for (const LightSample& l : s.lights()) {
+      const double d = Length(l.position);
+      info.near_distance_min = std::min(info.near_distance_min, d);
+      info.near_distance_max = std::max(info.near_distance_max, d);
+      // Over the corners of the stack: how far apart its texels see the light.
+      Vec3 seen[4];
+      int k = 0;
+      for (double y : {0.0, double(s.height() - 1)})
+        for (double x : {0.0, double(s.width() - 1)})
+          seen[k++] = Normalize(l.position - NearTexelPosition(s, x, y));
+      for (int a = 0; a < 4; ++a)
+        for (int b = 0; b < a; ++b)
+          info.near_direction_spread_deg =
+              std::max(info.near_direction_spread_deg, AngleBetweenDeg(seen[a], seen[b]));
+    }
+  }
   const int n = s.num_images();
 
   // Light distribution.
@@ -305,6 +325,12 @@ std::string FormatDatasetInfo(const DatasetInfo& d) {
   o += "lights       θl " + Fmt("%.1f", d.theta_min) + "°..." + Fmt("%.1f", d.theta_max) +
        "°, largest azimuth gap " + Fmt("%.0f", d.max_azimuth_gap_deg) + "°, intensity " +
        Fmt("%.3g", d.intensity_min) + "..." + Fmt("%.3g", d.intensity_max) + "\n";
+  if (d.near_lights)
+    o += "near lights  at " + Fmt("%.0f", d.near_distance_min) + "..." +
+         Fmt("%.0f", d.near_distance_max) +
+         " px from the image centre (light_positions.txt); a light's direction varies by up to " +
+         Fmt("%.2f", d.near_direction_spread_deg) +
+         "° over the texels (fits use per-texel directions and 1/r² fall-off)\n";
   o += "θl groups   ";
   for (const auto& g : d.theta_groups)
     o += " " + std::to_string(g.theta_deg) + "°:" + std::to_string(g.count);
@@ -342,6 +368,11 @@ std::string DatasetInfoJson(const DatasetInfo& d) {
       {"encodings", d.encodings},
       {"mask_texels", d.has_mask ? nlohmann::json(d.masked_texels) : nlohmann::json()},
       {"mask_source", d.mask_source},
+      {"near_lights", d.near_lights
+                          ? nlohmann::json({{"distance_min_px", d.near_distance_min},
+                                            {"distance_max_px", d.near_distance_max},
+                                            {"direction_spread_deg", d.near_direction_spread_deg}})
+                          : nlohmann::json()},
       {"crop", d.cropped ? nlohmann::json({{"x", d.crop_x},
                                            {"y", d.crop_y},
                                            {"width", d.width},

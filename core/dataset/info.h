@@ -30,6 +30,11 @@ struct DatasetInfo {
   int rank = 0;                           // numerical rank of the light matrix
   Vec3 mean_light;                        // mean light direction
   double intensity_min = 0, intensity_max = 0;
+  // Near lights (light_positions.txt): their distance from the image centre (source pixels) and
+  // the widest spread of one light's direction over the texels (degrees). near_lights false:
+  // distant lights.
+  bool near_lights = false;
+  double near_distance_min = 0, near_distance_max = 0, near_direction_spread_deg = 0;
   std::vector<std::string> encodings;  // "sRGB (8-bit default (sRGB)) × 12"
   int64_t masked_texels = 0;           // texels inside the mask
   bool has_mask = false;

@@ -95,11 +95,31 @@ bool DatasetWriteOptions::Check(std::string* why) const {
   return true;
 }
 
+namespace {
+
+// light_positions.txt (docs/formats.md): N, then x y z per light in source pixels.
+Status WriteLightPositions(const LightStack& s, const std::string& path) {
+  std::string txt =
+      "# light positions: x right, y up, z toward the camera; origin at the image centre; "
+      "source pixels\n" +
+      std::to_string(s.num_images()) + "\n";
+  char line[128];
+  for (const LightSample& l : s.lights()) {
+    std::snprintf(line, sizeof line, "%.6f %.6f %.6f\n", l.position.x, l.position.y, l.position.z);
+    txt += line;
+  }
+  return WriteFileAtomic(path, txt);
+}
+
+}  // namespace
+
 Status WriteDataset(const LightStack& s, const DatasetWriteOptions& o, const std::string& dir,
                     const ProgressFn& progress) {
   std::string why;
   if (!o.Check(&why)) return InvalidArgument(why);
   const fs::path d(dir);
+  if (s.has_light_positions())
+    MATFIT_RETURN_IF_ERROR(WriteLightPositions(s, (d / "light_positions.txt").string()));
   const std::string ext = Extension(o);
   const int n = s.num_images();
   switch (o.layout) {

@@ -6,6 +6,7 @@
 #include <cmath>
 
 #include "core/model/model.h"
+#include "core/near_lights.h"
 #include "core/parallel.h"
 
 namespace matfit::synth {
@@ -67,16 +68,35 @@ LightStack RenderStack(const MaterialMaps& m, const std::vector<LightSample>& li
   std::vector<Vec3f> dirs;
   for (const LightSample& ls : lights) dirs.emplace_back(ls.direction);
   const BatchEvaluator eval(m, dirs, v);
+  // Near lights: texel (x, y) at (x + ½ − W/2, H/2 − y − ½, 0), lit along its own direction
+  // with its own fall-off (core/near_lights.h), evaluated sample by sample.
+  const bool near = !lights.empty() && lights[0].has_position;
+  if (near) stack.near_frame = {0.5 - 0.5 * m.width, 0.5 * m.height - 0.5, 1.0};
+  const ModelDescriptor& model = Model(m.model);
   std::atomic<int64_t> rendered{0};
   ParallelFor(0, n, [&](int64_t b, int64_t e) {
-    std::vector<float> run(size_t(3) * kEvalRun);
+    std::vector<float> run(size_t(3) * kEvalRun), falloff(near ? kEvalRun : 0);
+    std::vector<int64_t> idx(near ? kEvalRun : 0);
+    std::vector<Vec3f> ldir(near ? kEvalRun : 0), vdir(near ? kEvalRun : 0, v);
     for (int64_t i = b; i < e; ++i) {
       const LightSample& ls = lights[i];
       Image vis;
       if (options.cast_shadows) vis = CastShadowVisibility(m.height_map, ls.direction);
       for (int64_t p0 = 0; p0 < texels; p0 += kEvalRun) {
         const int len = int(std::min<int64_t>(kEvalRun, texels - p0));
-        eval.Evaluate(int(i), p0, len, 3, run.data());
+        if (near) {
+          for (int t = 0; t < len; ++t) {
+            const int64_t p = p0 + t;
+            const Vec3 x = NearTexelPosition(stack, double(p % m.width), double(p / m.width));
+            idx[size_t(t)] = p, ldir[size_t(t)] = Vec3f(Normalize(ls.position - x));
+            falloff[size_t(t)] = float(NearFalloff(ls, x));
+          }
+          model.EvaluateSamples(m, idx.data(), ldir.data(), vdir.data(), len, run.data());
+          for (int c = 0; c < 3; ++c)
+            for (int t = 0; t < len; ++t) run[size_t(c * len + t)] *= falloff[size_t(t)];
+        } else {
+          eval.Evaluate(int(i), p0, len, 3, run.data());
+        }
         for (int c = 0; c < 3; ++c) {
           float* out = stack.Plane(int(i), c).data() + p0;
           const float intensity = float(ls.intensity[c]);

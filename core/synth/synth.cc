@@ -21,11 +21,13 @@ using nlohmann::json;
 
 json LightsJson(const std::vector<LightSample>& lights) {
   json arr = json::array();
-  for (const auto& l : lights)
+  for (const auto& l : lights) {
     arr.push_back({{"direction", {l.direction.x, l.direction.y, l.direction.z}},
                    {"theta_deg", l.theta_deg},
                    {"phi_deg", l.phi_deg},
                    {"intensity", {l.intensity.x, l.intensity.y, l.intensity.z}}});
+    if (l.has_position) arr.back()["position_px"] = {l.position.x, l.position.y, l.position.z};
+  }
   return arr;
 }
 
@@ -71,6 +73,7 @@ std::string ParamsJson(const SynthOptions& o, const SynthResult& r) {
         {"misregister_px", o.perturb.misregister_px},
         {"shift_x_px", r.perturb.shift_x},
         {"shift_y_px", r.perturb.shift_y}}},
+      {"near_lights_px", o.near_lights},
       {"lights", LightsJson(r.stack.lights())},
   };
   std::map<std::string, double> truth_params;
@@ -134,6 +137,11 @@ bool SynthOptions::Check(std::string* why) const {
     *why = "--material '" + material + "' is unknown; choose one of: " + list;
     return false;
   }
+  if (!(near_lights == 0 || (near_lights > 0 && near_lights <= 1e7))) {
+    *why = "--near-lights must be 0 (distant) or a distance in texels in (0, 1e7], got " +
+           std::to_string(near_lights);
+    return false;
+  }
   if (size < 4 || size > 8192) {
     *why = "--size must be in [4, 8192], got " + std::to_string(size);
     return false;
@@ -187,6 +195,12 @@ StatusOr<SynthResult> Synthesize(const SynthOptions& o, const ProgressFn& progre
   if (!lights.ok()) return lights.status();
   // BTF layouts store the angles in the file names: quantise so names and pixels agree.
   if (o.layout == Layout::kBonn || o.layout == Layout::kUtia) QuantizeToIntegerDegrees(&*lights);
+  if (o.near_lights > 0) {
+    if (const MaterialInfo* info = FindMaterial(o.material); info && info->micro_geometry)
+      return InvalidArgument("--near-lights: material '" + o.material +
+                             "' is rendered from micro-geometry with distant lights only");
+    for (LightSample& l : *lights) l.has_position = true, l.position = l.direction * o.near_lights;
+  }
   auto rendered =
       RenderMaterial(o.material, o.size, o.rows(), o.seed, *lights, o.shadows, progress);
   if (!rendered.ok()) return rendered.status();

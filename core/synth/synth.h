@@ -21,11 +21,15 @@ struct SynthOptions {
   int size = 64;                     // texels per side (the width), [4, 8192]
   int height = 0;                    // rows, [4, 8192]; 0 = size (square)
   bool shadows = false;              // cast shadows from the height field (always on for fabrics)
-  PerturbOptions perturb;            // noise, shot noise, clipping, misregistration
-  uint64_t seed = 1;                 // everything is a function of the seed
-  Layout layout = Layout::kBonn;     // output layout
-  int bits = 16;                     // 8 (sRGB PNG), 16 (linear PNG), 32 (EXR)
-  std::string format = "auto";       // image files: auto, png, jpg (8-bit), exr (writer.h)
+  // Near (point) lights: each light at this distance (texels) from the image centre along its
+  // direction, lighting each texel along its own direction with 1/r² fall-off; the dataset gets
+  // light_positions.txt. 0 = distant lights. Cast shadows still use the nominal direction.
+  double near_lights = 0;
+  PerturbOptions perturb;         // noise, shot noise, clipping, misregistration
+  uint64_t seed = 1;              // everything is a function of the seed
+  Layout layout = Layout::kBonn;  // output layout
+  int bits = 16;                  // 8 (sRGB PNG), 16 (linear PNG), 32 (EXR)
+  std::string format = "auto";    // image files: auto, png, jpg (8-bit), exr (writer.h)
 
   int rows() const { return height > 0 ? height : size; }
 
