@@ -246,9 +246,19 @@ int RunCalibrate(CalibrateArgs a) {
   text += std::string(kTextOutputTrailer) + " calibrate-lights\n";
   const std::string positions_file =
       (fs::path(a.out).parent_path() / "light_positions.txt").string();
+  // A light_positions.txt beside the light file would override these directions when the set
+  // is read (docs/formats.md): replaced when positions are written, else removed (--force, a
+  // file matfit wrote) or refused.
+  std::error_code ec;
+  if (fs::exists(positions_file, ec)) {
+    if (Status st = CheckOutput(positions_file, a.force, "light_positions.txt"); !st.ok())
+      return Fail("calibrate-lights", (st.message() + " (it would give the lights written to " +
+                                       a.out + " positions: remove it, or pass --force)")
+                                          .c_str());
+  }
+  if (Status st = WriteFileAtomic(a.out, text); !st.ok())
+    return Fail("calibrate-lights", st.message().c_str());
   if (write_positions) {
-    if (Status st = CheckOutput(positions_file, a.force); !st.ok())
-      return Fail("calibrate-lights", st.message().c_str());
     std::string pos =
         "# light positions: x right, y up, z toward the camera; origin at the "
         "image centre; source pixels\n" +
@@ -268,9 +278,11 @@ int RunCalibrate(CalibrateArgs a) {
         "positions   %s (%zu near lights, nearest %.1f px from the image centre, rays "
         "within %.2f px)\n",
         positions_file.c_str(), placed.size(), nearest, rms);
+  } else if (fs::exists(positions_file, ec) && !fs::remove(positions_file, ec)) {
+    return Fail("calibrate-lights", ("cannot remove " + positions_file + ": " + ec.message() +
+                                     "; remove it, or its positions override " + a.out)
+                                        .c_str());
   }
-  if (Status st = WriteFileAtomic(a.out, text); !st.ok())
-    return Fail("calibrate-lights", st.message().c_str());
   std::printf("lights      %s (%zu directions, %s)\n", a.out.c_str(), images.size(),
               format.c_str());
   return 0;

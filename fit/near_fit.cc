@@ -23,7 +23,13 @@ StatusOr<FitResult> FitTiles(const std::string& method, const FitFn& fit, const 
                                          Status(StatusCode::kInternal, "not run"));
   std::vector<int> x0(static_cast<size_t>(count)), y0(static_cast<size_t>(count));
   FitOptions inner = o;
-  inner.progress = {};
+  // One tile (far lamps): the fit's own progress and cancellation; several: tiles done.
+  if (count == 1 && o.progress)
+    inner.progress = [&o, pass, passes](int64_t d, int64_t t) {
+      return o.progress(pass * t + d, passes * t);
+    };
+  else
+    inner.progress = {};
   std::atomic<int64_t> done{0};
   std::atomic<bool> cancelled{false};
   std::mutex progress_mutex;
@@ -41,7 +47,7 @@ StatusOr<FitResult> FitTiles(const std::string& method, const FitFn& fit, const 
         tiles[size_t(t)] = fit(*tile, inner);
       }
       const int64_t d = ++done;
-      if (o.progress) {
+      if (o.progress && count > 1) {
         std::lock_guard<std::mutex> lock(progress_mutex);
         if (!o.progress(pass * count + d, passes * count)) cancelled = true;
       }
@@ -53,6 +59,7 @@ StatusOr<FitResult> FitTiles(const std::string& method, const FitFn& fit, const 
   out.status.assign(size_t(s.plane_size()), uint8_t(kTexelMasked));
   bool first = true;
   std::map<std::string, std::pair<double, double>> shared;  // Σ value · texels, Σ texels
+  std::map<std::string, double> worst;                      // condition numbers: the largest
   for (int64_t t = 0; t < count; ++t) {
     const auto& r = tiles[size_t(t)];
     if (!r.ok() && r.status().code() == StatusCode::kNotFound) continue;  // all masked
@@ -82,14 +89,20 @@ StatusOr<FitResult> FitTiles(const std::string& method, const FitFn& fit, const 
     }
     out.flagged_texels += f.flagged_texels, out.refit_texels += f.refit_texels;
     out.dropped_samples += f.dropped_samples;
-    for (const auto& [k, v] : f.parameters)
+    for (const auto& [k, v] : f.parameters) {
+      if (k.find("condition") != std::string::npos) {  // a worst case: the largest tile's
+        worst[k] = std::max(worst.count(k) ? worst[k] : v, v);
+        continue;
+      }
       shared[k].first += v * double(w) * h, shared[k].second += double(w) * h;
+    }
     for (const std::string& wmsg : f.warnings)
       if (std::find(out.warnings.begin(), out.warnings.end(), wmsg) == out.warnings.end())
         out.warnings.push_back(wmsg);
   }
   if (first) return InvalidArgument(method + ": every texel is masked; nothing to fit");
   for (const auto& [k, v] : shared) out.parameters[k] = v.first / v.second;
+  for (const auto& [k, v] : worst) out.parameters[k] = v;
   return out;
 }
 
@@ -97,6 +110,11 @@ StatusOr<FitResult> FitTiles(const std::string& method, const FitFn& fit, const 
 
 StatusOr<FitResult> FitNearLights(const std::string& method, const FitFn& fit, const LightStack& s,
                                   const FitOptions& o) {
+  if (method == "heinrich")
+    return InvalidArgument(
+        "heinrich: near lights (light_positions.txt) are not supported by the seed method, whose "
+        "specular reference is the image lit along the view (θl = θv = 0) — a near lamp is that "
+        "only at the image centre; use blinn-phong or cook-torrance, or --distant-lights");
   if (method.starts_with("rbf"))
     return InvalidArgument(method +
                            ": near lights (light_positions.txt) are not supported by the "

@@ -18,8 +18,10 @@ using FitFn = std::function<StatusOr<FitResult>(const LightStack&, const FitOpti
 // `fit` over the tiles of a stack whose lights have positions, in parallel; the result's
 // parameters gain near_tile_texels, near_tiles, near_max_direction_error_deg,
 // near_max_falloff_error and near_nearest_light_px (the plan's measured figures). Model-wide
-// parameters (a shared exponent) are the tiles' texel-weighted mean. `method` names the fit in
-// errors. Refuses models whose maps are not per texel (rbf's light basis table).
+// parameters are the tiles' texel-weighted mean (condition numbers: the largest); the lobe
+// models' shared shape is estimated once over all tiles (two passes). `method` names the fit in
+// errors. Refuses rbf (its light basis table is one per fit) and heinrich (its specular
+// reference is the light along the view, which a near lamp is only at the image centre).
 StatusOr<FitResult> FitNearLights(const std::string& method, const FitFn& fit,
                                   const LightStack& stack, const FitOptions& options);
 

@@ -199,7 +199,16 @@ namespace {
 // direction (seen from the image centre); absent file: the stack is left as read.
 Status ApplyLightPositions(const std::string& path, const ReadOptions& o, LightStack* s) {
   std::error_code ec;
-  const fs::path dir = fs::is_directory(path, ec) ? fs::path(path) : fs::path(path).parent_path();
+  std::string trimmed = path;
+  while (trimmed.size() > 1 && trimmed.back() == '/') trimmed.pop_back();
+  // Beside the lights: the .lp's folder, the dataset folder, or beside the parent's lights.txt
+  // a lights-txt set uses (never above a confined folder).
+  fs::path dir =
+      fs::is_directory(trimmed, ec) ? fs::path(trimmed) : fs::path(trimmed).parent_path();
+  if (s->layout == "lights-txt" && !fs::exists(dir / "lights.txt", ec)) {
+    const std::string lights = FindLightsTxt(dir.string(), o.confine_to);
+    if (!lights.empty()) dir = fs::path(lights).parent_path();
+  }
   const fs::path file = dir / "light_positions.txt";
   if (o.distant_lights || !fs::exists(file, ec)) return Status::Ok();
   auto lines = ReadTextLines(file.string(), o.confine_to);

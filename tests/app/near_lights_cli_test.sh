@@ -63,6 +63,15 @@ python3 -c "import sys; sys.exit(0 if $worst < 0.02 else 1)" && ok ||
   bad "positions off by $worst of the distance (2 % asked)"
 out=$("$bin" info photos 2>&1) || bad "info on the calibrated photos: $out"
 expect_contains "calibrated set is near" "$out" "near lights"
+# Directions only (--distant-lights) must not leave the old positions to override them: without
+# --force refused, with it the positions file (matfit's) is removed.
+out=$("$bin" calibrate-lights photos --sphere auto --sphere auto --distant-lights \
+  --out photos/lights.lp --quiet 2>&1) && bad "an existing calibration was replaced without --force" || ok
+"$bin" calibrate-lights photos --sphere auto --sphere auto --distant-lights --force \
+  --out photos/lights.lp --quiet >/dev/null 2>&1 || bad "calibrate --distant-lights --force"
+[ ! -e photos/light_positions.txt ] && ok || bad "stale light_positions.txt left beside the new lights"
+out=$("$bin" info photos 2>&1) || bad "info after --distant-lights: $out"
+grep -q "near lights" <<<"$out" && bad "the distant calibration still reads as near" || ok
 
 echo "near_lights_cli_test: $pass passed, $fail failed"
 [ "$fail" -eq 0 ]

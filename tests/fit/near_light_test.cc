@@ -166,11 +166,15 @@ TEST(NearLights, ALobeModelSharesOneShapeOverAllTiles) {
   EXPECT_LT(hn->rmse, 0.5 * hd->rmse);
 }
 
-TEST(NearLights, TheRadialBasisModelSaysItCannot) {
+// rbf (one light-basis table per fit) and heinrich (its specular reference is the light along
+// the view, which a near lamp is only at the centre) say so and how to go on.
+TEST(NearLights, ModelsThatCannotSaySo) {
   const synth::SynthResult r = NearData("plaster", 16, 300);
-  auto f = MakeMethod("rbf")->Fit(r.stack, {});
-  ASSERT_FALSE(f.ok());
-  EXPECT_NE(f.status().message().find("--distant-lights"), std::string::npos);
+  for (const std::string name : {"rbf", "heinrich"}) {
+    auto f = MakeMethod(name)->Fit(r.stack, {});
+    ASSERT_FALSE(f.ok()) << name;
+    EXPECT_NE(f.status().message().find("--distant-lights"), std::string::npos) << name;
+  }
 }
 
 class TempDir {
@@ -218,6 +222,19 @@ TEST(NearLights, PositionsRoundTripThroughTheDatasetFile) {
   ASSERT_TRUE(c.ok()) << c.status().ToString();
   EXPECT_DOUBLE_EQ(c->near_frame.x0, -11.5 + 5);
   EXPECT_DOUBLE_EQ(c->near_frame.y0, 11.5 - 3);
+
+  // A lights-txt set whose lights.txt (and positions) lie in the parent folder, as the psm sets
+  // share theirs.
+  synth::SynthOptions t = o;
+  t.layout = Layout::kLightsTxt;
+  const fs::path shared = tmp.path() / "shared", obj = shared / "obj";
+  fs::create_directories(shared);
+  ASSERT_TRUE(synth::WriteSynthDataset(*r, t, obj.string(), false).ok());
+  fs::rename(obj / "lights.txt", shared / "lights.txt");
+  fs::rename(obj / "light_positions.txt", shared / "light_positions.txt");
+  auto parent = ReadDataset(obj.string());
+  ASSERT_TRUE(parent.ok()) << parent.status().ToString();
+  EXPECT_TRUE(parent->has_light_positions());
 
   // A wrong count and a light below the sample are refused, naming the file.
   auto rewrite = [&](const std::string& text) {
