@@ -10,6 +10,7 @@
 
 #include "core/color.h"
 #include "core/comm.h"
+#include "core/near_lights.h"
 #include "core/parallel.h"
 #include "core/simd_clones.h"
 #include "core/warnings.h"
@@ -186,7 +187,10 @@ double LambertResidual(const std::vector<SampledTexels>& rows, double gamma,
 // False when fewer than 6 remain.
 struct TexelCollector {
   std::vector<std::pair<double, int>> v;
-  bool Add(const LightStack& s, const double* yd, const double* ye, SampledTexels* out) {
+  // lvec: the texel's own light vectors (near lights: f · its direction to each lamp, the
+  // fall-off folded in so that n · l is the Lambertian term); null: the lights' directions.
+  bool Add(const LightStack& s, const double* yd, const double* ye, const Vec3* lvec,
+           SampledTexels* out) {
     if (v.size() < 8) return false;
     std::sort(v.begin(), v.end());
     const size_t lo = v.size() / 20;
@@ -199,7 +203,7 @@ struct TexelCollector {
     Eigen::Matrix3d A = Eigen::Matrix3d::Zero();
     for (size_t k = lo; k < hi; ++k) {
       const int i = v[k].second;
-      const auto& dir = s.lights()[size_t(i)].direction;
+      const Vec3& dir = lvec ? lvec[i] : s.lights()[size_t(i)].direction;
       const Eigen::Vector3d l(dir.x, dir.y, dir.z);
       out->lx.push_back(float(dir.x)), out->ly.push_back(float(dir.y));
       out->lz.push_back(float(dir.z));
@@ -233,6 +237,7 @@ StackDiagnostics DiagnoseStack(const LightStack& s, int max_texels) {
   // gathered in order below.
   const int step = std::max(1, int(std::sqrt(double(T) / std::max(1, max_texels))));
   const bool clip = StackMayBeClipped(s);
+  const bool near = s.has_light_positions();  // each texel under its own lamp directions
   const std::vector<float> inv = InverseIntensities(s);
   std::vector<int> xs, ys;
   for (int x = step / 2; x < W; x += step) xs.push_back(x);
@@ -244,6 +249,7 @@ StackDiagnostics DiagnoseStack(const LightStack& s, int max_texels) {
   ParallelFor(0, int64_t(ys.size()), [&](int64_t r0, int64_t r1) {
     std::vector<double> y(size_t(X) * n), yd(size_t(X) * n), ye(size_t(X) * n);
     std::vector<char> good(size_t(X) * n);
+    std::vector<Vec3> lvec(near ? size_t(n) : 0);
     TexelCollector collect;
     for (int64_t r = r0; r < r1; ++r) {
       const int64_t row = int64_t(ys[size_t(r)]) * W;
@@ -281,7 +287,15 @@ StackDiagnostics DiagnoseStack(const LightStack& s, int max_texels) {
         for (int i = 0; i < n; ++i)
           if (good[size_t(k) * n + i] && y[size_t(k) * n + i] > 1e-3)
             collect.v.push_back({y[size_t(k) * n + i], i});
-        collect.Add(s, yd.data() + size_t(k) * n, ye.data() + size_t(k) * n, &out);
+        if (near) {
+          const Vec3 x = NearTexelPosition(s, xs[size_t(k)], ys[size_t(r)]);
+          for (int i = 0; i < n; ++i) {
+            const LightSample& l = s.lights()[size_t(i)];
+            lvec[size_t(i)] = Normalize(l.position - x) * NearFalloff(l, x);
+          }
+        }
+        collect.Add(s, yd.data() + size_t(k) * n, ye.data() + size_t(k) * n,
+                    near ? lvec.data() : nullptr, &out);
       }
     }
   });
