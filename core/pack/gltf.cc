@@ -22,7 +22,8 @@ std::string MakeQuadGltf(const GltfMaterialDesc& m, const std::string& bin_uri,
   const float hx = float(m.width_m / 2), hy = float(m.height_m / 2);
   // Quad in the XY plane facing +Z (glTF is Y-up). UV (0,0) = top-left of the image.
   const float pos[12] = {-hx, hy, 0, hx, hy, 0, hx, -hy, 0, -hx, -hy, 0};
-  const float nrm[12] = {0, 0, 1, 0, 0, 1, 0, 0, 1, 0, 0, 1};
+  const float nz = m.normals_back ? -1.0f : 1.0f;
+  const float nrm[12] = {0, 0, nz, 0, 0, nz, 0, 0, nz, 0, 0, nz};
   const float tan[16] = {1, 0, 0, 1, 1, 0, 0, 1, 1, 0, 0, 1, 1, 0, 0, 1};
   const float uv[8] = {0, 0, 1, 0, 1, 1, 0, 1};
   const uint16_t idx[6] = {0, 3, 2, 0, 2, 1};  // counter-clockwise seen from +Z

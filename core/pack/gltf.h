@@ -25,6 +25,9 @@ struct GltfMaterialDesc {
   std::string emissive_uri;
   // What the glTF approximates of the fit, for material.json ("gltf_approximations").
   std::vector<std::string> approximations;
+  // The quad's normals point to −Z while its faces still face +Z (the viewer): lit from behind
+  // only, as light crossing a thin sheet (the leaf fallback, material_backlit.gltf).
+  bool normals_back = false;
   bool double_sided = false;
   bool alpha_mask = false;               // alphaMode MASK on the base colour's alpha (cutoff 0.5)
   double width_m = 0.1, height_m = 0.1;  // quad size in metres

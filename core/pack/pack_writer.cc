@@ -225,8 +225,9 @@ Status WritePack(const MaterialMaps& m, const std::vector<uint8_t>& status, cons
   }
   // Leaves in glTF terms (KHR_materials_diffuse_transmission): of the light not reflected
   // specularly, a fraction t = lum(ρ_t) / (lum(ρ_d) + lum(ρ_t)) is transmitted with colour
-  // ρ_t / t and the rest reflected with colour ρ_d / (1 − t), so that a glTF renderer
-  // reproduces the measured reflectance ρ_d and transmittance ρ_t. Alpha = mask.
+  // ρ_t / t, so a renderer with the extension reproduces the transmittance ρ_t. The base colour
+  // is ρ_d itself, exact in viewers without the extension (three.js, Blender); one with it
+  // reflects (1 − t) ρ_d (material.json "gltf_approximations"). Alpha = mask.
   const bool leaf = !m.translucency.empty();
   if (leaf) {
     const int64_t np = int64_t(m.width) * m.height;
@@ -239,16 +240,25 @@ Status WritePack(const MaterialMaps& m, const std::vector<uint8_t>& status, cons
       const double ld = lum(m.albedo, p), lt = lum(m.translucency, p);
       const double tf = ld + lt > 1e-6 ? lt / (ld + lt) : 0.0;
       for (int c = 0; c < 3; ++c) {
-        base.Plane(c)[p] = float(std::min(1.0, m.albedo.Plane(c)[p] / std::max(1e-6, 1 - tf)));
+        base.Plane(c)[p] = std::min(1.0f, m.albedo.Plane(c)[p]);
         trans.Plane(c)[p] = float(std::min(1.0, m.translucency.Plane(c)[p] / std::max(1e-6, tf)));
       }
       base.Plane(3)[p] = m.mask.empty() ? 1.0f : m.mask.Plane(0)[p];
       trans.Plane(3)[p] = float(tf);
     }
     MATFIT_RETURN_IF_ERROR(put("gltf_base_color", "gltf_base_color.png", base, srgb8,
-                               "glTF base colour rho_d/(1-t), alpha = mask"));
+                               "glTF base colour rho_d, alpha = mask"));
     MATFIT_RETURN_IF_ERROR(put("gltf_diffuse_transmission", "gltf_diffuse_transmission.png", trans,
                                srgb8, "glTF diffuse transmission: rgb = rho_t/t, a = t (linear)"));
+    // The back-lit fallback (material_backlit.gltf): the transmittance as the base colour of a
+    // quad whose normals face away from the viewer, alpha = mask.
+    Image& backlit = owned.emplace_back(m.width, m.height, 4);
+    for (int64_t p = 0; p < np; ++p) {
+      for (int c = 0; c < 3; ++c) backlit.Plane(c)[p] = std::min(1.0f, m.translucency.Plane(c)[p]);
+      backlit.Plane(3)[p] = m.mask.empty() ? 1.0f : m.mask.Plane(0)[p];
+    }
+    MATFIT_RETURN_IF_ERROR(put("gltf_backlit_color", "gltf_backlit_color.png", backlit, srgb8,
+                               "glTF back-lit fallback base colour: rho_t, alpha = mask"));
   }
   // Relighting bases in glTF terms: the least-squares Lambertian of the fit's own prediction.
   const bool lambertian_bake = model.gltf_lambertian_bake();
@@ -343,6 +353,31 @@ Status WritePack(const MaterialMaps& m, const std::vector<uint8_t>& status, cons
   MATFIT_RETURN_IF_ERROR(
       WriteFileAtomic((root / "quad.bin").string(), std::string(bin.begin(), bin.end())));
   MATFIT_RETURN_IF_ERROR(WriteFileAtomic((root / "material.gltf").string(), gltf));
+  // Leaves: a core-glTF file for light from behind (viewers without
+  // KHR_materials_diffuse_transmission draw material.gltf black when lit from behind): the same
+  // quad facing the viewer with its normals turned away, so only light from behind lights it,
+  // with the transmittance ρ_t as its diffuse colour — a Lambertian transmission, ρ_t · |cos θ_l|
+  // (matfit's DiffuseTranslucency; the HL2 lobe's directional profile is not carried).
+  if (leaf) {
+    GltfMaterialDesc b;
+    b.name = info.method + " (lit from behind)";
+    b.base_color_uri = "maps/gltf_backlit_color.png";
+    b.specular_factor = 0.0, b.roughness = 1.0;
+    b.normals_back = true, b.alpha_mask = !m.mask.empty();
+    b.width_m = g.width_m, b.height_m = g.height_m;
+    std::vector<uint8_t> back_bin;
+    const std::string back = MakeQuadGltf(b, "quad_backlit.bin", &back_bin);
+    MATFIT_RETURN_IF_ERROR(WriteFileAtomic((root / "quad_backlit.bin").string(),
+                                           std::string(back_bin.begin(), back_bin.end())));
+    MATFIT_RETURN_IF_ERROR(WriteFileAtomic((root / "material_backlit.gltf").string(), back));
+    g.approximations.push_back(
+        "leaf: the base colour is the reflectance rho_d, exact in viewers without "
+        "KHR_materials_diffuse_transmission; a viewer with it reflects (1 - t) rho_d (t = the "
+        "transmitted share, maps/gltf_diffuse_transmission.png alpha). Viewers without it draw "
+        "material.gltf black when lit from behind: material_backlit.gltf is its core-glTF "
+        "stand-in for light from behind (the transmittance as a Lambertian colour on a quad whose "
+        "normals face away)");
+  }
 
   json params = json::object();
   for (const auto& [k, v] : info.model_parameters) params[k] = v;
@@ -372,6 +407,7 @@ Status WritePack(const MaterialMaps& m, const std::vector<uint8_t>& status, cons
         {"normal_map", "OpenGL (+Y up), rgb = n*0.5+0.5, 16-bit PNG"},
         {"reflectance", "pixel = intensity * R, R = pi * f_r * max(0, n.l)"}}},
       {"gltf", "material.gltf"},
+      {"gltf_backlit", leaf ? json("material_backlit.gltf") : json()},
       {"gltf_approximations", g.approximations},
       {"exports", exports},
       {"previews", previews},

@@ -64,6 +64,9 @@ expect_contains "no back" "$msg" "no back-lit images"
 # glTF validator (when installed).
 if [ -d "$src/tools/gltf/node_modules/gltf-validator" ] && command -v node >/dev/null; then
   v=$(node "$src/tools/gltf/validate.mjs" "$tmp/leaf/leaf_01/material.gltf" 2>&1) && ok || bad "gltf validator: $v"
+  # The core-glTF stand-in for light from behind.
+  v=$(node "$src/tools/gltf/validate.mjs" "$tmp/leaf/leaf_01/material_backlit.gltf" 2>&1) && ok ||
+    bad "gltf validator (material_backlit.gltf): $v"
   echo "leaf pack: $v" | tail -1
 else
   echo "gltf-validator not installed: skipping the leaf pack validation"
