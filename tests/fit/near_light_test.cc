@@ -105,27 +105,40 @@ TEST(NearLights, ScoringEvaluatesEveryTexelUnderItsOwnLight) {
   EXPECT_GT(distant, 0.01);
 }
 
-TEST(NearLights, LambertRecoversTheNormalsOnlyWithPositions) {
-  const synth::SynthResult r = NearData("plaster", 64, 600);
-  const auto m = MakeMethod("lambert");
+// One model fitted to a near-light stack twice: with the positions and as distant lights, each
+// scored against the truth and on held-out lights (4 folds).
+struct PositionsVsDistant {
+  FitResult near, distant;
+  TruthMetrics tn, td;
+  HeldOutMetrics hn, hd;
+};
+
+PositionsVsDistant FitBoth(const std::string& method, const synth::SynthResult& r) {
+  PositionsVsDistant o;
+  const auto m = MakeMethod(method);
   auto near = m->Fit(r.stack, {});
-  ASSERT_TRUE(near.ok()) << near.status().ToString();
   auto distant = m->Fit(Distant(r.stack), {});
-  ASSERT_TRUE(distant.ok());
-  const TruthMetrics tn = CompareToTruth(near->maps, r.truth, near->status);
-  const TruthMetrics td = CompareToTruth(distant->maps, r.truth, distant->status);
   auto hn = HeldOut(*m, r.stack, 4, {});
   auto hd = HeldOut(*m, Distant(r.stack), 4, {});
-  ASSERT_TRUE(hn.ok() && hd.ok());
+  EXPECT_TRUE(near.ok() && distant.ok() && hn.ok() && hd.ok()) << method;
+  if (!near.ok() || !distant.ok() || !hn.ok() || !hd.ok()) return o;
+  o.near = std::move(*near), o.distant = std::move(*distant), o.hn = *hn, o.hd = *hd;
+  o.tn = CompareToTruth(o.near.maps, r.truth, o.near.status);
+  o.td = CompareToTruth(o.distant.maps, r.truth, o.distant.status);
+  return o;
+}
+
+TEST(NearLights, LambertRecoversTheNormalsOnlyWithPositions) {
+  const PositionsVsDistant f = FitBoth("lambert", NearData("plaster", 64, 600));
   std::printf(
       "lambert, lights 600 px away: normal MAE %.3f° with positions (tile %g, %g tiles), "
       "%.3f° as distant; held-out rmse %.5f vs %.5f\n",
-      tn.normal_mae_deg, near->parameters["near_tile_texels"], near->parameters["near_tiles"],
-      td.normal_mae_deg, hn->rmse, hd->rmse);
-  EXPECT_LT(tn.normal_mae_deg, 0.3);
-  EXPECT_GT(td.normal_mae_deg, 4 * tn.normal_mae_deg);
-  EXPECT_LT(hn->rmse, 0.5 * hd->rmse);
-  EXPECT_LE(near->parameters["near_max_direction_error_deg"], 0.25);
+      f.tn.normal_mae_deg, f.near.parameters.at("near_tile_texels"),
+      f.near.parameters.at("near_tiles"), f.td.normal_mae_deg, f.hn.rmse, f.hd.rmse);
+  EXPECT_LT(f.tn.normal_mae_deg, 0.3);
+  EXPECT_GT(f.td.normal_mae_deg, 4 * f.tn.normal_mae_deg);
+  EXPECT_LT(f.hn.rmse, 0.5 * f.hd.rmse);
+  EXPECT_LE(f.near.parameters.at("near_max_direction_error_deg"), 0.25);
 }
 
 TEST(NearLights, LinearBasesAndRobustFitsUseThePositions) {
@@ -145,26 +158,16 @@ TEST(NearLights, LinearBasesAndRobustFitsUseThePositions) {
 // A lobe model's one shape per material is estimated over every tile at once (two passes), not
 // per tile: on glossy plastic (Blinn–Phong, e = 40) it comes back as the whole-stack fit's would.
 TEST(NearLights, ALobeModelSharesOneShapeOverAllTiles) {
-  const synth::SynthResult r = NearData("plastic", 48, 500);
-  const auto m = MakeMethod("blinn-phong");
-  auto near = m->Fit(r.stack, {});
-  ASSERT_TRUE(near.ok()) << near.status().ToString();
-  auto distant = m->Fit(Distant(r.stack), {});
-  ASSERT_TRUE(distant.ok());
-  const TruthMetrics tn = CompareToTruth(near->maps, r.truth, near->status);
-  const TruthMetrics td = CompareToTruth(distant->maps, r.truth, distant->status);
-  auto hn = HeldOut(*m, r.stack, 4, {});
-  auto hd = HeldOut(*m, Distant(r.stack), 4, {});
-  ASSERT_TRUE(hn.ok() && hd.ok());
+  const PositionsVsDistant f = FitBoth("blinn-phong", NearData("plastic", 48, 500));
   std::printf(
       "blinn-phong on plastic, lights 500 px away: exponent %.2f with positions, %.2f as "
       "distant (truth 40); normal MAE %.3f° vs %.3f°; held-out rmse %.5f vs %.5f\n",
-      near->parameters["exponent"], distant->parameters["exponent"], tn.normal_mae_deg,
-      td.normal_mae_deg, hn->rmse, hd->rmse);
-  EXPECT_NEAR(near->parameters["exponent"], 40.0, 0.4);
-  EXPECT_LT(tn.normal_mae_deg, 0.3);
-  EXPECT_GT(td.normal_mae_deg, 4 * tn.normal_mae_deg);
-  EXPECT_LT(hn->rmse, 0.5 * hd->rmse);
+      f.near.parameters.at("exponent"), f.distant.parameters.at("exponent"), f.tn.normal_mae_deg,
+      f.td.normal_mae_deg, f.hn.rmse, f.hd.rmse);
+  EXPECT_NEAR(f.near.parameters.at("exponent"), 40.0, 0.4);
+  EXPECT_LT(f.tn.normal_mae_deg, 0.3);
+  EXPECT_GT(f.td.normal_mae_deg, 4 * f.tn.normal_mae_deg);
+  EXPECT_LT(f.hn.rmse, 0.5 * f.hd.rmse);
 }
 
 // The tone-curve check regresses each texel against its own lamps (direction and fall-off): a
