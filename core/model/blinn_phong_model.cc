@@ -41,7 +41,7 @@ class BlinnPhongModel final : public ModelBase<BlinnPhongModel> {
           return float(RoughnessFromBlinnPhongExponent(mm.exponent.Plane(0)[p]));
         })));
     // glTF specular colour: each texel's F0 relative to the material's (Gltf below).
-    return PutGltfSpecular(m, m.specular, put);
+    return PutGltfSpecular(m, m.specular, m.exponent, put);
   }
   Status ReadPackMaps(const LoadPackMapFn& load, const std::map<std::string, double>&,
                       MaterialMaps* m) const override {
@@ -51,7 +51,7 @@ class BlinnPhongModel final : public ModelBase<BlinnPhongModel> {
             const std::map<std::string, double>&, GltfMaterialDesc* g) const override {
     LobeGltf(g);
     (void)status;
-    GltfSpecular(m, m.specular, "Blinn-Phong lobe k_s (n.h)^e (n.l)", g);
+    GltfSpecular(m.specular, m.exponent, "Blinn-Phong lobe k_s (n.h)^e (n.l)", g);
   }
   bool AddShaderPlanes(const MaterialMaps& m, ShaderPlaneSink* s) const override {
     return s->Add(m.specular, 1, "specular") && s->Add(m.exponent, 1, "exponent");

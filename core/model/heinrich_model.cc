@@ -79,7 +79,7 @@ class HeinrichModel final : public ModelBase<HeinrichModel> {
         {"specular", "specular.png", &m.specular_color, MapEncoding::kLinear8,
          "L_spec clamped to [0,1]"}};
     for (const PackMap& pm : maps) MATFIT_RETURN_IF_ERROR(put(pm));
-    MATFIT_RETURN_IF_ERROR(PutGltfSpecular(m, SpecularPeak(m), put));
+    MATFIT_RETURN_IF_ERROR(PutGltfSpecular(m, SpecularPeak(m), m.exponent, put));
     // glTF (Gltf below): R = t a + t |n_raw| (n̂·l) is a Lambertian base colour t |n_raw| plus a
     // term the light's direction does not change, t a: emission at unit light.
     Image base, emissive;
@@ -106,8 +106,8 @@ class HeinrichModel final : public ModelBase<HeinrichModel> {
     }
     return peak;
   }
-  // t |n_raw| and max(0, t a) per channel; false without the maps. *clipped counts values cut
-  // to [0, 1].
+  // t |n_raw| (+ 9 t a / 7 where a < 0) and max(0, t a) per channel; false without the maps.
+  // *clipped counts values cut to [0, 1].
   static bool GltfBake(const MaterialMaps& m, Image* base, Image* emissive,
                        int64_t* clipped = nullptr) {
     if (m.albedo.channels() != 3 || m.ambient.channels() != 3) return false;
@@ -118,8 +118,13 @@ class HeinrichModel final : public ModelBase<HeinrichModel> {
       for (int64_t p = 0; p < n; ++p) {
         const float t = m.albedo.Plane(c)[p],
                     s = m.normal_scale.empty() ? 1 : m.normal_scale.Plane(0)[p];
-        const float b = t * s, e = t * m.ambient.Plane(c)[p];
-        cut += (b > 1 || e < 0 || e > 1) ? 1 : 0;
+        float b = t * s, e = t * m.ambient.Plane(c)[p];
+        // A negative ambient (a fit that darkens oblique light less than a cosine) cannot be
+        // emitted: it goes into the base colour as the least-squares Lambertian of
+        // t a + t|n| cos θ over lights within 60° of the normal (cos θ uniform on [½, 1]:
+        // b = t|n| + t a ⟨cos⟩/⟨cos²⟩, ⟨cos⟩/⟨cos²⟩ = 0.75/0.58333 = 9/7).
+        if (e < 0) b += e * 9.0f / 7.0f, e = 0;
+        cut += (b < 0 || b > 1 || e > 1) ? 1 : 0;
         base->Plane(c)[p] = std::clamp(b, 0.0f, 1.0f);
         emissive->Plane(c)[p] = std::clamp(e, 0.0f, 1.0f);
       }
@@ -157,7 +162,9 @@ class HeinrichModel final : public ModelBase<HeinrichModel> {
           "heinrich's unnormalised normal and ambient term: base colour = t |n_raw| "
           "(maps/gltf_base_color.png), emission = t a (maps/gltf_emissive.png), exact at unit "
           "light for lights in front (glTF clamps n.l at 0 where the model does not); the "
-          "emission does not follow the light's intensity");
+          "emission does not follow the light's intensity; where a < 0 (no negative emission) "
+          "the base colour is t (|n_raw| + 9a/7), the least-squares Lambertian for lights "
+          "within 60 degrees of the normal");
       if (clipped > 0)
         g->approximations.push_back(std::to_string(clipped) +
                                     " texel channel values cut to [0, 1] for the glTF maps");
@@ -165,7 +172,7 @@ class HeinrichModel final : public ModelBase<HeinrichModel> {
     if (m.specular_color.empty()) return;
     auto e = fit_parameters.find("exponent");
     if (e != fit_parameters.end()) g->roughness = RoughnessFromBlinnPhongExponent(e->second);
-    GltfSpecular(m, SpecularPeak(m), "heinrich's specular L_spec (n_s.h)^e", g);
+    GltfSpecular(SpecularPeak(m), m.exponent, "heinrich's specular L_spec (n_s.h)^e", g);
   }
   bool AddShaderPlanes(const MaterialMaps& m, ShaderPlaneSink* s) const override {
     if (!s->Add(m.ambient, 3, "ambient")) return false;

@@ -6,6 +6,14 @@
 namespace matfit::model_impl {
 namespace {
 
+// The first lobe's amplitude plane.
+Image FirstLobe(const MaterialMaps& m) {
+  if (m.specular.empty()) return {};
+  Image a(m.width, m.height, 1);
+  std::copy(m.specular.Plane(0).begin(), m.specular.Plane(0).end(), a.Plane(0).begin());
+  return a;
+}
+
 class LafortuneModel final : public ModelBase<LafortuneModel> {
  public:
   ShadingModel id() const override { return ShadingModel::kLafortune; }
@@ -37,19 +45,28 @@ class LafortuneModel final : public ModelBase<LafortuneModel> {
       });
     }
   }
+  // glTF: the first lobe as the GGX of a Blinn–Phong lobe with the same head-on peak ρ_s and
+  // curvature (exponent 4 e, LafortuneEquivalentExponent).
   Status WritePackMaps(const MaterialMaps& m, const PutPackMapFn& put) const override {
-    return PutLobeMaps(m, put, "Lafortune lobe amplitudes rho_s,j",
-                       MetallicRoughness(m, [](const MaterialMaps& mm, int64_t p) {
-                         return float(RoughnessFromBlinnPhongExponent(mm.lobe_shape.Plane(1)[p]));
-                       }));
+    MATFIT_RETURN_IF_ERROR(
+        PutLobeMaps(m, put, "Lafortune lobe amplitudes rho_s,j",
+                    MetallicRoughness(m, [](const MaterialMaps& mm, int64_t p) {
+                      return float(RoughnessFromBlinnPhongExponent(4 * mm.lobe_shape.Plane(1)[p]));
+                    })));
+    return PutGltfSpecular(m, FirstLobe(m), LafortuneEquivalentExponent(m), put);
   }
   Status ReadPackMaps(const LoadPackMapFn& load, const std::map<std::string, double>&,
                       MaterialMaps* m) const override {
     return LoadLobeMaps(load, m);
   }
-  void Gltf(const MaterialMaps&, const std::vector<uint8_t>&, const std::map<std::string, double>&,
-            GltfMaterialDesc* g) const override {
+  void Gltf(const MaterialMaps& m, const std::vector<uint8_t>&,
+            const std::map<std::string, double>&, GltfMaterialDesc* g) const override {
     LobeGltf(g);
+    GltfSpecular(FirstLobe(m), LafortuneEquivalentExponent(m),
+                 m.specular.channels() > 1
+                     ? "Lafortune's first lobe rho_s D^e (n.l) (the others are left out)"
+                     : "Lafortune lobe rho_s D^e (n.l), as Blinn-Phong exponent 4e",
+                 g);
   }
   bool AddShaderPlanes(const MaterialMaps& m, ShaderPlaneSink* s) const override {
     s->terms = m.specular.channels();

@@ -82,15 +82,15 @@ Status LoadLobeMaps(const LoadPackMapFn& load, MaterialMaps* m) {
 
 namespace {
 
-double LobeF0(const MaterialMaps& m, const Image& peak, int64_t p) {
-  const double ks = peak.Plane(0)[p], e = m.exponent.Plane(0)[p];
+double LobeF0(const Image& peak, const Image& exponent, int64_t p) {
+  const double ks = peak.Plane(0)[p], e = exponent.Plane(0)[p];
   return std::isfinite(ks) && std::isfinite(e) && e > -2 ? std::max(0.0, 8 * ks / (e + 2)) : 0.0;
 }
 
-double ReferenceF0(const MaterialMaps& m, const Image& peak) {
-  if (peak.empty() || m.exponent.empty()) return 0;
+double ReferenceF0(const Image& peak, const Image& exponent) {
+  if (peak.empty() || exponent.empty()) return 0;
   std::vector<double> f0;
-  for (int64_t p = 0; p < peak.plane_size(); ++p) f0.push_back(LobeF0(m, peak, p));
+  for (int64_t p = 0; p < peak.plane_size(); ++p) f0.push_back(LobeF0(peak, exponent, p));
   if (f0.empty()) return 0;
   const size_t k = std::min(f0.size() - 1, f0.size() * 99 / 100);
   std::nth_element(f0.begin(), f0.begin() + long(k), f0.end());
@@ -99,18 +99,19 @@ double ReferenceF0(const MaterialMaps& m, const Image& peak) {
 
 }  // namespace
 
-Status PutGltfSpecular(const MaterialMaps& m, const Image& peak, const PutPackMapFn& put) {
-  const double ref = ReferenceF0(m, peak);
+Status PutGltfSpecular(const MaterialMaps& m, const Image& peak, const Image& exponent,
+                       const PutPackMapFn& put) {
+  const double ref = ReferenceF0(peak, exponent);
   if (!(ref > 0)) return Status::Ok();
   Image rel(m.width, m.height, 1);
   for (int64_t p = 0; p < rel.plane_size(); ++p)
-    rel.Plane(0)[p] = float(std::clamp(LobeF0(m, peak, p) / ref, 0.0, 1.0));
+    rel.Plane(0)[p] = float(std::clamp(LobeF0(peak, exponent, p) / ref, 0.0, 1.0));
   return put({"gltf_specular", "gltf_specular.png", &rel, MapEncoding::kSrgb8,
               "glTF specular colour: each texel's F0 = 8 peak / (e + 2) over the IOR's F0"});
 }
 
-void GltfSpecular(const MaterialMaps& m, const Image& peak, const char* lobe, GltfMaterialDesc* g) {
-  const double ref = ReferenceF0(m, peak);
+void GltfSpecular(const Image& peak, const Image& exponent, const char* lobe, GltfMaterialDesc* g) {
+  const double ref = ReferenceF0(peak, exponent);
   if (!(ref > 0)) return;
   const double r0 = std::sqrt(ref);
   g->ior = (1 + r0) / (1 - r0);
@@ -122,6 +123,13 @@ void GltfSpecular(const MaterialMaps& m, const Image& peak, const char* lobe, Gl
                               std::to_string(g->ior) +
                               " times maps/gltf_specular.png; the lobes' tails and glTF's "
                               "Fresnel differ");
+}
+
+Image LafortuneEquivalentExponent(const MaterialMaps& m) {
+  if (m.lobe_shape.channels() < 2) return {};
+  Image e(m.width, m.height, 1);
+  for (int64_t p = 0; p < e.plane_size(); ++p) e.Plane(0)[p] = 4 * m.lobe_shape.Plane(1)[p];
+  return e;
 }
 
 void LobeGltf(GltfMaterialDesc* g) {

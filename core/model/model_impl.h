@@ -61,12 +61,17 @@ Image MetallicRoughness(const MaterialMaps& m, float (*roughness_at)(const Mater
 Status LoadLobeMaps(const LoadPackMapFn& load, MaterialMaps* m);
 // glTF for the lobe models: metallic-roughness texture, specular on.
 void LobeGltf(GltfMaterialDesc* g);
-// A Phong-type lobe peak · (n·h)^e (exponent plane m.exponent) as glTF's GGX: roughness
+// A Phong-type lobe peak · (n·h)^e (exponent plane `exponent`) as glTF's GGX: roughness
 // (2/(e+2))^{1/4} and the F0 with the same head-on peak, F0 = 4 α² peak = 8 peak / (e + 2)
 // (glTF's specular at n = h = l = v is F0 D(1)/4 per unit irradiance × π, D(1) = 1/(π α²)).
 // The material's F0 (99th percentile over texels, at most 0.81) becomes the IOR and each
 // texel's share of it maps/gltf_specular.png (specularColorTexture).
-Status PutGltfSpecular(const MaterialMaps& m, const Image& peak, const PutPackMapFn& put);
-void GltfSpecular(const MaterialMaps& m, const Image& peak, const char* lobe, GltfMaterialDesc* g);
+Status PutGltfSpecular(const MaterialMaps& m, const Image& peak, const Image& exponent,
+                       const PutPackMapFn& put);
+void GltfSpecular(const Image& peak, const Image& exponent, const char* lobe, GltfMaterialDesc* g);
+// A Lafortune lobe's Blinn–Phong-equivalent exponent 4 e, first lobe: seen along the normal
+// (v = n), D = n·l = cos α, and D^e ≈ exp(−e α²/2) and (n·h)^{4e} = cos^{4e}(α/2) ≈
+// exp(−4e α²/8) have the same peak and curvature.
+Image LafortuneEquivalentExponent(const MaterialMaps& m);
 
 }  // namespace matfit::model_impl
