@@ -13,6 +13,7 @@
 #include "capture/near_light.h"
 #include "capture/sphere_detect.h"
 #include "core/atomic_file.h"
+#include "core/dataset/writer.h"
 #include "core/image_io.h"
 #include "core/output_marker.h"
 #include "core/progress.h"
@@ -259,19 +260,14 @@ int RunCalibrate(CalibrateArgs a) {
   if (Status st = WriteFileAtomic(a.out, text); !st.ok())
     return Fail("calibrate-lights", st.message().c_str());
   if (write_positions) {
-    std::string pos =
-        "# light positions: x right, y up, z toward the camera; origin at the "
-        "image centre; source pixels\n" +
-        std::to_string(placed.size()) + "\n";
+    std::vector<Vec3> at;
     double rms = 0, nearest = INFINITY;
     for (const auto& p : placed) {
-      char line[128];
-      std::snprintf(line, sizeof line, "%.4f %.4f %.4f\n", p.position.x, p.position.y,
-                    p.position.z);
-      pos += line;
+      at.push_back(p.position);
       rms = std::max(rms, p.rms), nearest = std::min(nearest, Length(p.position));
     }
-    pos += std::string(kTextOutputTrailer) + " calibrate-lights\n";
+    const std::string pos =
+        FormatLightPositions(at) + std::string(kTextOutputTrailer) + " calibrate-lights\n";
     if (Status st = WriteFileAtomic(positions_file, pos); !st.ok())
       return Fail("calibrate-lights", st.message().c_str());
     std::printf(

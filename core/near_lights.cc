@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 
+#include "core/model/model.h"
 #include "core/stack_ops.h"
 
 namespace matfit {
@@ -28,18 +29,17 @@ LightSample LightSeenFrom(const LightSample& l, const Vec3& x) {
   return out;
 }
 
-bool NearLightOptions::Check(std::string* why) const {
-  if (!(max_direction_error_deg > 0 && max_direction_error_deg <= 10)) {
-    *why = "--near-tolerance must be in (0, 10] degrees, got " +
-           std::to_string(max_direction_error_deg);
-    return false;
+void NearLightEvaluator::Evaluate(const LightSample& light, const int64_t* map_texels,
+                                  const Vec3* points, int n, float* out) {
+  l_.resize(size_t(n)), falloff_.resize(size_t(n));
+  v_.assign(size_t(n), view_);
+  for (int t = 0; t < n; ++t) {
+    l_[size_t(t)] = Vec3f(Normalize(light.position - points[t]));
+    falloff_[size_t(t)] = float(NearFalloff(light, points[t]));
   }
-  if (!(max_falloff_error > 0 && max_falloff_error < 1)) {
-    *why =
-        "near-light fall-off tolerance must be in (0, 1), got " + std::to_string(max_falloff_error);
-    return false;
-  }
-  return true;
+  Model(maps_.model).EvaluateSamples(maps_, map_texels, l_.data(), v_.data(), n, out);
+  for (int c = 0; c < 3; ++c)
+    for (int t = 0; t < n; ++t) out[size_t(c) * n + t] *= falloff_[size_t(t)];
 }
 
 namespace {

@@ -11,6 +11,7 @@
 #include <vector>
 
 #include "core/light_stack.h"
+#include "core/material_maps.h"
 #include "core/status.h"
 
 namespace matfit {
@@ -26,12 +27,30 @@ LightSample LightSeenFrom(const LightSample& l, const Vec3& x);
 // Texel (x, y)'s fall-off factor |P − O|² / |P − X|² for a light with a position (1 without).
 double NearFalloff(const LightSample& l, const Vec3& x);
 
+// One light's prediction at scattered texels, each lit along its own direction and scaled by its
+// own fall-off (the residual raw / I − prediction is then in units of the light's nominal
+// intensity): out[c · n + t] = NearFalloff · R(maps texel map_texels[t], light seen from
+// points[t], view), c < 3 — channel 0 first, so a grey stack reads the first n. Not
+// thread-safe (scratch): one per thread. The scorer, the selection's held-out ranking and the
+// synthetic renderer evaluate near lights through it.
+class NearLightEvaluator {
+ public:
+  NearLightEvaluator(const MaterialMaps& maps, const Vec3f& view) : maps_(maps), view_(view) {}
+  void Evaluate(const LightSample& light, const int64_t* map_texels, const Vec3* points, int n,
+                float* out);
+
+ private:
+  const MaterialMaps& maps_;
+  Vec3f view_;
+  std::vector<Vec3f> l_, v_;
+  std::vector<float> falloff_;
+};
+
 struct NearLightOptions {
   // The largest angle between a texel's own light direction and its tile's (degrees), and the
   // largest relative difference of their fall-off factors.
   double max_direction_error_deg = 0.25;
   double max_falloff_error = 0.005;
-  bool Check(std::string* why) const;
 };
 
 struct NearTilePlan {

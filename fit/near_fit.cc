@@ -22,6 +22,7 @@ StatusOr<FitResult> FitTiles(const std::string& method, const FitFn& fit, const 
   std::vector<StatusOr<FitResult>> tiles(static_cast<size_t>(count),
                                          Status(StatusCode::kInternal, "not run"));
   std::vector<int> x0(static_cast<size_t>(count)), y0(static_cast<size_t>(count));
+  std::vector<char> masked(static_cast<size_t>(count), 0);  // tiles with nothing to fit
   FitOptions inner = o;
   // One tile (far lamps): the fit's own progress and cancellation; several: tiles done.
   if (count == 1 && o.progress)
@@ -41,11 +42,10 @@ StatusOr<FitResult> FitTiles(const std::string& method, const FitFn& fit, const 
         tiles[size_t(t)] = tile.status();
         continue;
       }
-      if (tile->has_mask() && tile->MaskedTexels() == 0) {
-        tiles[size_t(t)] = Status(StatusCode::kNotFound, "masked");  // nothing to fit
-      } else {
+      if (tile->has_mask() && tile->MaskedTexels() == 0)
+        masked[size_t(t)] = 1;
+      else
         tiles[size_t(t)] = fit(*tile, inner);
-      }
       const int64_t d = ++done;
       if (o.progress && count > 1) {
         std::lock_guard<std::mutex> lock(progress_mutex);
@@ -61,8 +61,8 @@ StatusOr<FitResult> FitTiles(const std::string& method, const FitFn& fit, const 
   std::map<std::string, std::pair<double, double>> shared;  // Σ value · texels, Σ texels
   std::map<std::string, double> worst;                      // condition numbers: the largest
   for (int64_t t = 0; t < count; ++t) {
+    if (masked[size_t(t)]) continue;  // its texels stay masked
     const auto& r = tiles[size_t(t)];
-    if (!r.ok() && r.status().code() == StatusCode::kNotFound) continue;  // all masked
     if (!r.ok())
       return Status(r.status().code(), r.status().message() + " (near lights: tile at texel " +
                                            std::to_string(x0[size_t(t)]) + "," +

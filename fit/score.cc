@@ -188,32 +188,18 @@ ReconstructionMetrics ReduceReconstruction(const LightStack& s, const std::vecto
   return m;
 }
 
-// Near lights (core/near_lights.h): light i's prediction over texels [p0, p0 + len), each texel
-// lit along its own direction and scaled by its own fall-off, so that raw / I − pred is the
-// residual in units of the light's nominal intensity. pred[c · len + t] for c < C.
-struct NearScratch {
+// Near lights: texels [p0, p0 + len) as indices and positions, for NearLightEvaluator.
+struct NearRun {
   std::vector<int64_t> texels = std::vector<int64_t>(kEvalRun);
-  std::vector<Vec3f> l = std::vector<Vec3f>(kEvalRun), v = std::vector<Vec3f>(kEvalRun);
-  std::vector<float> falloff = std::vector<float>(kEvalRun), rgb = std::vector<float>(3 * kEvalRun);
-};
-
-void NearPrediction(const LightStack& s, const ModelDescriptor& model, const MaterialMaps& maps,
-                    const LightSample& light, int64_t p0, int len, int C, NearScratch* k,
-                    float* pred) {
-  const Vec3f view(s.view_direction);
-  for (int t = 0; t < len; ++t) {
-    const int64_t p = p0 + t;
-    const Vec3 x = NearTexelPosition(s, double(p % s.width()), double(p / s.width()));
-    k->texels[size_t(t)] = p;
-    k->l[size_t(t)] = Vec3f(Normalize(light.position - x));
-    k->v[size_t(t)] = view;
-    k->falloff[size_t(t)] = float(NearFalloff(light, x));
+  std::vector<Vec3> points = std::vector<Vec3>(kEvalRun);
+  void Set(const LightStack& s, int64_t p0, int len) {
+    for (int t = 0; t < len; ++t) {
+      const int64_t p = p0 + t;
+      texels[size_t(t)] = p;
+      points[size_t(t)] = NearTexelPosition(s, double(p % s.width()), double(p / s.width()));
+    }
   }
-  model.EvaluateSamples(maps, k->texels.data(), k->l.data(), k->v.data(), len, k->rgb.data());
-  for (int c = 0; c < C; ++c)
-    for (int t = 0; t < len; ++t)
-      pred[size_t(c) * len + t] = k->falloff[size_t(t)] * k->rgb[size_t(c) * len + t];
-}
+};
 
 }  // namespace
 
@@ -234,7 +220,6 @@ StackScore ScoreStack(const LightStack& s, const std::vector<int>& images, const
   for (int i : images) dirs.emplace_back(s.lights()[size_t(i)].direction);
   const BatchEvaluator eval(maps, dirs, Vec3f(s.view_direction));
   const bool near = s.has_light_positions();
-  const ModelDescriptor& model = Model(maps.model);
   const std::vector<float> inv = InverseIntensities(s);
   const float clip_level =
       StackMayBeClipped(s) ? kClipLevel : std::numeric_limits<float>::infinity();
@@ -252,7 +237,9 @@ StackScore ScoreStack(const LightStack& s, const std::vector<int>& images, const
             scratch(size_t(kMaxChannels) * kEvalRun);
         std::vector<double> acc(kEvalRun), sum(kEvalRun);
         std::vector<int> k(kEvalRun), m(kEvalRun);
-        std::unique_ptr<NearScratch> near_scratch(near ? new NearScratch : nullptr);
+        std::unique_ptr<NearRun> near_run(near ? new NearRun : nullptr);
+        std::unique_ptr<NearLightEvaluator> near_eval(
+            near ? new NearLightEvaluator(maps, Vec3f(s.view_direction)) : nullptr);
         float ok[kEvalRun];
         for (int64_t r = r0; r < r1; ++r) {
           const int64_t p0 = r * kEvalRun;
@@ -267,13 +254,14 @@ StackScore ScoreStack(const LightStack& s, const std::vector<int>& images, const
             std::fill_n(acc.begin(), len, 0.0), std::fill_n(sum.begin(), len, 0.0);
             std::fill_n(k.begin(), len, 0), std::fill_n(m.begin(), len, 0);
           }
+          if (near) near_run->Set(s, p0, len);
           for (int j = 0; j < n; ++j) {
             const int i = images[size_t(j)];
             // Predictions come a group of lights at once (near lights: one, texel by texel).
             const int in_group = near ? 0 : j % eval.group();
             if (near)
-              NearPrediction(s, model, maps, s.lights()[size_t(i)], p0, len, C, near_scratch.get(),
-                             pred.data());
+              near_eval->Evaluate(s.lights()[size_t(i)], near_run->texels.data(),
+                                  near_run->points.data(), len, pred.data());
             else if (in_group == 0)
               eval.EvaluateLights(j, std::min(eval.group(), n - j), p0, len, C, pred.data());
             LightChannels l;

@@ -40,32 +40,21 @@ struct HeldOutSums {
   bool any = false;
 };
 
-// Near lights (core/near_lights.h): fine row y's predictions under `light`, each fine texel lit
-// along its own direction with its own fall-off, from the coarse texel above it (level k).
-struct NearRowScratch {
+// Near lights: fine row y's texels as the coarse texels (level k) that predict them and their
+// positions, for NearLightEvaluator.
+struct NearRow {
   std::vector<int64_t> texels;
-  std::vector<Vec3f> l, v;
-  std::vector<float> falloff, rgb, pred;
-};
-
-void NearRow(const LightStack& fine, const MaterialMaps& maps, const LightSample& light, int y,
-             int k, int CW, int cy, int C, NearRowScratch* s) {
-  const int W = fine.width();
-  s->texels.resize(size_t(W)), s->l.resize(size_t(W));
-  s->v.assign(size_t(W), Vec3f(fine.view_direction));
-  s->falloff.resize(size_t(W)), s->rgb.resize(size_t(3) * W), s->pred.resize(size_t(C) * W);
-  for (int x = 0; x < W; ++x) {
-    const Vec3 p = NearTexelPosition(fine, x, y);
-    s->texels[size_t(x)] = int64_t(cy) * CW + std::min(CW - 1, x >> k);
-    s->l[size_t(x)] = Vec3f(Normalize(light.position - p));
-    s->falloff[size_t(x)] = float(NearFalloff(light, p));
+  std::vector<Vec3> points;
+  std::vector<float> pred;
+  void Set(const LightStack& fine, int y, int k, int CW, int cy) {
+    const int W = fine.width();
+    texels.resize(size_t(W)), points.resize(size_t(W)), pred.resize(size_t(3) * W);
+    for (int x = 0; x < W; ++x) {
+      texels[size_t(x)] = int64_t(cy) * CW + std::min(CW - 1, x >> k);
+      points[size_t(x)] = NearTexelPosition(fine, x, y);
+    }
   }
-  Model(maps.model)
-      .EvaluateSamples(maps, s->texels.data(), s->l.data(), s->v.data(), W, s->rgb.data());
-  for (int c = 0; c < C; ++c)
-    for (int x = 0; x < W; ++x)
-      s->pred[size_t(c) * W + x] = s->falloff[size_t(x)] * s->rgb[size_t(c) * W + x];
-}
+};
 
 // Folds over images (image i in fold i mod K). `coarse` is the level-(L+k) stack, `fine` the
 // level-L one; texel (x, y) of fine is predicted by texel (x >> k, y >> k) of coarse. Each
@@ -104,7 +93,8 @@ StatusOr<HeldOutSums> Score(const FitMethod& m, const LightStack& fine, const Li
     const int W = fine.width(), CW = coarse.width(), CH = coarse.height();
     // Near lights: each fine texel under its own light (the coarse texel's maps).
     const bool near = fine.has_light_positions();
-    NearRowScratch nr;
+    NearRow nr;
+    NearLightEvaluator near_eval(fit->maps, v);
     std::vector<float> pred(test.size() * size_t(C) * CW), scratch(static_cast<size_t>(W));
     std::vector<uint8_t> scored(static_cast<size_t>(W));
     for (int cy = 0; cy < CH; ++cy) {
@@ -125,10 +115,13 @@ StatusOr<HeldOutSums> Score(const FitMethod& m, const LightStack& fine, const Li
           }
           scored[size_t(x)] = 1;
         }
+        if (near) nr.Set(fine, y, k, CW, cy);
         for (size_t ti = 0; ti < test.size(); ++ti) {
           const int i = test[ti];
           const double w = std::max(0.0f, test_dirs[ti].z);
-          if (near) NearRow(fine, fit->maps, fine.lights()[size_t(i)], y, k, CW, cy, C, &nr);
+          if (near)
+            near_eval.Evaluate(fine.lights()[size_t(i)], nr.texels.data(), nr.points.data(), W,
+                               nr.pred.data());
           for (int c = 0; c < C; ++c) {
             const float* row = fine.Row(i, c, y, 0, W, scratch.data());
             const float* pr = pred.data() + (ti * C + size_t(c)) * CW;

@@ -9,9 +9,11 @@
 # Usage: scripts/bench-whole-process.sh [--quick] [--runs N] [--sizes "512x344 1024x688"]
 #          [--images 240] [--threads "1 2"] [--models "mean lambert ..."]
 #          [--holdout-models "mean lambert ptm hsh2 hsh3"] [--holdout K] [--material plastic]
-#          [--out DIR] [--cache DIR] [--matfit BIN]
+#          [--near-lights D] [--out DIR] [--cache DIR] [--matfit BIN]
 # Writes DIR/whole-process.md and DIR/whole-process.json (default DIR: out/bench-whole) and
 # keeps the raw runs in DIR/raw/. Stacks are cached in --cache (default DIR/stacks) and reused.
+# --near-lights D: the stacks are lit by near lamps D pixels from the centre (light_positions.txt,
+# docs/formats.md): every fit uses per-texel directions and fall-off; compare with a run without.
 # --quick: tiny stacks (32x20 and 64x40, 24 lights), 1 run, held-out folds for lambert and ptm
 # only: a smoke test (ctest runs it).
 set -euo pipefail
@@ -26,6 +28,7 @@ models="mean lambert lambert-robust ptm hsh2 hsh3 heinrich blinn-phong"
 holdout_models="mean lambert ptm hsh2 hsh3"
 holdout=4
 material=plastic
+near=0
 out="$root/out/bench-whole"
 cache=""
 matfit="$root/build/app/matfit"
@@ -43,6 +46,7 @@ while [ $# -gt 0 ]; do
     --holdout-models) need "$@"; holdout_models=$2; shift ;;
     --holdout) need "$@"; holdout=$2; shift ;;
     --material) need "$@"; material=$2; shift ;;
+    --near-lights) need "$@"; near=$2; shift ;;
     --out) need "$@"; out=$2; shift ;;
     --cache) need "$@"; cache=$2; shift ;;
     --matfit) need "$@"; matfit=$2; shift ;;
@@ -60,6 +64,7 @@ cache=${cache:-"$out/stacks"}
 fail() { echo "bench-whole-process: error: $*" >&2; exit 1; }
 [[ "$runs" =~ ^[1-9][0-9]*$ ]] || fail "--runs must be a positive integer, got '$runs'"
 [[ "$images" =~ ^[1-9][0-9]*$ ]] || fail "--images must be a positive integer, got '$images'"
+[[ "$near" =~ ^[0-9]+$ ]] || fail "--near-lights takes a distance in pixels (0 = distant), got '$near'"
 [[ "$holdout" =~ ^[0-9]+$ ]] && [ "$holdout" -ge 2 ] || fail "--holdout must be >= 2, got '$holdout'"
 for s in $sizes; do [[ "$s" =~ ^[0-9]+x[0-9]+$ ]] || fail "--sizes takes WIDTHxHEIGHT, got '$s'"; done
 for t in $threads; do [[ "$t" =~ ^[1-9][0-9]*$ ]] || fail "--threads takes counts >= 1, got '$t'"; done
@@ -79,12 +84,13 @@ trap 'rm -rf "$work"' EXIT
 
 # Stacks: plastic (Blinn–Phong specular) under a dome of $images lights, 8-bit sRGB JPEG, .lp.
 # truth/ is removed so that the fit does what it does on a real capture.
+suffix=""; [ "$near" -gt 0 ] && suffix="-near$near"
 for s in $sizes; do
-  stack="$cache/$material-$s-dome$images-jpg"
+  stack="$cache/$material-$s-dome$images-jpg$suffix"
   if [ ! -f "$stack/lights.lp" ]; then
     echo "bench-whole-process: synthesising $stack" >&2
     "$matfit" synth --material "$material" --lights "dome:$images" --size "$s" --format jpg \
-      --noise 0.005 --layout lp --out "$stack" --force >/dev/null
+      --noise 0.005 --near-lights "$near" --layout lp --out "$stack" --force >/dev/null
     rm -rf "$stack/truth"
   fi
 done
@@ -115,7 +121,7 @@ printf 'size\tcase\tthreads\trun\twall_s\tpeak_rss_kb\n' >"$raw/runs.tsv"
 for ((run = 1; run <= runs; run++)); do
   echo "bench-whole-process: run $run of $runs" >&2
   for s in $sizes; do
-    stack="$cache/$material-$s-dome$images-jpg"
+    stack="$cache/$material-$s-dome$images-jpg$suffix"
     for t in $threads; do
       measure "$s" decode-only "$t" "$run" -- fit "$stack" --decode-only --threads "$t" --quiet
       for m in $models; do
@@ -133,10 +139,10 @@ done
 # Medians, ratios, the table and the JSON.
 git_rev=$(git -C "$root" rev-parse --short HEAD 2>/dev/null || echo unknown)
 python3 - "$raw" "$out" "$runs" "$images" "$material" "$holdout" "$git_rev" "$quick" \
-  "$sizes" "$threads" "$models" "$holdout_models" <<'PY'
+  "$sizes" "$threads" "$models" "$holdout_models" "$near" <<'PY'
 import json, math, os, statistics, sys, time
 (raw, out, runs, images, material, holdout, rev, quick, sizes, threads, models,
- holdout_models) = sys.argv[1:]
+ holdout_models, near) = sys.argv[1:]
 sizes, threads = sizes.split(), threads.split()
 models, holdout_models = models.split(), holdout_models.split()
 rows = [l.rstrip("\n").split("\t") for l in open(os.path.join(raw, "runs.tsv"))][1:]
@@ -159,7 +165,7 @@ def ratio(a, b):
 result = {
     "schema": "matfit.bench-whole/1",
     "time": time.strftime("%Y-%m-%dT%H:%M:%SZ", time.gmtime()),
-    "git": rev, "quick": quick == "1", "runs": int(runs), "images": int(images),
+    "git": rev, "quick": quick == "1", "runs": int(runs), "images": int(images), "near_lights_px": int(near),
     "material": material, "format": "8-bit sRGB JPEG, .lp", "holdout": int(holdout),
     "cpus": os.cpu_count(), "threads": [int(t) for t in threads], "sizes": {},
 }
@@ -220,7 +226,9 @@ def fmt(v, unit=""):
 
 md = ["# Whole-process `matfit fit` benchmark", "",
       f"`scripts/bench-whole-process.sh{' --quick' if quick == '1' else ''}` at {rev}, {result['time']}: "
-      f"synthetic {material} under dome:{images}, 8-bit sRGB JPEG `.lp`, {os.cpu_count()} CPUs; "
+      f"synthetic {material} under dome:{images}"
+      + (f" (near lamps {near} px from the centre)" if int(near) else "")
+      + f", 8-bit sRGB JPEG `.lp`, {os.cpu_count()} CPUs; "
       f"median of {runs} run(s) per case, interleaved. Wall = the whole command (read, fit, "
       f"reconstruction, confidence, write; held-out: + `--holdout {holdout}`); ÷ decode = "
       f"÷ `matfit fit --decode-only` with the same threads; RSS = peak resident set "

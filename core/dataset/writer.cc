@@ -95,31 +95,30 @@ bool DatasetWriteOptions::Check(std::string* why) const {
   return true;
 }
 
-namespace {
-
-// light_positions.txt (docs/formats.md): N, then x y z per light in source pixels.
-Status WriteLightPositions(const LightStack& s, const std::string& path) {
+std::string FormatLightPositions(const std::vector<Vec3>& positions) {
   std::string txt =
       "# light positions: x right, y up, z toward the camera; origin at the image centre; "
       "source pixels\n" +
-      std::to_string(s.num_images()) + "\n";
+      std::to_string(positions.size()) + "\n";
   char line[128];
-  for (const LightSample& l : s.lights()) {
-    std::snprintf(line, sizeof line, "%.6f %.6f %.6f\n", l.position.x, l.position.y, l.position.z);
+  for (const Vec3& p : positions) {
+    std::snprintf(line, sizeof line, "%.6f %.6f %.6f\n", p.x, p.y, p.z);
     txt += line;
   }
-  return WriteFileAtomic(path, txt);
+  return txt;
 }
-
-}  // namespace
 
 Status WriteDataset(const LightStack& s, const DatasetWriteOptions& o, const std::string& dir,
                     const ProgressFn& progress) {
   std::string why;
   if (!o.Check(&why)) return InvalidArgument(why);
   const fs::path d(dir);
-  if (s.has_light_positions())
-    MATFIT_RETURN_IF_ERROR(WriteLightPositions(s, (d / "light_positions.txt").string()));
+  if (s.has_light_positions()) {
+    std::vector<Vec3> positions;
+    for (const LightSample& l : s.lights()) positions.push_back(l.position);
+    MATFIT_RETURN_IF_ERROR(
+        WriteFileAtomic((d / "light_positions.txt").string(), FormatLightPositions(positions)));
+  }
   const std::string ext = Extension(o);
   const int n = s.num_images();
   switch (o.layout) {

@@ -2,6 +2,7 @@
 #pragma once
 
 #include <string>
+#include <vector>
 
 #include "core/dataset/dataset.h"
 #include "core/progress_fn.h"
@@ -25,6 +26,10 @@ struct DatasetWriteOptions {
 
 // Writes into the existing folder `dir`. Bonn needs every light at integer degrees.
 // `progress` (optional, display only) counts written images.
+// light_positions.txt (docs/formats.md, "Near lights"): a comment naming the frame, the count,
+// then x y z per light in source pixels. WriteDataset writes it for stacks with positions.
+std::string FormatLightPositions(const std::vector<Vec3>& positions);
+
 Status WriteDataset(const LightStack& stack, const DatasetWriteOptions& options,
                     const std::string& dir, const ProgressFn& progress = {});
 

@@ -72,12 +72,12 @@ LightStack RenderStack(const MaterialMaps& m, const std::vector<LightSample>& li
   // with its own fall-off (core/near_lights.h), evaluated sample by sample.
   const bool near = !lights.empty() && lights[0].has_position;
   if (near) stack.near_frame = {0.5 - 0.5 * m.width, 0.5 * m.height - 0.5, 1.0};
-  const ModelDescriptor& model = Model(m.model);
   std::atomic<int64_t> rendered{0};
   ParallelFor(0, n, [&](int64_t b, int64_t e) {
-    std::vector<float> run(size_t(3) * kEvalRun), falloff(near ? kEvalRun : 0);
+    std::vector<float> run(size_t(3) * kEvalRun);
     std::vector<int64_t> idx(near ? kEvalRun : 0);
-    std::vector<Vec3f> ldir(near ? kEvalRun : 0), vdir(near ? kEvalRun : 0, v);
+    std::vector<Vec3> points(near ? kEvalRun : 0);
+    NearLightEvaluator near_eval(m, v);
     for (int64_t i = b; i < e; ++i) {
       const LightSample& ls = lights[i];
       Image vis;
@@ -87,13 +87,10 @@ LightStack RenderStack(const MaterialMaps& m, const std::vector<LightSample>& li
         if (near) {
           for (int t = 0; t < len; ++t) {
             const int64_t p = p0 + t;
-            const Vec3 x = NearTexelPosition(stack, double(p % m.width), double(p / m.width));
-            idx[size_t(t)] = p, ldir[size_t(t)] = Vec3f(Normalize(ls.position - x));
-            falloff[size_t(t)] = float(NearFalloff(ls, x));
+            idx[size_t(t)] = p;
+            points[size_t(t)] = NearTexelPosition(stack, double(p % m.width), double(p / m.width));
           }
-          model.EvaluateSamples(m, idx.data(), ldir.data(), vdir.data(), len, run.data());
-          for (int c = 0; c < 3; ++c)
-            for (int t = 0; t < len; ++t) run[size_t(c * len + t)] *= falloff[size_t(t)];
+          near_eval.Evaluate(ls, idx.data(), points.data(), len, run.data());
         } else {
           eval.Evaluate(int(i), p0, len, 3, run.data());
         }
