@@ -69,8 +69,8 @@ Status CheckFolder(const std::string& path, const std::string& what) {
         path, std::string("was not written by matfit (it has no ") + kOutputMarkerName + ")", what);
   std::ifstream in(marker);
   const json m = json::parse(in, nullptr, false);
-  if (!m.is_object() || m.value("schema", "") != "matfit.output/1" || !m.contains("files") ||
-      !m["files"].is_array())
+  if (!m.is_object() || !m.contains("schema") || m["schema"] != "matfit.output/1" ||
+      !m.contains("files") || !m["files"].is_array())
     return Refuse(path, std::string("has an unreadable ") + kOutputMarkerName, what);
   std::set<std::string> listed;
   for (const json& f : m["files"])

@@ -1,10 +1,12 @@
 #include "core/pack/pack_reader.h"
 
+#include <algorithm>
 #include <cmath>
 #include <filesystem>
 #include <fstream>
 #include <map>
 #include <nlohmann/json.hpp>
+#include <optional>
 
 #include "core/image_io.h"
 #include "core/model/model.h"
@@ -15,6 +17,15 @@ namespace {
 namespace fs = std::filesystem;
 using nlohmann::json;
 
+// The string at o[key]: "" when absent, nullopt when present with another type (a hostile or
+// hand-edited material.json must get an error naming the field, never an exception).
+std::optional<std::string> StringField(const json& o, const char* key) {
+  if (!o.is_object() || !o.contains(key)) return std::string();
+  const json& v = o[key];
+  if (!v.is_string()) return std::nullopt;
+  return v.get<std::string>();
+}
+
 }  // namespace
 
 StatusOr<PackContents> ReadPack(const std::string& dir) {
@@ -23,19 +34,34 @@ StatusOr<PackContents> ReadPack(const std::string& dir) {
   if (!in) return NotFound("'" + mj + "' not found: is '" + dir + "' a material pack folder?");
   const json j = json::parse(in, nullptr, false);
   if (j.is_discarded() || !j.is_object()) return DataError("'" + mj + "' is not valid JSON");
-  if (j.value("schema", "") != "matfit.material/1")
+  if (StringField(j, "schema") != "matfit.material/1")
     return DataError("'" + mj + "': field 'schema' must be \"matfit.material/1\"");
   PackContents pc;
-  const std::string model = j.contains("model") ? j["model"].value("name", "") : "";
-  const ModelDescriptor* descriptor = FindModel(model);
-  if (!descriptor) return DataError("'" + mj + "': unknown model.name '" + model + "'");
+  if (!j.contains("model") || !j["model"].is_object())
+    return DataError("'" + mj + "': field 'model' must be an object with a 'name'");
+  const json& jm = j["model"];
+  const std::optional<std::string> model = StringField(jm, "name");
+  if (!model) return DataError("'" + mj + "': field 'model.name' must be a string");
+  const ModelDescriptor* descriptor = FindModel(*model);
+  if (!descriptor) return DataError("'" + mj + "': unknown model.name '" + *model + "'");
   pc.maps.model = descriptor->id();
-  pc.method = j["model"].value("method", model);
+  const std::optional<std::string> method = StringField(jm, "method");
+  if (!method) return DataError("'" + mj + "': field 'model.method' must be a string");
+  pc.method = method->empty() ? *model : *method;
   if (!j.contains("maps") || !j["maps"].is_array())
     return DataError("'" + mj + "': field 'maps' must be a list");
   std::map<std::string, std::string> files;
-  for (const auto& e : j["maps"])
-    if (e.is_object() && e.contains("name") && e.contains("file")) files[e["name"]] = e["file"];
+  for (const auto& e : j["maps"]) {
+    const std::optional<std::string> name = StringField(e, "name"), file = StringField(e, "file");
+    if (!name || !file)
+      return DataError("'" + mj + "': every entry of 'maps' needs a string 'name' and 'file'");
+    if (name->empty() || file->empty()) continue;
+    const fs::path f(*file);
+    if (f.is_absolute() || std::find(f.begin(), f.end(), "..") != f.end())
+      return DataError("'" + mj + "': map '" + *name + "' points outside the pack ('" + *file +
+                       "'); give a path relative to the pack folder");
+    files[*name] = *file;
+  }
   ImageReadOptions linear;
   linear.color_space = ColorSpaceChoice::kLinear;
   linear.all_channels = true;
@@ -72,7 +98,7 @@ StatusOr<PackContents> ReadPack(const std::string& dir) {
   m.width = m.albedo.width();
   m.height = m.albedo.height();
   std::map<std::string, double> params;
-  const json jp = j["model"].value("parameters", json::object());
+  const json jp = jm.contains("parameters") ? jm["parameters"] : json::object();
   if (jp.is_object())
     for (const auto& [k, v] : jp.items())
       if (v.is_number()) params[k] = v.get<double>();

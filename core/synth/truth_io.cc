@@ -51,8 +51,9 @@ StatusOr<MaterialMaps> ReadTruth(const std::string& dir, const std::string& conf
   auto pj_path = ResolveInDataset((fs::path(dir) / "params.json").string(), confine_to);
   std::ifstream pj(pj_path.ok() ? *pj_path : std::string());
   const nlohmann::json params = nlohmann::json::parse(pj, nullptr, false);
-  if (params.is_object() && params.contains("model") && params["model"].is_object()) {
-    const std::string name = params["model"].value("name", "");
+  if (params.is_object() && params.contains("model") && params["model"].is_object() &&
+      params["model"].contains("name") && params["model"]["name"].is_string()) {
+    const std::string name = params["model"]["name"].get<std::string>();
     if (const ModelDescriptor* d = FindModel(name); d && d->synthesizable()) m.model = d->id();
   }
   m.width = m.normal.width();

@@ -270,6 +270,42 @@ TEST(ModelPack, ReaderRefusesAMissingOrMismatchedRbfTable) {
   refused(unlisted, m.basis_table, m.coefficients, "needs its basis table");
 }
 
+// pack_fuzzer found a material.json whose model.name was a number: nlohmann threw type_error
+// out of ReadPack. Every mistyped field is now an error naming it, and a map may not point
+// outside the pack.
+TEST(ModelPack, ReaderRefusesMistypedFieldsAndMapsOutsideThePack) {
+  testing::TempDir dir;
+  const MaterialMaps m = RandomModelMaps(ModelId("lambert"), 6, 5, 1);
+  const std::string out = dir / "lambert";
+  ASSERT_TRUE(WritePack(m, std::vector<uint8_t>(30, 0), {}, {}, out).ok());
+  ASSERT_TRUE(ReadPack(out).ok());
+  const std::string mj = out + "/material.json";
+  const std::string maps = R"("maps": [{"name": "albedo", "file": "maps/albedo.png"}])";
+  for (const auto& [text, want] : std::vector<std::pair<std::string, std::string>>{
+           {R"({"schema": 1, "model": {"name": "lambert"}, )" + maps + "}", "field 'schema'"},
+           {R"({"schema": "matfit.material/1", "model": 3, )" + maps + "}", "field 'model'"},
+           {R"({"schema": "matfit.material/1", "model": {"name": 5}, )" + maps + "}",
+            "field 'model.name' must be a string"},
+           {R"({"schema": "matfit.material/1", "model": {"name": "lambert", "method": []}, )" +
+                maps + "}",
+            "field 'model.method' must be a string"},
+           {R"({"schema": "matfit.material/1", "model": {"name": "lambert"},
+                "maps": [{"name": 7, "file": "maps/albedo.png"}]})",
+            "needs a string 'name' and 'file'"},
+           {R"({"schema": "matfit.material/1", "model": {"name": "lambert"},
+                "maps": [{"name": "albedo", "file": "../../etc/passwd"}]})",
+            "points outside the pack"},
+           {R"({"schema": "matfit.material/1", "model": {"name": "lambert"},
+                "maps": [{"name": "albedo", "file": "/etc/passwd"}]})",
+            "points outside the pack"}}) {
+    testing::WriteText(mj, text);
+    auto back = ReadPack(out);
+    ASSERT_FALSE(back.ok()) << text;
+    EXPECT_NE(back.status().message().find(want), std::string::npos) << back.status().message();
+    EXPECT_NE(back.status().message().find("material.json"), std::string::npos);
+  }
+}
+
 // Every model's shader planes pack; a missing parameter map is named in the error.
 TEST(ModelShaderPlanes, PackForEveryModelAndNameAMissingMap) {
   for (const ModelDescriptor* d : AllModels()) {
