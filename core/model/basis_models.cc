@@ -92,7 +92,7 @@ class BasisModel final : public ModelBase<BasisModel<kKind>> {
     return {{"coefficients", &m.coefficients}};
   }
   bool writes_normal_map() const override { return !kPtm; }
-  bool gltf_lambertian_bake() const override { return true; }
+  bool gltf_baked() const override { return true; }
   bool has_truth_normal() const override { return false; }
   bool has_truth_albedo() const override { return false; }
   static void Basis(const MaterialMaps& m, const Vec3f& l, double* b) {

@@ -51,7 +51,7 @@ class BlinnPhongModel final : public ModelBase<BlinnPhongModel> {
             const std::map<std::string, double>&, GltfMaterialDesc* g) const override {
     LobeGltf(g);
     (void)status;
-    GltfSpecular(m.specular, m.exponent, "Blinn-Phong lobe k_s (n.h)^e (n.l)", g);
+    GltfSpecular(m, m.specular, m.exponent, "Blinn-Phong lobe k_s (n.h)^e (n.l)", g);
   }
   bool AddShaderPlanes(const MaterialMaps& m, ShaderPlaneSink* s) const override {
     return s->Add(m.specular, 1, "specular") && s->Add(m.exponent, 1, "exponent");

@@ -172,7 +172,7 @@ class HeinrichModel final : public ModelBase<HeinrichModel> {
     if (m.specular_color.empty()) return;
     auto e = fit_parameters.find("exponent");
     if (e != fit_parameters.end()) g->roughness = RoughnessFromBlinnPhongExponent(e->second);
-    GltfSpecular(SpecularPeak(m), m.exponent, "heinrich's specular L_spec (n_s.h)^e", g);
+    GltfSpecular(m, SpecularPeak(m), m.exponent, "heinrich's specular L_spec (n_s.h)^e", g);
   }
   bool AddShaderPlanes(const MaterialMaps& m, ShaderPlaneSink* s) const override {
     if (!s->Add(m.ambient, 3, "ambient")) return false;

@@ -62,7 +62,7 @@ class LafortuneModel final : public ModelBase<LafortuneModel> {
   void Gltf(const MaterialMaps& m, const std::vector<uint8_t>&,
             const std::map<std::string, double>&, GltfMaterialDesc* g) const override {
     LobeGltf(g);
-    GltfSpecular(FirstLobe(m), LafortuneEquivalentExponent(m),
+    GltfSpecular(m, FirstLobe(m), LafortuneEquivalentExponent(m),
                  m.specular.channels() > 1
                      ? "Lafortune's first lobe rho_s D^e (n.l) (the others are left out)"
                      : "Lafortune lobe rho_s D^e (n.l), as Blinn-Phong exponent 4e",

@@ -122,9 +122,9 @@ class ModelDescriptor {
   virtual Status ReadPackMaps(const LoadPackMapFn& load,
                               const std::map<std::string, double>& parameters,
                               MaterialMaps* m) const = 0;
-  // Whether the glTF shows the least-squares Lambertian of the fit (core/pack/gltf_bake.h): for
-  // relighting bases, whose light dependence no glTF material has.
-  virtual bool gltf_lambertian_bake() const { return false; }
+  // Whether the glTF shows the Lambert + GGX surface closest to the fit (core/pack/gltf_bake.h):
+  // for relighting bases, whose light dependence no glTF material has.
+  virtual bool gltf_baked() const { return false; }
   // The closest standard glTF PBR material: specular, roughness, IOR and their textures
   // (base colour and normal are set by the writer). `status` marks fitted texels (0 = ok).
   virtual void Gltf(const MaterialMaps& m, const std::vector<uint8_t>& status,

@@ -5,6 +5,7 @@
 #include "core/check.h"
 #include "core/model/model_impl.h"
 #include "core/pack/gltf.h"
+#include "core/pack/gltf_bake.h"
 #include "core/pack/pack.h"
 
 namespace matfit {
@@ -82,39 +83,34 @@ Status LoadLobeMaps(const LoadPackMapFn& load, MaterialMaps* m) {
 
 namespace {
 
-double LobeF0(const Image& peak, const Image& exponent, int64_t p) {
-  const double ks = peak.Plane(0)[p], e = exponent.Plane(0)[p];
-  return std::isfinite(ks) && std::isfinite(e) && e > -2 ? std::max(0.0, 8 * ks / (e + 2)) : 0.0;
-}
-
-double ReferenceF0(const Image& peak, const Image& exponent) {
-  if (peak.empty() || exponent.empty()) return 0;
-  std::vector<double> f0;
-  for (int64_t p = 0; p < peak.plane_size(); ++p) f0.push_back(LobeF0(peak, exponent, p));
-  if (f0.empty()) return 0;
-  const size_t k = std::min(f0.size() - 1, f0.size() * 99 / 100);
-  std::nth_element(f0.begin(), f0.begin() + long(k), f0.end());
-  return std::min(f0[k], 0.81);
+// F0 = 8 peak / (e + 2) per texel (0 where the lobe is undefined).
+Image LobeF0(const MaterialMaps& m, const Image& peak, const Image& exponent) {
+  Image f0(m.width, m.height, 1);
+  if (peak.empty() || exponent.empty()) return f0;
+  for (int64_t p = 0; p < f0.plane_size(); ++p) {
+    const double ks = peak.Plane(0)[p], e = exponent.Plane(0)[p];
+    f0.Plane(0)[p] = std::isfinite(ks) && std::isfinite(e) && e > -2
+                         ? float(std::max(0.0, 8 * ks / (e + 2)))
+                         : 0.0f;
+  }
+  return f0;
 }
 
 }  // namespace
 
 Status PutGltfSpecular(const MaterialMaps& m, const Image& peak, const Image& exponent,
                        const PutPackMapFn& put) {
-  const double ref = ReferenceF0(peak, exponent);
-  if (!(ref > 0)) return Status::Ok();
-  Image rel(m.width, m.height, 1);
-  for (int64_t p = 0; p < rel.plane_size(); ++p)
-    rel.Plane(0)[p] = float(std::clamp(LobeF0(peak, exponent, p) / ref, 0.0, 1.0));
-  return put({"gltf_specular", "gltf_specular.png", &rel, MapEncoding::kSrgb8,
+  GltfF0 split = SplitF0ForGltf(LobeF0(m, peak, exponent));
+  if (!(split.ior > 0)) return Status::Ok();
+  return put({"gltf_specular", "gltf_specular.png", &split.share, MapEncoding::kSrgb8,
               "glTF specular colour: each texel's F0 = 8 peak / (e + 2) over the IOR's F0"});
 }
 
-void GltfSpecular(const Image& peak, const Image& exponent, const char* lobe, GltfMaterialDesc* g) {
-  const double ref = ReferenceF0(peak, exponent);
-  if (!(ref > 0)) return;
-  const double r0 = std::sqrt(ref);
-  g->ior = (1 + r0) / (1 - r0);
+void GltfSpecular(const MaterialMaps& m, const Image& peak, const Image& exponent, const char* lobe,
+                  GltfMaterialDesc* g) {
+  const GltfF0 split = SplitF0ForGltf(LobeF0(m, peak, exponent));
+  if (!(split.ior > 0)) return;
+  g->ior = split.ior;
   g->specular_color_uri = "maps/gltf_specular.png";
   g->specular_factor = 1.0;
   g->approximations.push_back(std::string(lobe) +

@@ -68,7 +68,8 @@ void LobeGltf(GltfMaterialDesc* g);
 // texel's share of it maps/gltf_specular.png (specularColorTexture).
 Status PutGltfSpecular(const MaterialMaps& m, const Image& peak, const Image& exponent,
                        const PutPackMapFn& put);
-void GltfSpecular(const Image& peak, const Image& exponent, const char* lobe, GltfMaterialDesc* g);
+void GltfSpecular(const MaterialMaps& m, const Image& peak, const Image& exponent, const char* lobe,
+                  GltfMaterialDesc* g);
 // A Lafortune lobe's Blinn–Phong-equivalent exponent 4 e, first lobe: seen along the normal
 // (v = n), D = n·l = cos α, and D^e ≈ exp(−e α²/2) and (n·h)^{4e} = cos^{4e}(α/2) ≈
 // exp(−4e α²/8) have the same peak and curvature.

@@ -1,81 +1,459 @@
 #include "core/pack/gltf_bake.h"
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <numbers>
 #include <vector>
 
 #include "core/model/model.h"
 #include "core/parallel.h"
+#include "core/shading/shading.h"
+#include "core/simd_clones.h"
 
 namespace matfit {
+namespace {
 
-void LambertianBake(const MaterialMaps& m, Image* base, Image* normal) {
-  // Rings at θ = 0, 15, 30, 45, 60° with 1, 6, 12, 12, 6 azimuths: 37 directions.
-  std::vector<Vec3f> dirs;
-  const int per_ring[] = {1, 6, 12, 12, 6};
-  for (int r = 0; r < 5; ++r)
-    for (int k = 0; k < per_ring[r]; ++k) {
-      const double t = r * 15 * std::numbers::pi / 180, p = 2 * std::numbers::pi * k / per_ring[r];
+constexpr double kDeg = std::numbers::pi / 180;
+
+// Rings every 10° from the zenith to θ = 60°, each with its directions about 10° apart.
+std::vector<Vec3f> CapDirections() {
+  std::vector<Vec3f> dirs{Vec3f(0, 0, 1)};
+  for (int ring = 1; ring <= 6; ++ring) {
+    const double t = ring * 10 * kDeg;
+    const int count =
+        std::max(6, int(std::lround(2 * std::numbers::pi * std::sin(t) / (10 * kDeg))));
+    for (int k = 0; k < count; ++k) {
+      const double p = 2 * std::numbers::pi * k / count;
       dirs.push_back(Vec3f(float(std::sin(t) * std::cos(p)), float(std::sin(t) * std::sin(p)),
                            float(std::cos(t))));
     }
-  const int K = int(dirs.size()), ch = m.albedo.channels() == 3 ? 3 : 1;
-  // (Σ l lᵀ)⁻¹, the same for every texel.
-  double a[3][3] = {};
+  }
+  return dirs;
+}
+
+using Mat3 = std::array<std::array<double, 3>, 3>;
+
+// (Σ_k l_k l_kᵀ)⁻¹ by cofactors: the directions span the cap, so it is well conditioned.
+Mat3 InverseScatter(const std::vector<Vec3f>& dirs) {
+  Mat3 a{};
   for (const Vec3f& l : dirs)
     for (int i = 0; i < 3; ++i)
       for (int j = 0; j < 3; ++j) a[i][j] += double((&l.x)[i]) * double((&l.x)[j]);
   const double det = a[0][0] * (a[1][1] * a[2][2] - a[1][2] * a[2][1]) -
                      a[0][1] * (a[1][0] * a[2][2] - a[1][2] * a[2][0]) +
                      a[0][2] * (a[1][0] * a[2][1] - a[1][1] * a[2][0]);
-  double inv[3][3];
+  Mat3 inv;
   for (int i = 0; i < 3; ++i)
     for (int j = 0; j < 3; ++j) {
       const int i1 = (j + 1) % 3, i2 = (j + 2) % 3, j1 = (i + 1) % 3, j2 = (i + 2) % 3;
       inv[i][j] = (a[i1][j1] * a[i2][j2] - a[i1][j2] * a[i2][j1]) / det;
     }
-  *base = Image(m.width, m.height, 3);
-  *normal = Image(m.width, m.height, 3);
+  return inv;
+}
+
+// 1/E − 1 on r = 0, 1/64, …, 1 (linear in between).
+struct MsTable {
+  static constexpr int kSteps = 64;
+  double c[kSteps + 1];
+  MsTable() {
+    for (int i = 0; i <= kSteps; ++i)
+      c[i] = 1 / GgxAlbedoHeadOn(std::max(i, 1) / double(kSteps)) - 1;
+  }
+  double operator()(double r) const {
+    const double x = std::clamp(r, 0.0, 1.0) * kSteps;
+    const int i = std::min(int(x), kSteps - 1);
+    return c[i] + (x - i) * (c[i + 1] - c[i]);
+  }
+};
+
+// The cap's lights in SoA, padded to a multiple of 8 with lights below the horizon (zero
+// diffuse and lobe: they add nothing to any sum).
+struct CapLights {
+  int K = 0, padded = 0;
+  std::vector<float> lx, ly, lz, hx, hy, hz, w;  // direction, half vector, (1 − v·h)^5
+  std::vector<float> sw;                         // √ of the light's weight in the fit
+  explicit CapLights(const std::vector<Vec3f>& dirs) : K(int(dirs.size())) {
+    padded = (K + 7) / 8 * 8;
+    const Vec3f v(0, 0, 1);
+    for (int k = 0; k < padded; ++k) {
+      const Vec3f l = k < K ? dirs[size_t(k)] : Vec3f(0, 0, -1);
+      const Vec3f h = k < K ? Normalize(l + v) : Vec3f(0, 0, 1);
+      lx.push_back(l.x), ly.push_back(l.y), lz.push_back(l.z);
+      hx.push_back(h.x), hy.push_back(h.y), hz.push_back(h.z);
+      w.push_back(k < K ? shading::SchlickFresnel(0.0f, Dot(v, h)) : 0.0f);
+      sw.push_back(k < K ? std::sqrt(l.z) : 0.0f);  // weight cos θ: the light's irradiance
+    }
+  }
+};
+
+// Σ_k of the products the least squares need (y the samples, d the diffuse shape, a and b the
+// lobe's F0 part and rest).
+struct LobeSums {
+  double dd = 0, ad = 0, aa = 0, bd = 0, ba = 0, bb = 0;
+  double yd[3] = {}, ya[3] = {}, yb[3] = {};
+};
+
+// The lobe of shading::CookTorranceSpecularHalf at F0 = 1 (GgxD, GgxG1 and the Fresnel weight,
+// branch-free over the lights so that it vectorises) split into a = lobe (1 − w) and b = lobe w,
+// the diffuse shape d = (1 − w) max(0, n·l), and their sums with the samples y (channel c at
+// y + c · padded). View straight down: n·v = n_z > 0.
+MATFIT_CLONES_V3 void LobeRun(const CapLights& L, const float* y, float nx, float ny, float nz,
+                              float alpha, float* __restrict a, float* __restrict b,
+                              float* __restrict d, LobeSums* s) {
+  const float g1v = shading::GgxG1(nz, alpha), scale = float(M_PI) * g1v / (4 * nz);
+  const float *lx = L.lx.data(), *ly = L.ly.data(), *lz = L.lz.data(), *hx = L.hx.data(),
+              *hy = L.hy.data(), *hz = L.hz.data(), *w = L.w.data(), *sw = L.sw.data();
+  const int np = L.padded;
+  for (int k = 0; k < np; ++k) {
+    const float nl = nx * lx[k] + ny * ly[k] + nz * lz[k],
+                nh = nx * hx[k] + ny * hy[k] + nz * hz[k];
+    // max(0, x) as (x + |x|) / 2: GCC 12 vectorises neither the ternary nor fmaxf here.
+    const float nlc = 0.5f * (nl + std::fabs(nl)), nhc = 0.5f * (nh + std::fabs(nh));
+    // G1(0) = 0: a light below the horizon gets no lobe without a branch.
+    const float lobe = scale * shading::GgxD(nhc, alpha) * shading::GgxG1(nlc, alpha);
+    a[k] = sw[k] * lobe * (1 - w[k]), b[k] = sw[k] * lobe * w[k], d[k] = sw[k] * nlc * (1 - w[k]);
+  }
+  // Lane-wise partial sums (no reassociation needed to vectorise), then added in double.
+  constexpr int kLanes = 8, kTerms = 15;
+  float acc[kTerms][kLanes] = {};
+  const float *y0 = y, *y1 = y + np, *y2 = y + 2 * np;  // channels past ch are zero
+  for (int k0 = 0; k0 < np; k0 += kLanes)
+    for (int j = 0; j < kLanes; ++j) {
+      const int k = k0 + j;
+      const float dk = d[k], ak = a[k], bk = b[k];
+      acc[0][j] += dk * dk, acc[1][j] += ak * dk, acc[2][j] += ak * ak;
+      acc[3][j] += bk * dk, acc[4][j] += bk * ak, acc[5][j] += bk * bk;
+      acc[6][j] += y0[k] * dk, acc[9][j] += y0[k] * ak, acc[12][j] += y0[k] * bk;
+      acc[7][j] += y1[k] * dk, acc[10][j] += y1[k] * ak, acc[13][j] += y1[k] * bk;
+      acc[8][j] += y2[k] * dk, acc[11][j] += y2[k] * ak, acc[14][j] += y2[k] * bk;
+    }
+  double t[kTerms] = {};
+  for (int i = 0; i < kTerms; ++i)
+    for (int j = 0; j < kLanes; ++j) t[i] += acc[i][j];
+  s->dd = t[0], s->ad = t[1], s->aa = t[2], s->bd = t[3], s->ba = t[4], s->bb = t[5];
+  for (int c = 0; c < 3; ++c) s->yd[c] = t[6 + c], s->ya[c] = t[9 + c], s->yb[c] = t[12 + c];
+}
+
+// g = (Σ jx², Σ jx jy, Σ jy², Σ jx e0, Σ jy e0) with jx = (ex − e0) · inv_delta (jy alike),
+// over m residuals (a multiple of 8), lane-wise in float like LobeRun.
+MATFIT_CLONES_V3 void GaussNewtonSums(const float* __restrict e0, const float* __restrict ex,
+                                      const float* __restrict ey, int m, float inv_delta,
+                                      double* g) {
+  constexpr int kLanes = 8;
+  float acc[5][kLanes] = {};
+  for (int i0 = 0; i0 < m; i0 += kLanes)
+    for (int j = 0; j < kLanes; ++j) {
+      const int i = i0 + j;
+      const float jx = (ex[i] - e0[i]) * inv_delta, jy = (ey[i] - e0[i]) * inv_delta;
+      acc[0][j] += jx * jx, acc[1][j] += jx * jy, acc[2][j] += jy * jy;
+      acc[3][j] += jx * e0[i], acc[4][j] += jy * e0[i];
+    }
+  for (int t = 0; t < 5; ++t) {
+    g[t] = 0;
+    for (int j = 0; j < kLanes; ++j) g[t] += acc[t][j];
+  }
+}
+
+// One texel's samples y (channel c at y[c · padded + k]; K lights, `ch` channels: 1 or 3) and
+// the fits of the glTF dielectric to them.
+struct TexelFit {
+  const CapLights& L;
+  const Mat3& inv;
+  const MsTable& ms;
+  int ch;
+  std::vector<float> y;
+  double yy[3] = {};  // Σ_k y²
+  // Scratch per light: the diffuse shape, the lobe's F0 part and rest of the last Solve.
+  std::vector<float> d, a, b;
+
+  TexelFit(const CapLights& lights, const Mat3& inverse, const MsTable& table, int channels)
+      : L(lights), inv(inverse), ms(table), ch(channels) {
+    y.assign(size_t(3) * L.padded, 0.0f);
+    d.resize(size_t(L.padded)), a.resize(size_t(L.padded)), b.resize(size_t(L.padded));
+  }
+  void SamplesSet() {
+    for (int c = 0; c < ch; ++c) {
+      yy[c] = 0;
+      for (int k = 0; k < L.K; ++k)
+        yy[c] += double(y[size_t(c * L.padded + k)]) * y[size_t(c * L.padded + k)];
+    }
+  }
+
+  // The unit normal of the least-squares Lambertian of the luminance of y − lobe.
+  Vec3f LambertNormal(const std::vector<double>* lobe) const {
+    double g[3] = {0, 0, 0};
+    for (int k = 0; k < L.K; ++k) {
+      const float* yk = y.data() + k;
+      double v =
+          ch == 3 ? 0.2126 * yk[0] + 0.7152 * yk[L.padded] + 0.0722 * yk[2 * L.padded] : yk[0];
+      if (lobe) v -= (*lobe)[size_t(k)];
+      v /= L.sw[size_t(k)];
+      g[0] += v * L.lx[size_t(k)], g[1] += v * L.ly[size_t(k)], g[2] += v * L.lz[size_t(k)];
+    }
+    double n[3];
+    for (int i = 0; i < 3; ++i) n[i] = inv[i][0] * g[0] + inv[i][1] * g[1] + inv[i][2] * g[2];
+    const double len = std::sqrt(n[0] * n[0] + n[1] * n[1] + n[2] * n[2]);
+    if (!(len > 1e-9)) return Vec3f(0, 0, 1);
+    const double sign = n[2] < 0 ? -1 : 1;
+    return Vec3f(float(sign * n[0] / len), float(sign * n[1] / len), float(sign * n[2] / len));
+  }
+
+  struct Lobe {
+    double r = 1, f0 = 0, err = 0;
+    double rho[3] = {0, 0, 0};
+  };
+
+  // The least-squares (ρ, F0) of shading::GltfDielectricHalf for normal n and roughness r, its
+  // squared residual, and (when `residual` is given) the residuals, K per channel. With
+  // ρ' = (1 − F0) ρ the model y_c = ρ'_c d + F0 a + b is linear in (ρ', F0).
+  Lobe Solve(const Vec3f& n, double r, float* residual = nullptr) {
+    LobeSums s;
+    LobeRun(L, y.data(), n.x, n.y, std::max(n.z, 1e-3f), float(r * r), a.data(), b.data(), d.data(),
+            &s);
+    // The lobe is κ (F0 a + b) with κ = 1 + F0 c (multiple scattering): F0 by fixed-point
+    // iteration, each step linear with κ held (the sums scale by κ and κ²).
+    const double c = ms(r);
+    Lobe out;
+    out.r = r;
+    double f0 = 0, kappa = 1, zd[3], za[3];
+    for (int iter = 0; iter < 4; ++iter) {
+      kappa = 1 + f0 * c;
+      const double ad = kappa * s.ad, aa = kappa * kappa * s.aa;
+      // F0 from what the diffuse shape leaves: a⊥ = a − (a·d / d·d) d, alike in every channel.
+      const double proj = s.dd > 0 ? ad / s.dd : 0, den = ch * (aa - proj * ad);
+      double num = 0;
+      for (int k = 0; k < ch; ++k) {
+        zd[k] = s.yd[k] - kappa * s.bd, za[k] = kappa * (s.ya[k] - kappa * s.ba);
+        num += za[k] - proj * zd[k];
+      }
+      f0 = den > 1e-12 ? std::clamp(num / den, 0.0, 0.81) : 0.0;
+      if (c == 0) break;
+    }
+    out.f0 = f0;
+    kappa = 1 + f0 * c;
+    const double ad = kappa * s.ad, aa = kappa * kappa * s.aa, bd = kappa * s.bd,
+                 bb = kappa * kappa * s.bb, ba = kappa * kappa * s.ba;
+    for (int k = 0; k < ch; ++k) {
+      zd[k] = s.yd[k] - bd, za[k] = kappa * s.ya[k] - ba;
+      out.rho[k] = s.dd > 0 ? std::clamp((zd[k] - f0 * ad) / s.dd / (1 - f0), 0.0, 1.0) : 0.0;
+      const double rp = out.rho[k] * (1 - f0);  // ρ'
+      // Σ (y − κ b − ρ' d − F0 κ a)², expanded into the sums.
+      out.err += yy[k] - 2 * kappa * s.yb[k] + bb - 2 * rp * zd[k] - 2 * f0 * za[k] +
+                 rp * rp * s.dd + 2 * rp * f0 * ad + f0 * f0 * aa;
+      if (residual) {
+        const float rpf = float(rp), fa = float(kappa * f0), fb = float(kappa),
+                    *yc = y.data() + size_t(k) * L.padded;
+        float* e = residual + size_t(k) * L.padded;
+        for (int j = 0; j < L.padded; ++j) e[j] = yc[j] - rpf * d[j] - fa * a[j] - fb * b[j];
+      }
+    }
+    out.err = std::max(out.err, 0.0);
+    return out;
+  }
+
+  // The roughness of least residual among `rs`.
+  Lobe BestOf(const Vec3f& n, const double* rs, int count) {
+    Lobe best = Solve(n, rs[0]);
+    for (int i = 1; i < count; ++i)
+      if (Lobe l = Solve(n, rs[i]); l.err < best.err) best = l;
+    return best;
+  }
+
+  // The roughness of least residual: a grid, then golden-section search around its best.
+  Lobe BestLobe(const Vec3f& n) {
+    constexpr double kGrid[] = {0.08, 0.15, 0.25, 0.35, 0.45, 0.6, 0.8, 1.0};
+    Lobe best = Solve(n, kGrid[0]);
+    int at = 0;
+    for (int i = 1; i < 8; ++i)
+      if (Lobe l = Solve(n, kGrid[i]); l.err < best.err) best = l, at = i;
+    if (best.f0 <= 0) return best;
+    double lo = kGrid[std::max(0, at - 1)], hi = kGrid[std::min(7, at + 1)];
+    const double phi = (std::sqrt(5.0) - 1) / 2;
+    double x1 = hi - phi * (hi - lo), x2 = lo + phi * (hi - lo);
+    Lobe l1 = Solve(n, x1), l2 = Solve(n, x2);
+    while (hi - lo > 0.02) {
+      if (l1.err < l2.err)
+        hi = x2, x2 = x1, l2 = l1, x1 = hi - phi * (hi - lo), l1 = Solve(n, x1);
+      else
+        lo = x1, x1 = x2, l1 = l2, x2 = lo + phi * (hi - lo), l2 = Solve(n, x2);
+    }
+    for (const Lobe& l : {l1, l2})
+      if (l.err < best.err) best = l;
+    return best;
+  }
+
+  // Gauss–Newton on the normal's slopes (n ∝ (sx, sy, 1)) at roughness r, (ρ, F0) re-solved at
+  // every step (variable projection), the Jacobian by forward differences; a step that does not
+  // lower the residual is halved (at most 4 times), and the search stops then.
+  Vec3f RefineNormal(Vec3f n, double r, Lobe* best, std::vector<float>* scratch) {
+    // Residuals K per channel at stride `padded` (padded lights and channels past ch: zero).
+    const size_t m = size_t(3) * L.padded;
+    scratch->assign(3 * m, 0.0f);
+    float *e0 = scratch->data(), *ex = e0 + m, *ey = ex + m;
+    double sx = n.x / n.z, sy = n.y / n.z;
+    auto at = [](double x, double yy) { return Normalize(Vec3f(float(x), float(yy), 1.0f)); };
+    constexpr double kDelta = 2e-3;
+    *best = Solve(at(sx, sy), r, e0);
+    for (int iter = 0; iter < 4; ++iter) {
+      (void)Solve(at(sx + kDelta, sy), r, ex);
+      (void)Solve(at(sx, sy + kDelta), r, ey);
+      double g[5];  // JᵀJ (xx, xy, yy) and Jᵀe (x, y), J by forward differences
+      GaussNewtonSums(e0, ex, ey, int(m), float(1 / kDelta), g);
+      const double det = g[0] * g[2] - g[1] * g[1];
+      if (!(det > 1e-18)) break;
+      double stx = -(g[2] * g[3] - g[1] * g[4]) / det, sty = -(g[0] * g[4] - g[1] * g[3]) / det;
+      bool improved = false;
+      for (int halve = 0; halve < 5 && !improved; ++halve) {
+        if (Lobe l = Solve(at(sx + stx, sy + sty), r, ex); l.err < best->err) {
+          *best = l, sx += stx, sy += sty, improved = true;
+          std::swap(e0, ex);
+        } else {
+          stx /= 2, sty /= 2;
+        }
+      }
+      if (!improved || std::abs(stx) + std::abs(sty) < 1e-4) break;
+    }
+    return at(sx, sy);
+  }
+
+  // Every step for one texel at roughness r0 (or searched when r0 ≤ 0): the Lambertian normal,
+  // the lobe, the normal of what the lobe leaves, the normal of least residual, the lobe again.
+  Lobe FitTexel(double r0, Vec3f* normal, std::vector<float>* scratch) {
+    Vec3f n = LambertNormal(nullptr);
+    const double near[] = {r0 / 1.25, r0, r0 * 1.25};
+    Lobe best = r0 > 0 ? BestOf(n, near, 3) : BestLobe(n);
+    if (best.f0 > 0) {
+      (void)Solve(n, best.r);  // a, b of that lobe
+      std::vector<double> lobe(size_t(L.K));
+      const double kappa = 1 + best.f0 * ms(best.r);
+      for (size_t k = 0; k < size_t(L.K); ++k) lobe[k] = kappa * (best.f0 * a[k] + b[k]);
+      const Vec3f n2 = LambertNormal(&lobe);
+      if (Lobe l = Solve(n2, best.r); l.err < best.err) best = l, n = n2;
+      n = RefineNormal(n, best.r, &best, scratch);
+      if (Lobe l = r0 > 0 ? BestOf(n, near, 3) : BestLobe(n); l.err < best.err) best = l;
+    }
+    *normal = n;
+    return best;
+  }
+};
+
+}  // namespace
+
+GltfBake BakeBasisAsGgx(const MaterialMaps& m) {
+  const std::vector<Vec3f> dirs = CapDirections();
+  const CapLights lights(dirs);
+  const int K = int(dirs.size()), ch = m.albedo.channels() == 3 ? 3 : 1;
+  const Mat3 inv = InverseScatter(dirs);
+  static const MsTable ms_table;
   const BatchEvaluator eval(m, dirs, Vec3f(0, 0, 1));
   const int64_t n = int64_t(m.width) * m.height;
   constexpr int kRun = 256;
+  struct Worker {
+    std::vector<float> pred;  // the model's prediction for a run: [k][c][t]
+    std::vector<float> scratch;
+    TexelFit fit;
+  };
+  auto make_worker = [&] {
+    return Worker{
+        std::vector<float>(size_t(K) * ch * kRun), {}, TexelFit(lights, inv, ms_table, ch)};
+  };
+  // Predicts the run p0 … p0 + len − 1 (when t = 0) and loads texel p0 + t into the fit.
+  auto load = [&](Worker& w, int64_t p0, int len, int t) {
+    if (t == 0)
+      for (int k = 0; k < K; ++k)
+        eval.Evaluate(k, p0, len, ch, w.pred.data() + size_t(k) * ch * len);
+    for (int c = 0; c < ch; ++c)
+      for (int k = 0; k < K; ++k) {  // a texel without an estimate (NaN) bakes to black
+        const float y = w.pred[(size_t(k) * ch + c) * len + t];
+        w.fit.y[size_t(c * lights.padded + k)] = std::isfinite(y) ? lights.sw[size_t(k)] * y : 0;
+      }
+    w.fit.SamplesSet();
+  };
+  // The material's roughness: the median of full searches on up to 1024 texels spread over the
+  // image (inside the mask), where a lobe is found. Texels then search only around it.
+  const auto in_mask = [&](int64_t p) { return m.mask.empty() || m.mask.Plane(0)[p] > 0.5f; };
+  std::vector<int64_t> sample;
+  const int64_t stride = std::max<int64_t>(1, n / 1024);
+  for (int64_t p = stride / 2; p < n; p += stride)
+    if (in_mask(p)) sample.push_back(p);
+  std::vector<double> sample_r(sample.size(), -1);
+  ParallelFor(0, int64_t(sample.size()), [&](int64_t i0, int64_t i1) {
+    Worker w = make_worker();
+    for (int64_t i = i0; i < i1; ++i) {
+      load(w, sample[size_t(i)], 1, 0);
+      Vec3f nn;
+      const TexelFit::Lobe l = w.fit.FitTexel(0, &nn, &w.scratch);
+      if (l.f0 > 0.005) sample_r[size_t(i)] = l.r;
+    }
+  });
+  std::vector<double> rs;
+  for (double r : sample_r)
+    if (r > 0) rs.push_back(r);
+  double r_material = 0.5;
+  if (!rs.empty()) {
+    std::nth_element(rs.begin(), rs.begin() + long(rs.size() / 2), rs.end());
+    r_material = rs[rs.size() / 2];
+  }
+  GltfBake out;
+  out.base = Image(m.width, m.height, 3);
+  out.normal = Image(m.width, m.height, 3);
+  out.f0 = Image(m.width, m.height, 1);
+  out.roughness = Image(m.width, m.height, 1);
   ParallelFor(0, (n + kRun - 1) / kRun, [&](int64_t r0, int64_t r1) {
-    std::vector<float> out(size_t(K) * ch * kRun);
+    Worker w = make_worker();
     for (int64_t r = r0; r < r1; ++r) {
       const int64_t p0 = r * kRun;
       const int len = int(std::min<int64_t>(kRun, n - p0));
-      for (int k = 0; k < K; ++k) eval.Evaluate(k, p0, len, ch, out.data() + size_t(k) * ch * len);
-      auto value = [&](int k, int c, int t) { return double(out[(size_t(k) * ch + c) * len + t]); };
       for (int t = 0; t < len; ++t) {
-        double b[3] = {0, 0, 0};
-        for (int k = 0; k < K; ++k) {
-          const double y =
-              ch == 3 ? 0.2126 * value(k, 0, t) + 0.7152 * value(k, 1, t) + 0.0722 * value(k, 2, t)
-                      : value(k, 0, t);
-          for (int i = 0; i < 3; ++i) b[i] += y * double((&dirs[size_t(k)].x)[i]);
-        }
-        Vec3 g{inv[0][0] * b[0] + inv[0][1] * b[1] + inv[0][2] * b[2],
-               inv[1][0] * b[0] + inv[1][1] * b[1] + inv[1][2] * b[2],
-               inv[2][0] * b[0] + inv[2][1] * b[1] + inv[2][2] * b[2]};
-        const double len_g = std::sqrt(g.x * g.x + g.y * g.y + g.z * g.z);
-        Vec3 nn = len_g > 1e-9 ? Vec3{g.x / len_g, g.y / len_g, g.z / len_g} : Vec3{0, 0, 1};
-        if (nn.z < 0) nn = {-nn.x, -nn.y, -nn.z};
         const int64_t p = p0 + t;
-        normal->Plane(0)[p] = float(nn.x), normal->Plane(1)[p] = float(nn.y),
-        normal->Plane(2)[p] = float(nn.z);
-        for (int c = 0; c < 3; ++c) {
-          double num = 0, den = 0;
-          for (int k = 0; k < K; ++k) {
-            const Vec3f& l = dirs[size_t(k)];
-            const double s = std::max(0.0, nn.x * l.x + nn.y * l.y + nn.z * l.z);
-            num += value(k, std::min(c, ch - 1), t) * s, den += s * s;
-          }
-          base->Plane(c)[p] = float(std::clamp(den > 0 ? num / den : 0.0, 0.0, 1.0));
-        }
+        load(w, p0, len, t);
+        Vec3f nn;
+        const TexelFit::Lobe best = w.fit.FitTexel(r_material, &nn, &w.scratch);
+        out.normal.Plane(0)[p] = nn.x, out.normal.Plane(1)[p] = nn.y, out.normal.Plane(2)[p] = nn.z;
+        for (int c = 0; c < 3; ++c) out.base.Plane(c)[p] = float(best.rho[std::min(c, ch - 1)]);
+        out.f0.Plane(0)[p] = float(best.f0);
+        out.roughness.Plane(0)[p] = float(best.r);
       }
     }
   });
+  return out;
+}
+
+double GgxAlbedoHeadOn(double roughness) {
+  // E = 2 ∫_0^{π/2} R_s(θ) sin θ dθ with θ = (π/2) u² (dense where sharp lobes are), midpoints.
+  constexpr int kSteps = 4096;
+  const Vec3f n(0, 0, 1);
+  double e = 0;
+  for (int i = 0; i < kSteps; ++i) {
+    const double u = (i + 0.5) / kSteps, t = std::numbers::pi / 2 * u * u;
+    const Vec3f l(float(std::sin(t)), 0, float(std::cos(t)));
+    e += shading::CookTorranceSpecular(1.0f, float(roughness), n, l, n) * std::sin(t) *
+         (std::numbers::pi * u / kSteps);
+  }
+  return 2 * e;
+}
+
+GltfF0 SplitF0ForGltf(const Image& f0) {
+  GltfF0 out;
+  if (f0.empty()) return out;
+  std::vector<float> sorted;
+  sorted.reserve(size_t(f0.plane_size()));
+  for (float x : f0.Plane(0))
+    if (std::isfinite(x)) sorted.push_back(std::max(0.0f, x));
+  if (sorted.empty()) return out;
+  const size_t k = std::min(sorted.size() - 1, sorted.size() * 99 / 100);
+  std::nth_element(sorted.begin(), sorted.begin() + long(k), sorted.end());
+  const double ref = std::min(double(sorted[k]), 0.81);
+  if (!(ref > 0)) return out;
+  const double r0 = std::sqrt(ref);
+  out.ior = (1 + r0) / (1 - r0);
+  out.share = Image(f0.width(), f0.height(), 1);
+  for (int64_t p = 0; p < f0.plane_size(); ++p) {
+    const float x = f0.Plane(0)[p];
+    out.share.Plane(0)[p] = std::isfinite(x) ? float(std::clamp(x / ref, 0.0, 1.0)) : 0.0f;
+  }
+  return out;
 }
 
 }  // namespace matfit

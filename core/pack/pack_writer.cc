@@ -260,16 +260,25 @@ Status WritePack(const MaterialMaps& m, const std::vector<uint8_t>& status, cons
     MATFIT_RETURN_IF_ERROR(put("gltf_backlit_color", "gltf_backlit_color.png", backlit, srgb8,
                                "glTF back-lit fallback base colour: rho_t, alpha = mask"));
   }
-  // Relighting bases in glTF terms: the least-squares Lambertian of the fit's own prediction.
-  const bool lambertian_bake = model.gltf_lambertian_bake();
-  if (lambertian_bake) {
-    Image& base = owned.emplace_back();
-    Image& normal = owned.emplace_back();
-    LambertianBake(m, &base, &normal);
-    MATFIT_RETURN_IF_ERROR(put("gltf_base_color", "gltf_base_color.png", base, srgb8,
-                               "glTF base colour: the fit's least-squares Lambertian albedo"));
-    MATFIT_RETURN_IF_ERROR(put("gltf_normal", "gltf_normal.png", keep(NormalColour(normal)), lin16,
-                               "glTF normal of that Lambertian, OpenGL +Y"));
+  // Relighting bases in glTF terms: the Lambert + GGX surface closest to the fit's own
+  // prediction (core/pack/gltf_bake.h).
+  const bool baked = model.gltf_baked();
+  GltfF0 baked_f0;
+  if (baked) {
+    GltfBake bake = BakeBasisAsGgx(m);
+    MATFIT_RETURN_IF_ERROR(put("gltf_base_color", "gltf_base_color.png", keep(bake.base), srgb8,
+                               "glTF base colour: the fitted Lambert + GGX surface's albedo"));
+    MATFIT_RETURN_IF_ERROR(put("gltf_normal", "gltf_normal.png", keep(NormalColour(bake.normal)),
+                               lin16, "glTF normal of that surface, OpenGL +Y"));
+    Image mr(m.width, m.height, 3);
+    for (int64_t p = 0; p < mr.plane_size(); ++p)
+      mr.Plane(0)[p] = 1.0f, mr.Plane(1)[p] = bake.roughness.Plane(0)[p];
+    MATFIT_RETURN_IF_ERROR(put("gltf_metallic_roughness", "gltf_metallic_roughness.png", keep(mr),
+                               lin8, "glTF: G = that surface's GGX roughness, B = metallic (0)"));
+    baked_f0 = SplitF0ForGltf(bake.f0);
+    if (baked_f0.ior > 0)
+      MATFIT_RETURN_IF_ERROR(put("gltf_specular", "gltf_specular.png", keep(baked_f0.share), srgb8,
+                                 "glTF specular colour: that surface's F0 over the IOR's"));
   }
   tasks.push_back(
       [&] { return WriteImage((root / "preview.png").string(), Preview(m, status), srgb8); });
@@ -337,13 +346,18 @@ Status WritePack(const MaterialMaps& m, const std::vector<uint8_t>& status, cons
   }
   if (has_normal) g.normal_uri = "maps/normal.png";
   g.specular_factor = 0.0;
-  if (lambertian_bake) {
+  if (baked) {
     g.base_color_uri = "maps/gltf_base_color.png", g.normal_uri = "maps/gltf_normal.png";
+    g.metallic_roughness_uri = "maps/gltf_metallic_roughness.png";
+    if (baked_f0.ior > 0) {
+      g.specular_factor = 1.0, g.ior = baked_f0.ior;
+      g.specular_color_uri = "maps/gltf_specular.png";
+    }
     g.approximations.push_back(
-        "a relighting basis has no glTF form: the glTF shows its least-squares Lambertian "
-        "(normal and albedo fitted to the model's own prediction for lights within 60 degrees "
-        "of the normal, core/pack/gltf_bake.h); highlights and shadows the basis holds are "
-        "averaged out");
+        "a relighting basis has no glTF form: the glTF shows the Lambert + GGX surface closest "
+        "to the model's own prediction (normal, albedo, F0 and roughness fitted per texel to "
+        "lights within 60 degrees of the view, core/pack/gltf_bake.h); what the basis holds "
+        "beyond one lobe (shadows, interreflection, ringing) is left out");
   }
   model.Gltf(m, status, info.model_parameters, &g);
   const double mm = info.mm_per_texel > 0 ? info.mm_per_texel : 0.5;  // unknown: 0.5 mm/texel

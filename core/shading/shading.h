@@ -103,6 +103,20 @@ inline T CookTorranceSpecular(const T& f0, const T& roughness, const Vec3T<T>& n
   return CookTorranceSpecularHalf(f0, roughness, n, l, v, Normalize(l + v));
 }
 
+// glTF 2.0's dielectric (metallic 0; its Appendix B fresnel_mix with F90 = 1) as real-time
+// viewers draw it: the Lambertian base takes what the Fresnel term leaves, and the lobe (the
+// Cook–Torrance lobe above) is scaled by the multiple-scattering compensation
+// ms = 1 + F0 (1/E − 1), E the lobe's directional albedo at F0 = 1 (Turquin 2019; three.js,
+// Filament and Blender's multiscatter GGX): R = (1 − F(v·h)) ρ max(0, n·l) + ms R_s(F0, r).
+// ms = 1 is the specification's single-scattering BRDF. The glTF stand-ins fit it.
+template <typename T, typename V>
+inline T GltfDielectricHalf(const T& rho, const T& f0, const T& roughness, const T& ms,
+                            const Vec3T<T>& n, const Vec3T<V>& l, const Vec3T<V>& v,
+                            const Vec3T<V>& h) {
+  return (T(1) - SchlickFresnel(f0, T(Dot(v, h)))) * Lambert(rho, n, l) +
+         ms * CookTorranceSpecularHalf(f0, roughness, n, l, v, h);
+}
+
 // Isotropic Lafortune lobe (METHODS.md §4) in the frame of the normal n, with C_z = 1 (the lobe
 // amplitude absorbs the overall scale): D = C_xy (l·v − (n·l)(n·v)) + (n·l)(n·v);
 // R_s = ρ_s · max(0, D)^e · max(0, n·l). C_xy = −1 is the classic mirror cosine lobe,

@@ -10,14 +10,21 @@
 
 #include <cmath>
 #include <filesystem>
+#include <fstream>
+#include <map>
 #include <nlohmann/json.hpp>
 #include <string>
 #include <thread>
 
 #include <unistd.h>
 
+#include "core/color.h"
+#include "core/image_io.h"
+#include "core/model/model.h"
+#include "core/pack/gltf_bake.h"
 #include "core/pack/pack.h"
 #include "core/pack/pack_reader.h"
+#include "core/shading/shading.h"
 #include "core/synth/materials.h"
 #include "core/synth/synth.h"
 #include "fit/method.h"
@@ -202,9 +209,9 @@ constexpr const char* kSkip =
 // Models whose glTF carries the fit exactly (lambert, cook-torrance), by a bake (heinrich's
 // ambient and unnormalised normal, a negative ambient as the least-squares Lambertian; the mean
 // as emission; a Blinn–Phong lobe, and a Lafortune lobe as Blinn–Phong exponent 4e, as the GGX
-// of the same peak), or by the least-squares Lambertian stand-in of a relighting basis, which is
-// exact for a matte sample when the basis can be Lambertian (hsh, rbf): within 6 sRGB levels at
-// three front lights.
+// of the same peak), or by the Lambert + GGX stand-in fitted to a relighting basis's prediction
+// (ptm on matte and glossy samples, rbf on glossy ones; hsh and rbf on matte ones, where it is
+// exact): within 6 sRGB levels at three front lights.
 TEST(GltfInThreeJs, FrontLitPacksLookAsInMatfit) {
   std::string chromium;
   if (!Ready(&chromium)) GTEST_SKIP() << kSkip;
@@ -213,7 +220,8 @@ TEST(GltfInThreeJs, FrontLitPacksLookAsInMatfit) {
   for (const Case& c : {Case{"plaster", "lambert"}, Case{"plaster", "heinrich"},
                         Case{"plastic-ct", "cook-torrance"}, Case{"plastic", "blinn-phong"},
                         Case{"plastic", "mean"}, Case{"plaster", "hsh3"}, Case{"plaster", "rbf"},
-                        Case{"plastic", "lafortune1"}, Case{"plastic", "heinrich"}}) {
+                        Case{"plastic", "lafortune1"}, Case{"plastic", "heinrich"},
+                        Case{"plaster", "ptm"}, Case{"plastic", "ptm"}, Case{"plastic", "rbf"}}) {
     PackContents pack;
     const std::string name = FitPack(c, size, &browser, &pack);
     ASSERT_FALSE(name.empty());
@@ -268,25 +276,153 @@ TEST(GltfInThreeJs, ALeafLitFromBehindIsNotBlack) {
   }
 }
 
-// Not matched yet (measured, docs/pack.md): the highlights a relighting basis holds on a glossy
-// sample, which its Lambertian stand-in averages out, and a PTM's quadratic, which is not
-// Lambertian even on a matte sample (its stand-in is; 6.1 levels at θ 0). Printed at θ 0° and 30°.
-TEST(GltfInThreeJs, SpecularFitsAreMeasured) {
+// 1 + F0 (1/E(r) − 1), E cached per roughness (a bake has a few roughness values, a pack's
+// 8-bit texture at most 256).
+float MultiScatter(float f0, float r) {
+  static std::map<float, double> e;
+  auto it = e.find(r);
+  if (it == e.end()) it = e.emplace(r, GgxAlbedoHeadOn(r)).first;
+  return float(1 + f0 * (1 / it->second - 1));
+}
+
+// The glTF of a pack as a viewer draws it (shading::GltfDielectricHalf from the pack's
+// glTF textures: base colour, normal, roughness, F0 = the IOR's F0 × the specular colour),
+// view straight down, in sRGB; one pixel per texel.
+Image DrawGltfTextures(const std::string& dir, int size, double theta, double phi) {
+  auto read = [&](const char* name, bool linear) {
+    ImageReadOptions o;
+    if (linear) o.color_space = ColorSpaceChoice::kLinear;
+    auto img = ReadImage(dir + "/maps/" + name, o);
+    EXPECT_TRUE(img.ok()) << name << ": " << img.status().ToString();
+    return img.ok() ? *img : Image();
+  };
+  const Image base = read("gltf_base_color.png", false), nrm = read("gltf_normal.png", true),
+              mr = read("gltf_metallic_roughness.png", true),
+              share = read("gltf_specular.png", false);
+  std::ifstream in(dir + "/material.gltf");
+  const auto gltf = nlohmann::json::parse(in, nullptr, false);
+  const double ior = gltf["materials"][0]["extensions"]["KHR_materials_ior"]["ior"].get<double>();
+  const double ior_f0 = shading::F0FromIor(ior);
+  RenderOptions o;
+  o.theta_deg = theta, o.phi_deg = phi;
+  const Vec3 ld = o.LightDirection();
+  const Vec3f l(float(ld.x), float(ld.y), float(ld.z)), v(0, 0, 1);
+  Image out(size, size, 3);
+  for (int64_t p = 0; p < out.plane_size(); ++p) {
+    const Vec3f n =
+        Normalize(Vec3f(2 * nrm.Plane(0)[p] - 1, 2 * nrm.Plane(1)[p] - 1, 2 * nrm.Plane(2)[p] - 1));
+    const float f0 = float(ior_f0 * share.Plane(0)[p]), r = mr.Plane(1)[p];
+    const float ms = MultiScatter(f0, r);
+    for (int c = 0; c < 3; ++c)
+      out.Plane(c)[p] = LinearToSrgb(std::clamp(
+          shading::GltfDielectricHalf(base.Plane(c)[p], f0, r, ms, n, l, v, Normalize(l + v)), 0.0f,
+          1.0f));
+  }
+  return out;
+}
+
+// hsh3 on a glossy sample: order-3 hemispherical harmonics fitted to a sharp highlight ring
+// (its prediction falls 3.4× from θ 0° to 50° and rises again past 65°), which no single GGX
+// lobe follows: its stand-in is the least-squares one, 7.4 / 4.2 / 7.3 levels from the basis
+// in matfit's own renderer (GltfBake.TheSurfaceDrawsAsTheBasisInMatfit; other light weightings
+// and caps trade θ 0° against θ 50°, never both within 6). Asserted here: three.js draws the
+// stand-in as shading::GltfDielectricHalf says (within 2 levels), and the basis within 8.
+TEST(GltfInThreeJs, AGlossyHsh3IsItsClosestSingleLobe) {
   std::string chromium;
   if (!Ready(&chromium)) GTEST_SKIP() << kSkip;
   Browser browser;
   const int size = 48;
-  for (const Case& c : {Case{"plaster", "ptm"}, Case{"plastic", "ptm"}, Case{"plastic", "hsh3"},
-                        Case{"plastic", "rbf"}}) {
-    PackContents pack;
-    const std::string name = FitPack(c, size, &browser, &pack);
-    ASSERT_FALSE(name.empty());
-    for (const double theta : {0.0, 30.0}) {
-      Compared d;
-      ASSERT_TRUE(Measure(chromium, &browser, name, pack, size, theta, 45, &d));
-      EXPECT_GT(d.mean_three, 20) << name << ": three.js drew (nearly) nothing";
+  PackContents pack;
+  const std::string name = FitPack(Case{"plastic", "hsh3"}, size, &browser, &pack);
+  ASSERT_FALSE(name.empty());
+  for (const auto& [theta, phi] : {std::pair{0.0, 0.0}, {30.0, 45.0}, {50.0, 200.0}}) {
+    std::string error;
+    const std::string px = browser.Render(chromium, name, size, theta, phi, &error);
+    ASSERT_EQ(px.size(), size_t(size) * size * 4) << error;
+    const Compared viewer = Compare(
+        px, DrawGltfTextures((browser.tmp / "packs" / name).string(), size, theta, phi), size);
+    EXPECT_LE(viewer.mad, 2.0) << "three.js vs the glTF formula at θ " << theta;
+    Compared d;
+    ASSERT_TRUE(Measure(chromium, &browser, name, pack, size, theta, phi, &d));
+    std::printf("  three.js vs the glTF formula: %.2f levels\n", viewer.mad);
+    EXPECT_LE(d.mad, 8.0) << name << " at θ " << theta << ", φ " << phi;
+  }
+}
+
+// The bake itself, without a browser: the glTF formula (shading::GltfDielectricHalf) on the
+// baked maps against matfit's render of the basis, at the three lights of the three.js tests.
+TEST(GltfBake, TheSurfaceDrawsAsTheBasisInMatfit) {
+  const int size = 48;
+  struct Bound {
+    Case c;
+    double levels;
+  };
+  for (const Bound& b : {Bound{{"plaster", "ptm"}, 6}, Bound{{"plastic", "ptm"}, 6},
+                         Bound{{"plastic", "rbf"}, 6}, Bound{{"plaster", "hsh3"}, 1},
+                         Bound{{"plaster", "rbf"}, 1}, Bound{{"plastic", "hsh3"}, 8}}) {
+    synth::SynthOptions so;
+    so.material = b.c.material, so.lights = "dome:60", so.size = size, so.layout = Layout::kLp;
+    auto data = synth::Synthesize(so);
+    ASSERT_TRUE(data.ok());
+    auto fit = fit::MakeMethod(b.c.model)->Fit(data->stack, {});
+    ASSERT_TRUE(fit.ok());
+    const GltfBake bake = BakeBasisAsGgx(fit->maps);
+    for (const auto& [theta, phi] : {std::pair{0.0, 0.0}, {30.0, 45.0}, {50.0, 200.0}}) {
+      RenderOptions o;
+      o.size = size, o.theta_deg = theta, o.phi_deg = phi;
+      auto ref = RenderCpu(fit->maps, o);
+      ASSERT_TRUE(ref.ok());
+      const Vec3 ld = o.LightDirection();
+      const Vec3f l(float(ld.x), float(ld.y), float(ld.z)), v(0, 0, 1);
+      double mad = 0;
+      for (int64_t p = 0; p < ref->plane_size(); ++p) {
+        const Vec3f n(bake.normal.Plane(0)[p], bake.normal.Plane(1)[p], bake.normal.Plane(2)[p]);
+        const float f0 = bake.f0.Plane(0)[p], r = bake.roughness.Plane(0)[p];
+        const float ms = MultiScatter(f0, r);
+        for (int c = 0; c < 3; ++c) {
+          const float y = shading::GltfDielectricHalf(bake.base.Plane(c)[p], f0, r, ms, n, l, v,
+                                                      Normalize(l + v));
+          mad += std::abs(std::round(255 * ref->Plane(c)[p]) -
+                          std::round(255 * LinearToSrgb(std::clamp(y, 0.0f, 1.0f))));
+        }
+      }
+      mad /= 3.0 * double(ref->plane_size());
+      std::printf("%s-%s θ %.0f φ %.0f: the glTF stand-in vs the basis in matfit %.2f levels\n",
+                  b.c.material, b.c.model, theta, phi, mad);
+      EXPECT_LE(mad, b.levels) << b.c.material << "-" << b.c.model << " at θ " << theta;
     }
   }
+}
+
+// A Lambertian prediction bakes to itself: no lobe, the same normal and albedo.
+// (The material roughness comes from a sample of texels; with no lobe anywhere it is unused.)
+TEST(GltfBake, ALambertianSurfaceBakesToItself) {
+  MaterialMaps m;
+  m.model = ModelId("lambert");
+  m.width = 16, m.height = 12;
+  m.albedo = Image(m.width, m.height, 3);
+  m.normal = Image(m.width, m.height, 3);
+  for (int64_t p = 0; p < m.albedo.plane_size(); ++p) {
+    const double t = 0.5 * double(p % 7) / 7, ph = 0.9 * double(p);  // tilts up to ~25°
+    const Vec3f n = Normalize(Vec3f(float(t * std::cos(ph)), float(t * std::sin(ph)), 1.0f));
+    m.normal.Plane(0)[p] = n.x, m.normal.Plane(1)[p] = n.y, m.normal.Plane(2)[p] = n.z;
+    for (int c = 0; c < 3; ++c) m.albedo.Plane(c)[p] = float(0.2 + 0.1 * c + 0.02 * double(p % 11));
+  }
+  const GltfBake bake = BakeBasisAsGgx(m);
+  for (int64_t p = 0; p < m.albedo.plane_size(); ++p) {
+    const Vec3f a(m.normal.Plane(0)[p], m.normal.Plane(1)[p], m.normal.Plane(2)[p]),
+        b(bake.normal.Plane(0)[p], bake.normal.Plane(1)[p], bake.normal.Plane(2)[p]);
+    EXPECT_GT(Dot(a, b), std::cos(0.05 * M_PI / 180)) << "texel " << p;
+    EXPECT_LE(bake.f0.Plane(0)[p], 1e-3f) << "texel " << p;
+    for (int c = 0; c < 3; ++c)
+      EXPECT_NEAR(bake.base.Plane(c)[p], m.albedo.Plane(c)[p], 2e-3) << "texel " << p;
+  }
+  // A texel without an estimate (NaN maps) bakes to finite values, and its neighbours as before.
+  m.albedo.Plane(1)[5] = std::nanf("");
+  const GltfBake holed = BakeBasisAsGgx(m);
+  for (const Image* img : {&holed.base, &holed.normal, &holed.f0, &holed.roughness})
+    for (float x : img->data()) EXPECT_TRUE(std::isfinite(x));
+  EXPECT_EQ(holed.base.Plane(0)[6], bake.base.Plane(0)[6]);
 }
 
 }  // namespace
