@@ -10,7 +10,7 @@ namespace matfit {
 // dependence no glTF material has: glTF's dielectric as viewers draw it
 // (shading::GltfDielectricHalf: Lambert under the Fresnel term + the GGX lobe with
 // multiple-scattering compensation), fitted to the model's own prediction y_c(l_k), view
-// straight down, over K = 119 directions on the cap θ ≤ 60° (rings every 10°, about 10° apart
+// straight down, over K = 85 directions on the cap θ ≤ 60° (rings every 12°, about 12° apart
 // on each ring), each weighted by its irradiance cos θ. Per texel:
 //  1. normal: the luminance's least-squares Lambertian, b = argmin Σ_k (Y(l_k) − b·l_k)²,
 //     n = b / |b| (flipped into z ≥ 0; (0,0,1) where |b| vanishes);
@@ -20,10 +20,10 @@ namespace matfit {
 //     fixed-point steps on κ, ρ ∈ [0, 1] in closed form; r the material's (the median of full
 //     searches — a grid of 8, then golden section to ±0.01 — on up to 1024 texels), then the
 //     best of r/1.25, r, 1.25 r per texel;
-//  3. the normal of the prediction less that lobe, then Gauss–Newton on the normal's slopes
-//     (ρ, F0 re-solved at each step), and step 2's choice of r again.
+//  3. the normal of the prediction less that lobe, then two Gauss–Newton steps on the normal's
+//     slopes (ρ, F0 re-solved at each step), and step 2's choice of r again.
 // Where no lobe helps, F0 comes out 0 and the surface is the Lambertian of step 1. Cost: about
-// 20 lobe evaluations of K lights per texel (vectorised over the lights).
+// 11 lobe evaluations of the K lights per texel (vectorised over the lights).
 struct GltfBake {
   Image base;       // ρ, 3 planes, linear
   Image normal;     // unit normal, 3 planes
