@@ -100,7 +100,7 @@ Image LobeF0(const MaterialMaps& m, const Image& peak, const Image& exponent) {
 
 Status PutGltfSpecular(const MaterialMaps& m, const Image& peak, const Image& exponent,
                        const PutPackMapFn& put) {
-  GltfF0 split = SplitF0ForGltf(LobeF0(m, peak, exponent));
+  GltfF0 split = SplitF0ForGltf(LobeF0(m, peak, exponent), m.mask);
   if (!(split.ior > 0)) return Status::Ok();
   return put({"gltf_specular", "gltf_specular.png", &split.share, MapEncoding::kSrgb8,
               "glTF specular colour: each texel's F0 = 8 peak / (e + 2) over the IOR's F0"});
@@ -108,7 +108,7 @@ Status PutGltfSpecular(const MaterialMaps& m, const Image& peak, const Image& ex
 
 void GltfSpecular(const MaterialMaps& m, const Image& peak, const Image& exponent, const char* lobe,
                   GltfMaterialDesc* g) {
-  const GltfF0 split = SplitF0ForGltf(LobeF0(m, peak, exponent));
+  const GltfF0 split = SplitF0ForGltf(LobeF0(m, peak, exponent), m.mask);
   if (!(split.ior > 0)) return;
   g->ior = split.ior;
   g->specular_color_uri = "maps/gltf_specular.png";

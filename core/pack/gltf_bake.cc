@@ -53,7 +53,7 @@ Mat3 InverseScatter(const std::vector<Vec3f>& dirs) {
   return inv;
 }
 
-// 1/E − 1 on r = 0, 1/64, …, 1 (linear in between).
+// 1/E − 1 on r = 0, 1/64, …, 1 (linear in between; r = 0 repeats r = 1/64).
 struct MsTable {
   static constexpr int kSteps = 64;
   double c[kSteps + 1];
@@ -115,19 +115,20 @@ MATFIT_CLONES_V3 void LobeRun(const CapLights& L, const float* y, float nx, floa
     const float lobe = scale * shading::GgxD(nhc, alpha) * shading::GgxG1(nlc, alpha);
     a[k] = sw[k] * lobe * (1 - w[k]), b[k] = sw[k] * lobe * w[k], d[k] = sw[k] * nlc * (1 - w[k]);
   }
-  // Lane-wise partial sums (no reassociation needed to vectorise), then added in double.
+  // Lane-wise partial sums in double (no reassociation needed to vectorise; float sums lose
+  // the residual of a sharp lobe, whose peak terms reach 1e4), then added across lanes.
   constexpr int kLanes = 8, kTerms = 15;
-  float acc[kTerms][kLanes] = {};
+  double acc[kTerms][kLanes] = {};
   const float *y0 = y, *y1 = y + np, *y2 = y + 2 * np;  // channels past ch are zero
   for (int k0 = 0; k0 < np; k0 += kLanes)
     for (int j = 0; j < kLanes; ++j) {
       const int k = k0 + j;
-      const float dk = d[k], ak = a[k], bk = b[k];
+      const double dk = d[k], ak = a[k], bk = b[k], y0k = y0[k], y1k = y1[k], y2k = y2[k];
       acc[0][j] += dk * dk, acc[1][j] += ak * dk, acc[2][j] += ak * ak;
       acc[3][j] += bk * dk, acc[4][j] += bk * ak, acc[5][j] += bk * bk;
-      acc[6][j] += y0[k] * dk, acc[9][j] += y0[k] * ak, acc[12][j] += y0[k] * bk;
-      acc[7][j] += y1[k] * dk, acc[10][j] += y1[k] * ak, acc[13][j] += y1[k] * bk;
-      acc[8][j] += y2[k] * dk, acc[11][j] += y2[k] * ak, acc[14][j] += y2[k] * bk;
+      acc[6][j] += y0k * dk, acc[9][j] += y0k * ak, acc[12][j] += y0k * bk;
+      acc[7][j] += y1k * dk, acc[10][j] += y1k * ak, acc[13][j] += y1k * bk;
+      acc[8][j] += y2k * dk, acc[11][j] += y2k * ak, acc[14][j] += y2k * bk;
     }
   double t[kTerms] = {};
   for (int i = 0; i < kTerms; ++i)
@@ -219,9 +220,9 @@ struct TexelFit {
     const double c = ms(r);
     Lobe out;
     out.r = r;
-    // Warm-started from the texel's last F0; stops when F0 moves less than 1e-4.
+    // Warm-started from the texel's last F0; stops when F0 moves less than 1e-6.
     double f0 = f0_guess, kappa = 1, zd[3], za[3];
-    for (int iter = 0; iter < 4; ++iter) {
+    for (int iter = 0; iter < 8; ++iter) {
       const double before = f0;
       kappa = 1 + f0 * c;
       const double ad = kappa * s.ad, aa = kappa * kappa * s.aa;
@@ -233,7 +234,7 @@ struct TexelFit {
         num += za[k] - proj * zd[k];
       }
       f0 = den > 1e-12 ? std::clamp(num / den, 0.0, 0.81) : 0.0;
-      if (c == 0 || std::abs(f0 - before) < 1e-4) break;
+      if (c == 0 || std::abs(f0 - before) < 1e-6) break;
     }
     out.f0 = f0_guess = f0;
     kappa = 1 + f0 * c;
@@ -297,6 +298,7 @@ struct TexelFit {
     const size_t m = size_t(3) * L.padded;
     scratch->assign(3 * m, 0.0f);
     float *e0 = scratch->data(), *ex = e0 + m, *ey = ex + m;
+    if (!(n.z > 0.05f)) return n;  // within 3° of the horizon: no slope to refine
     double sx = n.x / n.z, sy = n.y / n.z;
     auto at = [](double x, double yy) { return Normalize(Vec3f(float(x), float(yy), 1.0f)); };
     constexpr double kDelta = 2e-3;
@@ -337,8 +339,9 @@ struct TexelFit {
       if (Lobe l = Solve(n2, best.r); l.err < best.err) best = l, n = n2;
       n = RefineNormal(n, best.r, &best, scratch);
       if (r0 > 0) {
-        const double others[] = {r0 / 1.25, r0 * 1.25};
-        if (Lobe l = BestOf(n, others, 2); l.err < best.err) best = l;
+        // At most 1: the texture holds r in [0, 1].
+        const double others[] = {r0 / 1.25, std::min(1.0, r0 * 1.25)};
+        if (Lobe l = BestOf(n, others, r0 < 1 ? 2 : 1); l.err < best.err) best = l;
       } else if (Lobe l = BestLobe(n); l.err < best.err) {
         best = l;
       }
@@ -369,14 +372,17 @@ GltfBake BakeBasisAsGgx(const MaterialMaps& m) {
         std::vector<float>(size_t(K) * ch * kRun), {}, TexelFit(lights, inv, ms_table, ch)};
   };
   // Predicts the run p0 … p0 + len − 1 (when t = 0) and loads texel p0 + t into the fit.
-  auto load = [&](Worker& w, int64_t p0, int len, int t) {
-    if (t == 0)
-      for (int k = 0; k < K; ++k)
-        eval.Evaluate(k, p0, len, ch, w.pred.data() + size_t(k) * ch * len);
+  auto predict = [&](Worker& w, int64_t p0, int len) {
+    for (int k = 0; k < K; ++k) eval.Evaluate(k, p0, len, ch, w.pred.data() + size_t(k) * ch * len);
+  };
+  // Loads texel t of the run predicted last. A texel without an estimate (NaN) bakes to black;
+  // values past ±1e3 (a hostile pack) are cut there, so that no sum overflows.
+  auto load = [&](Worker& w, int len, int t) {
     for (int c = 0; c < ch; ++c)
-      for (int k = 0; k < K; ++k) {  // a texel without an estimate (NaN) bakes to black
+      for (int k = 0; k < K; ++k) {
         const float y = w.pred[(size_t(k) * ch + c) * len + t];
-        w.fit.y[size_t(c * lights.padded + k)] = std::isfinite(y) ? lights.sw[size_t(k)] * y : 0;
+        w.fit.y[size_t(c * lights.padded + k)] =
+            std::isfinite(y) ? lights.sw[size_t(k)] * std::clamp(y, -1e3f, 1e3f) : 0.0f;
       }
     w.fit.SamplesSet();
   };
@@ -384,14 +390,15 @@ GltfBake BakeBasisAsGgx(const MaterialMaps& m) {
   // image (inside the mask), where a lobe is found. Texels then search only around it.
   const auto in_mask = [&](int64_t p) { return m.mask.empty() || m.mask.Plane(0)[p] > 0.5f; };
   std::vector<int64_t> sample;
-  const int64_t stride = std::max<int64_t>(1, n / 1024);
+  const int64_t stride = std::max<int64_t>(1, (n + 1023) / 1024);
   for (int64_t p = stride / 2; p < n; p += stride)
     if (in_mask(p)) sample.push_back(p);
   std::vector<double> sample_r(sample.size(), -1);
   ParallelFor(0, int64_t(sample.size()), [&](int64_t i0, int64_t i1) {
     Worker w = make_worker();
     for (int64_t i = i0; i < i1; ++i) {
-      load(w, sample[size_t(i)], 1, 0);
+      predict(w, sample[size_t(i)], 1);
+      load(w, 1, 0);
       Vec3f nn;
       const TexelFit::Lobe l = w.fit.FitTexel(0, &nn, &w.scratch);
       if (l.f0 > 0.005) sample_r[size_t(i)] = l.r;
@@ -415,9 +422,14 @@ GltfBake BakeBasisAsGgx(const MaterialMaps& m) {
     for (int64_t r = r0; r < r1; ++r) {
       const int64_t p0 = r * kRun;
       const int len = int(std::min<int64_t>(kRun, n - p0));
+      predict(w, p0, len);
       for (int t = 0; t < len; ++t) {
         const int64_t p = p0 + t;
-        load(w, p0, len, t);
+        if (!in_mask(p)) {  // outside the sample: black, facing up, no lobe
+          out.normal.Plane(2)[p] = 1, out.roughness.Plane(0)[p] = 1;
+          continue;
+        }
+        load(w, len, t);
         Vec3f nn;
         const TexelFit::Lobe best = w.fit.FitTexel(r_material, &nn, &w.scratch);
         out.normal.Plane(0)[p] = nn.x, out.normal.Plane(1)[p] = nn.y, out.normal.Plane(2)[p] = nn.z;
@@ -431,6 +443,7 @@ GltfBake BakeBasisAsGgx(const MaterialMaps& m) {
 }
 
 double GgxAlbedoHeadOn(double roughness) {
+  roughness = std::clamp(roughness, 1.0 / 64, 1.0);  // sharper lobes: below float n·h resolution
   // E = 2 ∫_0^{π/2} R_s(θ) sin θ dθ with θ = (π/2) u² (dense where sharp lobes are), midpoints.
   constexpr int kSteps = 4096;
   const Vec3f n(0, 0, 1);
@@ -444,13 +457,15 @@ double GgxAlbedoHeadOn(double roughness) {
   return 2 * e;
 }
 
-GltfF0 SplitF0ForGltf(const Image& f0) {
+GltfF0 SplitF0ForGltf(const Image& f0, const Image& mask) {
   GltfF0 out;
   if (f0.empty()) return out;
   std::vector<float> sorted;
   sorted.reserve(size_t(f0.plane_size()));
-  for (float x : f0.Plane(0))
-    if (std::isfinite(x)) sorted.push_back(std::max(0.0f, x));
+  const bool masked = mask.plane_size() == f0.plane_size();
+  for (int64_t p = 0; p < f0.plane_size(); ++p)
+    if (const float x = f0.Plane(0)[p]; std::isfinite(x) && (!masked || mask.Plane(0)[p] > 0.5f))
+      sorted.push_back(std::max(0.0f, x));
   if (sorted.empty()) return out;
   const size_t k = std::min(sorted.size() - 1, sorted.size() * 99 / 100);
   std::nth_element(sorted.begin(), sorted.begin() + long(k), sorted.end());

@@ -22,7 +22,8 @@ namespace matfit {
 //     best of r/1.25, r, 1.25 r per texel;
 //  3. the normal of the prediction less that lobe, then two Gauss–Newton steps on the normal's
 //     slopes (ρ, F0 re-solved at each step), and step 2's choice of r again.
-// Where no lobe helps, F0 comes out 0 and the surface is the Lambertian of step 1. Cost: about
+// Where no lobe helps, F0 comes out 0 and the surface is the Lambertian of step 1. Texels
+// outside the mask are not fitted (black, facing up, F0 0). Cost: about
 // 11 lobe evaluations of the K lights per texel (vectorised over the lights).
 struct GltfBake {
   Image base;       // ρ, 3 planes, linear
@@ -33,17 +34,18 @@ struct GltfBake {
 GltfBake BakeBasisAsGgx(const MaterialMaps& m);
 
 // E(r): the directional albedo of the Cook–Torrance lobe at F0 = 1 seen along the normal,
-// (1/π) ∫ R_s dω by quadrature; the multiple-scattering compensation of
+// (1/π) ∫ R_s dω by quadrature, r clamped to [1/64, 1]; the multiple-scattering compensation of
 // shading::GltfDielectricHalf is 1 + F0 (1/E − 1).
 double GgxAlbedoHeadOn(double roughness);
 
 // A per-texel F0 map in glTF terms: KHR_materials_ior carries the material's F0 (the 99th
-// percentile over texels, at most 0.81: η = (1 + √F0) / (1 − √F0)) and the sRGB
-// specularColorTexture each texel's share of it in [0, 1]. ior 0 when nothing reflects.
+// percentile over the texels inside `mask` — every texel when the mask is empty or of another
+// size — at most 0.81: η = (1 + √F0) / (1 − √F0)) and the sRGB specularColorTexture each
+// texel's share of it in [0, 1]. ior 0 when nothing reflects.
 struct GltfF0 {
   double ior = 0;
   Image share;  // 1 plane
 };
-GltfF0 SplitF0ForGltf(const Image& f0);
+GltfF0 SplitF0ForGltf(const Image& f0, const Image& mask = {});
 
 }  // namespace matfit

@@ -7,6 +7,7 @@
 #include <map>
 #include <nlohmann/json.hpp>
 #include <optional>
+#include <tuple>
 
 #include "core/image_io.h"
 #include "core/model/model.h"
@@ -53,7 +54,7 @@ StatusOr<PackContents> ReadPack(const std::string& dir) {
   std::map<std::string, std::string> files;
   for (const auto& e : j["maps"]) {
     const std::optional<std::string> name = StringField(e, "name"), file = StringField(e, "file");
-    if (!name || !file)
+    if (!e.is_object() || !name || !file)
       return DataError("'" + mj + "': every entry of 'maps' needs a string 'name' and 'file'");
     if (name->empty() || file->empty()) continue;
     const fs::path f(*file);
@@ -70,6 +71,7 @@ StatusOr<PackContents> ReadPack(const std::string& dir) {
     if (it == files.end()) return Status::Ok();
     ImageReadOptions o;
     if (as_stored) o = linear;  // data maps; colour maps go through the file's sRGB tag
+    o.confine_to = dir;         // a symlink out of the pack is refused, never opened
     auto img = ReadImage((fs::path(dir) / it->second).string(), o);
     if (!img.ok()) return img.status();
     *out = std::move(*img);
@@ -97,6 +99,24 @@ StatusOr<PackContents> ReadPack(const std::string& dir) {
   MATFIT_RETURN_IF_ERROR(load("hl2", &m.hl2));
   m.width = m.albedo.width();
   m.height = m.albedo.height();
+  // The texel maps every reader indexes by the albedo's texels: the same size, enough channels.
+  auto sized = [&](const char* name, const Image& img, int channels) -> Status {
+    if (img.empty() ||
+        (img.width() == m.width && img.height() == m.height && img.channels() >= channels))
+      return Status::Ok();
+    return DataError("'" + mj + "': map '" + name + "' is " + std::to_string(img.width()) + " x " +
+                     std::to_string(img.height()) + " with " + std::to_string(img.channels()) +
+                     " channel(s); it must be the albedo's size (" + std::to_string(m.width) +
+                     " x " + std::to_string(m.height) + ") with at least " +
+                     std::to_string(channels));
+  };
+  for (const auto& [name, img, channels] : {std::tuple{"normal", &m.normal, 3},
+                                            {"mask", &m.mask, 1},
+                                            {"thickness", &m.thickness, 1},
+                                            {"translucency", &m.translucency, 1},
+                                            {"albedo_back", &m.albedo_back, 1},
+                                            {"hl2", &m.hl2, 1}})
+    MATFIT_RETURN_IF_ERROR(sized(name, *img, channels));
   std::map<std::string, double> params;
   const json jp = jm.contains("parameters") ? jm["parameters"] : json::object();
   if (jp.is_object())
@@ -108,6 +128,7 @@ StatusOr<PackContents> ReadPack(const std::string& dir) {
     return Status(st.code(), "'" + mj + "': " + st.message());
   Image status;
   MATFIT_RETURN_IF_ERROR(load("status", &status));
+  MATFIT_RETURN_IF_ERROR(sized("status", status, 1));
   pc.status.assign(size_t(m.width) * m.height, 0);
   if (!status.empty())
     for (size_t p = 0; p < pc.status.size(); ++p)

@@ -275,7 +275,7 @@ Status WritePack(const MaterialMaps& m, const std::vector<uint8_t>& status, cons
       mr.Plane(0)[p] = 1.0f, mr.Plane(1)[p] = bake.roughness.Plane(0)[p];
     MATFIT_RETURN_IF_ERROR(put("gltf_metallic_roughness", "gltf_metallic_roughness.png", keep(mr),
                                lin8, "glTF: G = that surface's GGX roughness, B = metallic (0)"));
-    baked_f0 = SplitF0ForGltf(bake.f0);
+    baked_f0 = SplitF0ForGltf(bake.f0, m.mask);
     if (baked_f0.ior > 0)
       MATFIT_RETURN_IF_ERROR(put("gltf_specular", "gltf_specular.png", keep(baked_f0.share), srgb8,
                                  "glTF specular colour: that surface's F0 over the IOR's"));

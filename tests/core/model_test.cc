@@ -3,6 +3,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <filesystem>
 #include <fstream>
 #include <iterator>
 #include <set>
@@ -304,6 +305,37 @@ TEST(ModelPack, ReaderRefusesMistypedFieldsAndMapsOutsideThePack) {
     EXPECT_NE(back.status().message().find(want), std::string::npos) << back.status().message();
     EXPECT_NE(back.status().message().find("material.json"), std::string::npos);
   }
+}
+
+// A map of another size than the albedo (status, normal, mask…) is refused by name, never read
+// past its end; a map reached through a link out of the pack is refused, never opened.
+TEST(ModelPack, ReaderRefusesMapsOfAnotherSizeAndLinksOutOfThePack) {
+  testing::TempDir dir;
+  const MaterialMaps m = RandomModelMaps(ModelId("lambert"), 6, 5, 1);
+  const std::string out = dir / "lambert";
+  ASSERT_TRUE(WritePack(m, std::vector<uint8_t>(30, 0), {}, {}, out).ok());
+  namespace fs = std::filesystem;
+  ImageWriteOptions png, exr;
+  png.format = PixelFormat::kUint8, exr.format = PixelFormat::kFloat;
+  for (const char* file : {"status.png", "mask.png", "normal.exr"}) {
+    const bool is_exr = std::string(file).ends_with(".exr");
+    ASSERT_TRUE(WriteImage(out + "/maps/" + file, Image(3, 2, 1, 0.0f), is_exr ? exr : png).ok());
+    auto back = ReadPack(out);
+    ASSERT_FALSE(back.ok()) << file;
+    EXPECT_NE(back.status().message().find("must be the albedo's size (6 x 5)"), std::string::npos)
+        << back.status().message();
+    ASSERT_TRUE(WritePack(m, std::vector<uint8_t>(30, 0), {}, {}, out + ".again").ok());
+    fs::remove_all(out);
+    fs::rename(out + ".again", out);
+  }
+  ASSERT_TRUE(ReadPack(out).ok());
+  const std::string outside = dir / "outside.png";
+  fs::copy_file(out + "/maps/mask.png", outside);
+  fs::remove(out + "/maps/mask.png");
+  fs::create_symlink(outside, out + "/maps/mask.png");
+  auto back = ReadPack(out);
+  ASSERT_FALSE(back.ok());
+  EXPECT_NE(back.status().message().find("outside"), std::string::npos) << back.status().message();
 }
 
 // Every model's shader planes pack; a missing parameter map is named in the error.

@@ -301,7 +301,18 @@ Image DrawGltfTextures(const std::string& dir, int size, double theta, double ph
               share = read("gltf_specular.png", false);
   std::ifstream in(dir + "/material.gltf");
   const auto gltf = nlohmann::json::parse(in, nullptr, false);
-  const double ior = gltf["materials"][0]["extensions"]["KHR_materials_ior"]["ior"].get<double>();
+  double ior = 1.5;
+  const auto& mats =
+      gltf.is_object() && gltf.contains("materials") ? gltf["materials"] : nlohmann::json();
+  const auto& ext =
+      mats.is_array() && !mats.empty() && mats[0].is_object() && mats[0].contains("extensions")
+          ? mats[0]["extensions"]
+          : nlohmann::json();
+  if (ext.is_object() && ext.contains("KHR_materials_ior") &&
+      ext["KHR_materials_ior"].contains("ior") && ext["KHR_materials_ior"]["ior"].is_number())
+    ior = ext["KHR_materials_ior"]["ior"].get<double>();
+  else
+    ADD_FAILURE() << dir << ": the stand-in's glTF has no KHR_materials_ior";
   const double ior_f0 = shading::F0FromIor(ior);
   RenderOptions o;
   o.theta_deg = theta, o.phi_deg = phi;
