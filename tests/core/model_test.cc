@@ -207,6 +207,16 @@ TEST(ModelPack, PreviewDrawsFlaggedTexelsAndMarksTexelsWithoutEstimate) {
   }
 }
 
+// Writes `text` as the pack's material.json and expects ReadPack to refuse it, naming the file
+// and saying `want`.
+void ExpectPackRefused(const std::string& pack, const std::string& text, const std::string& want) {
+  testing::WriteText(pack + "/material.json", text);
+  auto back = ReadPack(pack);
+  ASSERT_FALSE(back.ok()) << text;
+  EXPECT_NE(back.status().message().find(want), std::string::npos) << back.status().message();
+  EXPECT_NE(back.status().message().find("material.json"), std::string::npos);
+}
+
 // A pack whose basis_terms or coefficient planes do not fit its model is refused with the field
 // and the allowed values, never evaluated.
 TEST(ModelPack, ReaderRefusesInconsistentBasisTerms) {
@@ -226,11 +236,7 @@ TEST(ModelPack, ReaderRefusesInconsistentBasisTerms) {
                                                         {"1e10", "a whole number from 1 to 16"}}) {
     std::string text = good;
     text.replace(text.find("\"basis_terms\": 9"), 17, "\"basis_terms\": " + terms);
-    testing::WriteText(mj, text);
-    auto back = ReadPack(out);
-    ASSERT_FALSE(back.ok()) << terms;
-    EXPECT_NE(back.status().message().find(want), std::string::npos) << back.status().message();
-    EXPECT_NE(back.status().message().find("material.json"), std::string::npos);
+    ExpectPackRefused(out, text, want);
   }
 }
 
@@ -280,7 +286,6 @@ TEST(ModelPack, ReaderRefusesMistypedFieldsAndMapsOutsideThePack) {
   const std::string out = dir / "lambert";
   ASSERT_TRUE(WritePack(m, std::vector<uint8_t>(30, 0), {}, {}, out).ok());
   ASSERT_TRUE(ReadPack(out).ok());
-  const std::string mj = out + "/material.json";
   const std::string maps = R"("maps": [{"name": "albedo", "file": "maps/albedo.png"}])";
   for (const auto& [text, want] : std::vector<std::pair<std::string, std::string>>{
            {R"({"schema": 1, "model": {"name": "lambert"}, )" + maps + "}", "field 'schema'"},
@@ -299,11 +304,7 @@ TEST(ModelPack, ReaderRefusesMistypedFieldsAndMapsOutsideThePack) {
            {R"({"schema": "matfit.material/1", "model": {"name": "lambert"},
                 "maps": [{"name": "albedo", "file": "/etc/passwd"}]})",
             "points outside the pack"}}) {
-    testing::WriteText(mj, text);
-    auto back = ReadPack(out);
-    ASSERT_FALSE(back.ok()) << text;
-    EXPECT_NE(back.status().message().find(want), std::string::npos) << back.status().message();
-    EXPECT_NE(back.status().message().find("material.json"), std::string::npos);
+    ExpectPackRefused(out, text, want);
   }
 }
 
