@@ -334,7 +334,7 @@ Image DrawGltfTextures(const std::string& dir, int size, double theta, double ph
 
 // hsh3 on a glossy sample: order-3 hemispherical harmonics fitted to a sharp highlight ring
 // (its prediction falls 3.4× from θ 0° to 50° and rises again past 65°), which no single GGX
-// lobe follows: its stand-in is the least-squares one, 7.4 / 4.2 / 7.3 levels from the basis
+// lobe follows: its stand-in is the least-squares one, 7.2 / 4.3 / 7.3 levels from the basis
 // in matfit's own renderer (GltfBake.TheSurfaceDrawsAsTheBasisInMatfit; other light weightings
 // and caps trade θ 0° against θ 50°, never both within 6). Asserted here: three.js draws the
 // stand-in as shading::GltfDielectricHalf says (within 2 levels), and the basis within 8.
