@@ -169,6 +169,7 @@ struct TexelFit {
   double f0_guess = 0;  // the last Solve's F0 (the multiple-scattering fixed point starts there)
   // Scratch per light: the diffuse shape, the lobe's F0 part and rest of the last Solve.
   std::vector<float> d, a, b;
+  std::vector<double> lobe;  // the fitted lobe per light (FitTexel's scratch)
 
   TexelFit(const CapLights& lights, const Mat3& inverse, const MsTable& table, int channels)
       : L(lights), inv(inverse), ms(table), ch(channels) {
@@ -332,7 +333,7 @@ struct TexelFit {
     Lobe best = r0 > 0 ? Solve(n, r0) : BestLobe(n);
     if (best.f0 > 0) {
       if (r0 <= 0) (void)Solve(n, best.r);  // a, b of that lobe
-      std::vector<double> lobe(size_t(L.K));
+      lobe.resize(size_t(L.K));
       const double kappa = 1 + best.f0 * ms(best.r);
       for (size_t k = 0; k < size_t(L.K); ++k) lobe[k] = kappa * (best.f0 * a[k] + b[k]);
       const Vec3f n2 = LambertNormal(&lobe);

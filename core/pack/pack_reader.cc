@@ -73,7 +73,10 @@ StatusOr<PackContents> ReadPack(const std::string& dir) {
     if (as_stored) o = linear;  // data maps; colour maps go through the file's sRGB tag
     o.confine_to = dir;         // a symlink out of the pack is refused, never opened
     auto img = ReadImage((fs::path(dir) / it->second).string(), o);
-    if (!img.ok()) return img.status();
+    if (!img.ok())  // say which entry of material.json named the file
+      return Status(img.status().code(),
+                    "'" + mj + "': map '" + name + "': " + img.status().message() +
+                        " (the pack's maps must be files inside the pack folder)");
     *out = std::move(*img);
     return Status::Ok();
   };
