@@ -25,7 +25,9 @@ struct FitArgs {
 
 void PrintModels() {
   std::printf("%-10s %6s %6s  %s\n", "model", "params", "bytes", "description (per texel)");
-  for (const auto& name : fit::MethodNames()) {
+  std::vector<std::string> names = fit::MethodNames();
+  for (const auto& name : fit::MultiViewMethodNames()) names.push_back(name);
+  for (const auto& name : names) {
     const auto m = fit::MakeMethod(name);
     std::printf("%-10s %6d %6d  %s\n", name.c_str(), m->parameters_per_texel(),
                 m->bytes_per_texel(), m->description().c_str());
@@ -172,7 +174,9 @@ void RegisterFit(CLI::App& app, int* exit_code) {
                   "k-fold held-out-light error: K folds, loo (leave-one-out) or 0 (off)")
       ->transform(CLI::Transformer(std::map<std::string, int>{{"loo", fit::kLeaveOneOut}}))
       ->capture_default_str();
-  sub->add_option("--view", args->view, "BTF view THETA,PHI in degrees (default: most frontal)");
+  sub->add_option("--view", args->view,
+                  "BTF view THETA,PHI in degrees (default: most frontal), or all (every view × "
+                  "light: --model svbrdf)");
   sub->add_option("--crop", args->crop, kCropHelp);
   sub->add_option("--layout", args->layout, "auto, bonn, utia, lp, diligent, lights-txt")
       ->capture_default_str();

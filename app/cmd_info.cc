@@ -58,7 +58,8 @@ void RegisterInfo(CLI::App& app, int* exit_code) {
   sub->add_option("DIR", args->path, "dataset folder (or .lp file)")->required();
   sub->add_option("--layout", args->layout, "auto, bonn, utia, lp, diligent, lights-txt")
       ->capture_default_str();
-  sub->add_option("--view", args->view, "BTF view THETA,PHI in degrees (default: most frontal)");
+  sub->add_option("--view", args->view,
+                  "BTF view THETA,PHI in degrees (default: most frontal), or all");
   sub->add_option("--crop", args->crop, kCropHelp);
   sub->add_option("--color-space", args->color_space, "auto, srgb or linear")
       ->capture_default_str();

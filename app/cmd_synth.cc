@@ -128,6 +128,9 @@ void RegisterSynth(CLI::App& app, int* exit_code) {
       ->capture_default_str();
   sub->add_option("--lights", o.lights, "bonn81, ring12, ring:N[:THETA], dome:N, random:N")
       ->capture_default_str();
+  sub->add_option("--views", o.views,
+                  "a multi-view BTF (layouts bonn, utia): the camera directions as a light set "
+                  "(bonn81, dome:N, …); every view × light rendered rectified, with parallax");
   sub->add_option("--size", args->size, "texels per side N, or WIDTHxHEIGHT (e.g. 512x344)")
       ->capture_default_str();
   sub->add_option("--noise", o.perturb.gaussian_sigma, "Gaussian noise σ, fraction of full scale")

@@ -44,11 +44,13 @@ int ApplyReadArgs(const char* command, const std::string& layout, const std::str
     return Fail(command, ("--layout '" + layout +
                           "' is not one of auto, bonn, utia, lp, diligent, lights-txt")
                              .c_str());
-  if (!view.empty()) {
+  if (view == "all") {
+    read->all_views = true;
+  } else if (!view.empty()) {
     ViewAngles v;
     if (!ParseViewArg(view.c_str(), &v.theta_deg, &v.phi_deg))
       return Fail(command,
-                  ("--view '" + view + "' must be THETA,PHI in degrees, e.g. 0,0").c_str());
+                  ("--view '" + view + "' must be THETA,PHI in degrees (e.g. 0,0) or all").c_str());
     read->view = v;
   }
   if (!ParseColorSpaceChoice(color_space, &read->color_space))

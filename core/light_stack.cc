@@ -143,6 +143,32 @@ LightSample LightFromDirection(const Vec3& d) {
   return s;
 }
 
+bool LightStack::is_multi_view() const {
+  for (int i = 1; i < num_images_; ++i)
+    if (Length(ViewOf(i) - ViewOf(0)) > 1e-9) return true;
+  return false;
+}
+
+std::vector<std::vector<int>> ViewGroups(const LightStack& s) {
+  std::vector<std::vector<int>> groups;
+  std::vector<Vec3> views;
+  for (int i = 0; i < s.num_images(); ++i) {
+    const Vec3 v = s.ViewOf(i);
+    size_t g = 0;
+    while (g < views.size() && Length(views[g] - v) > 1e-9) ++g;
+    if (g == views.size()) views.push_back(v), groups.emplace_back();
+    groups[g].push_back(i);
+  }
+  return groups;
+}
+
+int MostFrontalView(const LightStack& s, const std::vector<std::vector<int>>& groups) {
+  int best = 0;
+  for (size_t g = 1; g < groups.size(); ++g)
+    if (s.ViewOf(groups[g][0]).z > s.ViewOf(groups[size_t(best)][0]).z) best = int(g);
+  return best;
+}
+
 LightStack SelectImages(const LightStack& s, const std::vector<int>& idx) {
   LightStack out(s.width(), s.height(), s.channels(), int(idx.size()), s.sample_type(), s.lut());
   auto pick = [&](const auto& v, auto& dst) {

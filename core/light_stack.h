@@ -44,6 +44,12 @@ struct LightSample {
   // at any texel (direction to the light, intensity falling off as 1/r²).
   bool has_position = false;
   Vec3 position{0, 0, 0};
+  // Multi-view stacks (every view of a BTF, docs/formats.md): this image's camera direction
+  // (unit, toward the camera, tangent frame) and its angles. has_view false: the stack's
+  // view_direction, as in every single-view stack.
+  bool has_view = false;
+  Vec3 view{0, 0, 1};
+  double view_theta_deg = 0, view_phi_deg = 0;
 };
 
 // Where the stack's texels lie in the frame of the lights' positions (docs/formats.md,
@@ -162,9 +168,19 @@ class LightStack {
   std::vector<LightSample>& lights() { return lights_; }
   const std::vector<LightSample>& lights() const { return lights_; }
 
-  // View direction (unit, tangent frame); frontal (0,0,1) for rectified BTF views.
+  // View direction (unit, tangent frame); frontal (0,0,1) for rectified BTF views. In a
+  // multi-view stack the images carry their own (LightSample::view) and this is the reference
+  // (most frontal) view.
   Vec3 view_direction{0, 0, 1};
   double view_theta_deg = 0, view_phi_deg = 0;
+  // Image i's view: lights()[i].view when it has one, else view_direction.
+  Vec3 ViewOf(int image) const {
+    const LightSample& l = lights_[size_t(image)];
+    return l.has_view ? l.view : view_direction;
+  }
+  // Whether the images were taken from more than one view (some image carries its own view
+  // that differs from another's).
+  bool is_multi_view() const;
   // Optional validity mask (1 = sample texel), plane_size() bytes; empty = every texel valid.
   std::vector<uint8_t> mask;
   // Physical size of one texel in millimetres; 0 = unknown.
@@ -229,5 +245,11 @@ class LightStack {
 // A stack holding only images `indices` of `stack` (in that order), with their lights and
 // provenance; sample type and table, mask, view and physical size are kept.
 LightStack SelectImages(const LightStack& stack, const std::vector<int>& indices);
+
+// The images of each distinct view (ViewOf equal within 1e-9), views in order of first
+// appearance, images in stack order. One group for a single-view stack.
+std::vector<std::vector<int>> ViewGroups(const LightStack& stack);
+// The group of ViewGroups whose view is the most frontal (largest z; the first on ties).
+int MostFrontalView(const LightStack& stack, const std::vector<std::vector<int>>& groups);
 
 }  // namespace matfit

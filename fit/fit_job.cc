@@ -205,6 +205,7 @@ bool FitJobOptions::Check(std::string* why) const {
   } else if (!MakeMethod(model)) {
     std::string list;
     for (const auto& n : MethodNames()) list += (list.empty() ? "" : ", ") + n;
+    for (const auto& n : MultiViewMethodNames()) list += ", " + n + " (every view of a BTF)";
     return fail("--model '" + model + "' is not a method; choose one of: " + list + " (or auto)");
   }
   if (comm && comm->size() > 1) {

@@ -133,6 +133,7 @@ struct TexelProblem {
   const double* obs = nullptr;   // [i * channels + c], intensity-normalised
   const char* use = nullptr;     // per sample
   Vec3 view{0, 0, 1};
+  const Vec3* views = nullptr;    // per sample (multi-view stacks); null: `view` for all
   const double* shape = nullptr;  // kShared: the fixed shape parameters
 
   template <typename T, typename Add>
@@ -144,7 +145,7 @@ struct TexelProblem {
     for (int i = 0; i < n; ++i) {
       if (!use[i]) continue;
       const Vec3& l = lights[i];  // l, v, h: constants (h = normalize(l + v), precomputed)
-      const T lobe = Lobe::Eval(x + 5, sh, nn, l, view, halves[i]);
+      const T lobe = Lobe::Eval(x + 5, sh, nn, l, views ? views[i] : view, halves[i]);
       const T d = shading::Lambert(T(1), nn, l);  // max(0, n·l): ρ_c·d is Lambert(ρ_c, n, l)
       for (int c = 0; c < channels; ++c) add(x[2 + c] * d + lobe - T(obs[i * channels + c]));
     }
@@ -174,7 +175,7 @@ struct TexelProblem {
     for (int i = 0; i < n; ++i) {
       if (!use[i]) continue;
       // l, v, h are constants: plain doubles, so only n carries derivatives into the dots.
-      const J lobe = Lobe::Eval(g + 2, sh, nn, lights[i], view, halves[i]);
+      const J lobe = Lobe::Eval(g + 2, sh, nn, lights[i], views ? views[i] : view, halves[i]);
       const J d = shading::Lambert(J(1), nn, lights[i]);
       for (int c = 0; c < channels; ++c) {
         const double rho = x[2 + c];

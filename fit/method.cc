@@ -26,6 +26,17 @@ class FunctionMethod : public FitMethod {
   int light_parameters() const override { return light_params_; }
   int parameters_per_channel() const override { return per_channel_; }
   StatusOr<FitResult> Fit(const LightStack& s, const FitOptions& o) const override {
+    if (s.is_multi_view()) {
+      if (name_ != "svbrdf")
+        return InvalidArgument(
+            name_ + " fits images of one view, but this stack holds " +
+            std::to_string(ViewGroups(s).size()) +
+            " views; read one view (--view THETA,PHI) or fit every view with --model svbrdf");
+      if (s.has_light_positions())
+        return InvalidArgument(
+            "svbrdf: near lights (light_positions.txt) over several views are "
+            "not supported; use --distant-lights");
+    }
     return s.has_light_positions() ? FitNearLights(name_, fn_, s, o) : fn_(s, o);
   }
 
@@ -42,6 +53,8 @@ std::vector<std::string> MethodNames() {
           "hsh2",        "hsh2-srgb",     "hsh3",           "hsh3-srgb", "rbf", "rbf-srgb",
           "blinn-phong", "cook-torrance", "lafortune1",     "lafortune2"};
 }
+
+std::vector<std::string> MultiViewMethodNames() { return {"svbrdf"}; }
 
 std::unique_ptr<FitMethod> MakeMethod(const std::string& name) {
   // Bytes per texel as packed: 8-bit sRGB colour (3), 16-bit normal (6), 8-bit ambient (3),
@@ -80,6 +93,12 @@ std::unique_ptr<FitMethod> MakeMethod(const std::string& name) {
     return std::make_unique<FunctionMethod>(
         name, "per-texel LM: normal, albedo, F0 (GGX roughness shared per material)", 6, 10, 4, 1,
         FitCookTorrance);
+  if (name == "svbrdf")
+    return std::make_unique<FunctionMethod>(
+        name,
+        "per-texel LM over every view x light: normal, albedo, F0 and GGX roughness (Smith "
+        "masking, Schlick Fresnel)",
+        7, 11, 4, 1, FitSvbrdf);
   if (name == "lafortune1" || name == "lafortune2") {
     const int lobes = name == "lafortune1" ? 1 : 2;
     return std::make_unique<FunctionMethod>(

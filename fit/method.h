@@ -29,6 +29,9 @@ class FitMethod {
 };
 
 std::vector<std::string> MethodNames();  // the ladder, simplest first
+// Methods over the views of a multi-view stack (issue 17; `--view all`): fitted only when asked
+// for by name, not part of the single-view ladder that bench, stability and auto run.
+std::vector<std::string> MultiViewMethodNames();
 // nullptr when `name` is not a method.
 std::unique_ptr<FitMethod> MakeMethod(const std::string& name);
 

@@ -24,6 +24,12 @@ StatusOr<FitResult> FitLambertRobust(const LightStack& stack, const FitOptions& 
 StatusOr<FitResult> FitBlinnPhong(const LightStack& stack, const FitOptions& options);
 StatusOr<FitResult> FitCookTorrance(const LightStack& stack, const FitOptions& options);
 
+// svbrdf (issue 17): the Cook–Torrance SVBRDF (normal, albedo, F0 and GGX roughness per texel;
+// Smith masking, Schlick Fresnel) fitted jointly over every view × light of a multi-view stack
+// (each sample with its own view), started from cook-torrance on the most frontal view. On a
+// single-view stack it is cook-torrance with a per-texel roughness. Maps as cook-torrance.
+StatusOr<FitResult> FitSvbrdf(const LightStack& stack, const FitOptions& options);
+
 // lafortune (METHODS.md §4): 1 or 2 isotropic lobes (C_z = 1; amplitude, C_xy and exponent per
 // lobe), same two-stage per-texel LM with one lobe shape per material by default.
 StatusOr<FitResult> FitLafortune(const LightStack& stack, const FitOptions& options, int lobes);

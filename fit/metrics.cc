@@ -83,9 +83,10 @@ std::vector<float> RelightingError(const MaterialMaps& f, const MaterialMaps& t,
 }
 
 std::vector<float> RelightingError(const MaterialMaps& f, const LightStack& t) {
-  std::vector<Vec3f> dirs;
-  for (const LightSample& l : t.lights()) dirs.emplace_back(l.direction);
-  const BatchEvaluator fe(f, dirs, Vec3f(t.view_direction));
+  std::vector<Vec3f> dirs, views;
+  for (int i = 0; i < t.num_images(); ++i)
+    dirs.emplace_back(t.lights()[size_t(i)].direction), views.emplace_back(t.ViewOf(i));
+  const BatchEvaluator fe(f, dirs, views);
   const int C = t.channels();
   return PerTexelRms(
       t.plane_size(), int(dirs.size()), C,

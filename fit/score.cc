@@ -216,9 +216,10 @@ StackScore ScoreStack(const LightStack& s, const std::vector<int>& images, const
     res.rss.assign(size_t(T), 0.0), res.level.assign(size_t(T), 0.0);
     res.samples.assign(size_t(T), 0), res.used_lights.assign(size_t(T), 0);
   }
-  std::vector<Vec3f> dirs;
+  std::vector<Vec3f> dirs, views;  // each image's own view (multi-view stacks)
   for (int i : images) dirs.emplace_back(s.lights()[size_t(i)].direction);
-  const BatchEvaluator eval(maps, dirs, Vec3f(s.view_direction));
+  for (int i : images) views.emplace_back(s.ViewOf(i));
+  const BatchEvaluator eval(maps, dirs, views);
   const bool near = s.has_light_positions();
   const std::vector<float> inv = InverseIntensities(s);
   const float clip_level =

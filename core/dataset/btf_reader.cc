@@ -1,8 +1,9 @@
-// Bonn UBO2003 and UTIA BTF folders: angles parsed from file names, one view selected.
+// Bonn UBO2003 and UTIA BTF folders: angles parsed from file names, one view selected or all.
 #include <algorithm>
 #include <cmath>
 #include <filesystem>
 #include <map>
+#include <tuple>
 
 #include "core/dataset/btf_names.h"
 #include "core/dataset/dataset.h"
@@ -64,9 +65,22 @@ StatusOr<LightStack> ReadBtfFolder(const std::string& dir, Layout layout, const 
     return DataError("no image in '" + dir + "' (or its view subfolders) is named like " + pattern +
                      "; is this a " + LayoutName(layout) + " BTF folder?");
 
-  // Select the view: the requested one exactly, else the most frontal.
+  // Select the view: the requested one exactly, else the most frontal; or every view.
   const std::vector<Entry>* chosen = nullptr;
-  if (o.view) {
+  std::vector<Entry> every;
+  if (o.all_views) {
+    // Views in (θv, φv) order (the map's), each view's images sorted by light below; the most
+    // frontal view is the stack's reference view.
+    for (const auto& [k, v] : views) {
+      std::vector<Entry> e = v;
+      std::sort(e.begin(), e.end(), [](const Entry& a, const Entry& b) {
+        return std::tie(a.angles.theta_l, a.angles.phi_l) <
+               std::tie(b.angles.theta_l, b.angles.phi_l);
+      });
+      every.insert(every.end(), e.begin(), e.end());
+      if (!chosen || k.first < std::lround(chosen->front().angles.theta_v * 1000)) chosen = &v;
+    }
+  } else if (o.view) {
     const auto key =
         std::make_pair(std::lround(o.view->theta_deg * 1000), std::lround(o.view->phi_deg * 1000));
     auto it = views.find(key);
@@ -90,22 +104,31 @@ StatusOr<LightStack> ReadBtfFolder(const std::string& dir, Layout layout, const 
       if (!chosen || k.first < std::lround(chosen->front().angles.theta_v * 1000)) chosen = &v;
   }
 
-  std::vector<Entry> entries = *chosen;
-  std::sort(entries.begin(), entries.end(), [](const Entry& a, const Entry& b) {
-    return std::tie(a.angles.theta_l, a.angles.phi_l) < std::tie(b.angles.theta_l, b.angles.phi_l);
-  });
+  const BtfName reference = chosen->front().angles;
+  std::vector<Entry> entries = o.all_views ? std::move(every) : *chosen;
+  if (!o.all_views)
+    std::sort(entries.begin(), entries.end(), [](const Entry& a, const Entry& b) {
+      return std::tie(a.angles.theta_l, a.angles.phi_l) <
+             std::tie(b.angles.theta_l, b.angles.phi_l);
+    });
   std::vector<std::string> files;
   std::vector<LightSample> lights;
   for (size_t i = 0; i < entries.size(); ++i) {
     const BtfName& a = entries[i].angles;
-    if (i > 0 && a.theta_l == entries[i - 1].angles.theta_l &&
-        a.phi_l == entries[i - 1].angles.phi_l)
+    const BtfName* prev = i > 0 ? &entries[i - 1].angles : nullptr;
+    if (prev && a.theta_l == prev->theta_l && a.phi_l == prev->phi_l &&
+        a.theta_v == prev->theta_v && a.phi_v == prev->phi_v)
       return DataError("'" + entries[i - 1].path + "' and '" + entries[i].path +
                        "' have the same light and view angles; remove one of them");
     LightSample s;
     s.direction = DirectionFromAnglesDeg(a.theta_l, a.phi_l);
     s.theta_deg = a.theta_l;
     s.phi_deg = a.phi_l;
+    if (o.all_views) {
+      s.has_view = true;
+      s.view = DirectionFromAnglesDeg(a.theta_v, a.phi_v);
+      s.view_theta_deg = a.theta_v, s.view_phi_deg = a.phi_v;
+    }
     files.push_back(entries[i].path);
     lights.push_back(s);
   }
@@ -114,7 +137,7 @@ StatusOr<LightStack> ReadBtfFolder(const std::string& dir, Layout layout, const 
   io.confine_to = o.confine_to;
   auto stack = LoadStack(files, std::move(lights), io, o);
   if (!stack.ok()) return stack.status();
-  const BtfName& v = entries.front().angles;
+  const BtfName& v = reference;
   stack->view_theta_deg = v.theta_v;
   stack->view_phi_deg = v.phi_v;
   stack->view_direction = DirectionFromAnglesDeg(v.theta_v, v.phi_v);

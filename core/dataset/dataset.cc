@@ -93,6 +93,10 @@ bool ReadOptions::Check(std::string* why) const {
         "the stack sample limit must be ≥ 0 (0 = none), got " + std::to_string(max_stack_samples);
     return false;
   }
+  if (view && all_views) {
+    *why = "--view: give one view θ,φ or 'all', not both";
+    return false;
+  }
   if (view && !(view->theta_deg >= 0 && view->theta_deg < 90)) {
     *why = "--view: θ must be in [0, 90) degrees, got " + std::to_string(view->theta_deg);
     return false;

@@ -37,6 +37,10 @@ struct ReadOptions {
   Layout layout = Layout::kAuto;  // kAuto: detect from the folder's contents
   // BTF layouts: which view to load; unset = the most frontal view present.
   std::optional<ViewAngles> view;
+  // BTF layouts: every view (`--view all`): one stack of views × lights, each image carrying its
+  // view (LightSample::view), ordered by view (θv, φv) then light; the most frontal view is the
+  // stack's view_direction. Excludes `view`.
+  bool all_views = false;
   ColorSpaceChoice color_space = ColorSpaceChoice::kAuto;  // override of the image rules
   ProgressFn progress;  // called as images are decoded; may be empty
   // When set, every file the dataset names must resolve inside this folder (the server): each is

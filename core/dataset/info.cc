@@ -255,14 +255,18 @@ DatasetInfo ComputeDatasetInfo(const LightStack& s) {
     w.push_back(
         Warning(WarningCode::kLightsBelowHorizon,
                 std::to_string(below) + " light(s) at or below the surface plane (θ ≥ 90°)"));
-  for (int i = 0; i < n; ++i)
-    for (int j = i + 1; j < n; ++j)
-      if (AngleBetweenDeg(s.lights()[i].direction, s.lights()[j].direction) < 0.05) {
-        w.push_back(Warning(WarningCode::kDuplicateLights, "lights " + std::to_string(i) + " and " +
-                                                               std::to_string(j) +
-                                                               " have the same direction"));
-        i = j = n;
-      }
+  // Within each view (a multi-view stack repeats its lights from every view).
+  bool duplicate = false;
+  for (const std::vector<int>& g : ViewGroups(s))
+    for (size_t a = 0; a < g.size() && !duplicate; ++a)
+      for (size_t b = a + 1; b < g.size() && !duplicate; ++b)
+        if (AngleBetweenDeg(s.lights()[g[a]].direction, s.lights()[g[b]].direction) < 0.05) {
+          w.push_back(Warning(WarningCode::kDuplicateLights,
+                              "lights " + std::to_string(g[a]) + " and " + std::to_string(g[b]) +
+                                  " have the same direction" +
+                                  (s.is_multi_view() ? " and view" : "")));
+          duplicate = true;
+        }
   if (info.saturated_fraction > 0.001)
     w.push_back(Warning(WarningCode::kClippedPixels,
                         Fmt("%.2f", 100 * info.saturated_fraction) +

@@ -113,6 +113,10 @@ Status WriteDataset(const LightStack& s, const DatasetWriteOptions& o, const std
   std::string why;
   if (!o.Check(&why)) return InvalidArgument(why);
   const fs::path d(dir);
+  if (s.is_multi_view() && o.layout != Layout::kBonn && o.layout != Layout::kUtia)
+    return InvalidArgument(std::string("a multi-view stack is written in the bonn or utia layout "
+                                       "(they name each image's view), not ") +
+                           LayoutName(o.layout));
   if (s.has_light_positions()) {
     std::vector<Vec3> positions;
     for (const LightSample& l : s.lights()) positions.push_back(l.position);
@@ -128,26 +132,38 @@ Status WriteDataset(const LightStack& s, const DatasetWriteOptions& o, const std
       std::vector<BtfName> names(n);
       for (int i = 0; i < n; ++i) {
         const LightSample& l = s.lights()[i];
-        names[i] = {i, l.theta_deg, l.phi_deg, s.view_theta_deg, s.view_phi_deg};
-        const bool integral = std::abs(l.theta_deg - std::round(l.theta_deg)) < 1e-6 &&
-                              std::abs(l.phi_deg - std::round(l.phi_deg)) < 1e-6;
-        if (!integral)
+        const double tv = l.has_view ? l.view_theta_deg : s.view_theta_deg;
+        const double pv = l.has_view ? l.view_phi_deg : s.view_phi_deg;
+        names[i] = {i, l.theta_deg, l.phi_deg, tv, pv};
+        auto integral = [](double a) { return std::abs(a - std::round(a)) < 1e-6; };
+        if (bonn && l.has_view && !(integral(tv) && integral(pv)))
+          return InvalidArgument(
+              "the Bonn layout stores view angles in integer degrees but image " +
+              std::to_string(i) + " is seen from θv=" + Num(tv) + "°, φv=" + Num(pv) +
+              "°; quantise the views or use --layout utia");
+        if (!(integral(l.theta_deg) && integral(l.phi_deg)))
           return InvalidArgument(std::string("the ") + (bonn ? "Bonn" : "UTIA") +
                                  " layout stores light angles in integer degrees but light " +
                                  std::to_string(i) + " is at θ=" + Num(l.theta_deg) + "°, φ=" +
                                  Num(l.phi_deg) + "°; quantise the lights or use --layout lp");
       }
-      fs::path folder = d;
-      if (bonn) {
-        folder = d / MakeBonnViewFolder(s.view_theta_deg, s.view_phi_deg);
-        std::error_code ec;
-        fs::create_directories(folder, ec);
-        if (ec) return IoError("cannot create '" + folder.string() + "': " + ec.message());
-      }
+      // Bonn: one folder per view ("tv030_pv060"); UTIA: every image in the folder, its view in
+      // its name.
+      std::vector<fs::path> folders(size_t(n), d);
+      if (bonn)
+        for (int i = 0; i < n; ++i) {
+          folders[size_t(i)] = d / MakeBonnViewFolder(names[i].theta_v, names[i].phi_v);
+          if (i > 0 && folders[size_t(i)] == folders[size_t(i) - 1]) continue;
+          std::error_code ec;
+          fs::create_directories(folders[size_t(i)], ec);
+          if (ec)
+            return IoError("cannot create '" + folders[size_t(i)].string() + "': " + ec.message());
+        }
       return WriteImages(
           s, o.bits,
           [&](int i) {
-            return (folder / (bonn ? MakeBonnName(i, names[i], ext) : MakeUtiaName(names[i], ext)))
+            return (folders[size_t(i)] /
+                    (bonn ? MakeBonnName(i, names[i], ext) : MakeUtiaName(names[i], ext)))
                 .string();
           },
           progress);

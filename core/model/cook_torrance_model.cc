@@ -72,7 +72,10 @@ class CookTorranceModel final : public ModelBase<CookTorranceModel> {
   }
   const char* truth_specular_semantic() const override { return "specular.exr (F0)"; }
   void TruthParameters(const MaterialMaps& m, std::map<std::string, double>* out) const override {
-    if (!m.roughness.empty()) (*out)["roughness"] = m.roughness.data()[0];
+    // A material-wide roughness only when the map is one value (lacquer's varies per texel).
+    const auto& r = m.roughness.data();
+    if (!r.empty() && std::all_of(r.begin(), r.end(), [&](float v) { return v == r[0]; }))
+      (*out)["roughness"] = r[0];
   }
 };
 

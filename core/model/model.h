@@ -166,6 +166,9 @@ const std::vector<const ModelDescriptor*>& AllModels();
 class BatchEvaluator {
  public:
   BatchEvaluator(const MaterialMaps& maps, const std::vector<Vec3f>& lights, const Vec3f& view);
+  // Each light with its own view (a multi-view stack's images): views.size() == lights.size().
+  BatchEvaluator(const MaterialMaps& maps, const std::vector<Vec3f>& lights,
+                 const std::vector<Vec3f>& views);
   int lights() const { return int(prepared_.size()); }
   // out[c · n + t] for texels [p0, p0 + n), channels c < `channels`, light i.
   void Evaluate(int light, int64_t p0, int n, int channels, float* out) const {

@@ -34,6 +34,14 @@ BatchEvaluator::BatchEvaluator(const MaterialMaps& maps, const std::vector<Vec3f
   for (size_t i = 0; i < lights.size(); ++i) model_->Prepare(maps, lights[i], view, &prepared_[i]);
 }
 
+BatchEvaluator::BatchEvaluator(const MaterialMaps& maps, const std::vector<Vec3f>& lights,
+                               const std::vector<Vec3f>& views)
+    : maps_(&maps), model_(&Model(maps.model)), prepared_(lights.size()) {
+  MATFIT_CHECK(views.size() == lights.size(), "BatchEvaluator: one view per light");
+  for (size_t i = 0; i < lights.size(); ++i)
+    model_->Prepare(maps, lights[i], views[i], &prepared_[i]);
+}
+
 namespace model_impl {
 
 MATFIT_MODEL_CLONES

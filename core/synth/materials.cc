@@ -62,6 +62,23 @@ TexelFn Plastic(uint64_t seed, bool cook_torrance) {
   };
 }
 
+// Lacquered panel (multi-view BTFs, issue 17): Cook–Torrance whose F0 (0.03–0.08, IOR
+// 1.42–1.79) and roughness (0.2–0.5) vary over the surface in independent smooth patches, so a
+// fit must recover them per texel; plastic's relief.
+TexelFn Lacquer(uint64_t seed) {
+  return [=](double u, double v) {
+    Texel t;
+    t.height = 0.03 * Fbm(seed, u, v, 4, 3);
+    const double w = Smoothstep(0.4, 0.6, Fbm(seed + 2, u, v, 3, 2));
+    t.albedo[0] = 0.30 * (1 - w) + 0.06 * w;
+    t.albedo[1] = 0.16 * (1 - w) + 0.22 * w;
+    t.albedo[2] = 0.06 * (1 - w) + 0.35 * w;
+    t.specular = 0.03 + 0.05 * Smoothstep(0.3, 0.7, Fbm(seed + 5, u, v, 2, 2));
+    t.roughness = 0.2 + 0.3 * Smoothstep(0.3, 0.7, Fbm(seed + 7, u, v, 3, 2));
+    return t;
+  };
+}
+
 TexelFn Wool(uint64_t seed) {
   constexpr int kThreads = 16;  // threads per sample width in each direction
   return [=](double u, double v) {
@@ -155,6 +172,8 @@ const std::vector<MaterialInfo> kMaterials = {
     {"plaster", "matte plaster: Lambertian with fBm bumps", false},
     {"plastic", "glossy moulded plastic: Blinn-Phong k_s 0.35, e 40", false},
     {"plastic-ct", "glossy plastic: Cook-Torrance GGX, F0 0.04, roughness 0.35", false},
+    {"lacquer", "lacquered panel: Cook-Torrance GGX, F0 0.03-0.08 and roughness 0.2-0.5 varying",
+     false},
     {"wool", "plain-weave wool-like fabric with self-shadowing", true},
     {"corduroy", "corduroy-like ridged fabric with self-shadowing", true},
     {"granite", "speckled polished granite-like stone: Blinn-Phong e 128", false},
@@ -210,6 +229,8 @@ StatusOr<MaterialMaps> MakeMaterial(const std::string& name, int size, uint64_t 
     fn = Plastic(seed, false);
   else if (name == "plastic-ct")
     fn = Plastic(seed, true), model = "cook-torrance";
+  else if (name == "lacquer")
+    fn = Lacquer(seed), model = "cook-torrance";
   else if (name == "wool")
     fn = Wool(seed);
   else if (name == "corduroy")

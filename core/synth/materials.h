@@ -2,6 +2,7 @@
 //   plaster     Lambertian, fBm bumps, off-white
 //   plastic     glossy Blinn–Phong (k_s 0.35, e 40), coloured, gentle dents
 //   plastic-ct  the same surface with Cook–Torrance GGX (F0 0.04 = IOR 1.5, roughness 0.35)
+//   lacquer     Cook–Torrance with F0 (0.03–0.08) and roughness (0.2–0.5) varying per texel
 //   wool        plain-weave threads with fuzz; meso-scale self-shadowing; weak sheen
 //   corduroy    vertical ridges (wales) with deep grooves; self-shadowing; weak sheen
 //   granite     speckled cellular minerals, polished (Blinn–Phong e 128)

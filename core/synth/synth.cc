@@ -11,6 +11,7 @@
 #include "core/synth/materials.h"
 #include "core/synth/micro_geometry.h"
 #include "core/synth/render_stack.h"
+#include "core/synth/render_views.h"
 #include "core/version.h"
 
 namespace matfit::synth {
@@ -63,7 +64,8 @@ std::string ParamsJson(const SynthOptions& o, const SynthResult& r) {
                    : o.bits == 8     ? "sRGB 8-bit PNG"
                    : o.bits == 16    ? "linear 16-bit PNG"
                                      : "linear float EXR"},
-      {"view_direction", {0, 0, 1}},
+      {"view_direction",
+       {r.stack.view_direction.x, r.stack.view_direction.y, r.stack.view_direction.z}},
       {"perturbations",
        {{"cast_shadows", r.cast_shadows},
         {"gaussian_sigma", o.perturb.gaussian_sigma},
@@ -76,6 +78,23 @@ std::string ParamsJson(const SynthOptions& o, const SynthResult& r) {
       {"near_lights_px", o.near_lights},
       {"lights", LightsJson(r.stack.lights())},
   };
+  if (!o.views.empty()) {
+    json views = json::array();
+    const int nl = r.stack.num_images() / std::max<int>(1, r.views.size());
+    for (size_t k = 0; k < r.views.size(); ++k) {
+      const LightSample& l = r.stack.lights()[k * size_t(nl)];
+      views.push_back({{"direction", {l.view.x, l.view.y, l.view.z}},
+                       {"theta_deg", l.view_theta_deg},
+                       {"phi_deg", l.view_phi_deg}});
+    }
+    j["view_set"] = o.views;
+    j["views"] = views;
+    j["lights"] = LightsJson(
+        std::vector<LightSample>(r.stack.lights().begin(), r.stack.lights().begin() + nl));
+    j["rectified"] =
+        "every view resampled to the reference plane: texel (x, y) shows the first point of the "
+        "height field on the camera ray through (x, y, 0) (parallax and masking)";
+  }
   std::map<std::string, double> truth_params;
   truth_model.TruthParameters(r.truth, &truth_params);
   for (const auto& [k, v] : truth_params) j["model"][k] = float(v);
@@ -158,6 +177,18 @@ bool SynthOptions::Check(std::string* why) const {
     *why = "--layout must be one of bonn, utia, lp, diligent, lights-txt";
     return false;
   }
+  if (!views.empty() && layout != Layout::kBonn && layout != Layout::kUtia) {
+    *why = "--views needs --layout bonn or utia (the layouts that name each image's view)";
+    return false;
+  }
+  if (!views.empty() && near_lights > 0) {
+    *why = "--views renders distant lights only; drop --near-lights";
+    return false;
+  }
+  if (!views.empty() && FindMaterial(material)->micro_geometry) {
+    *why = "--views: material '" + material + "' is rendered from micro-geometry for one view only";
+    return false;
+  }
   DatasetWriteOptions wo;  // the file format against the bit depth
   wo.layout = layout, wo.bits = bits, wo.format = format;
   if (!wo.Check(why)) return false;
@@ -201,10 +232,33 @@ StatusOr<SynthResult> Synthesize(const SynthOptions& o, const ProgressFn& progre
                              "' is rendered from micro-geometry with distant lights only");
     for (LightSample& l : *lights) l.has_position = true, l.position = l.direction * o.near_lights;
   }
+  SynthResult r;
+  if (!o.views.empty()) {  // every view × light, rectified (render_views.h)
+    auto views = MakeLightSet(o.views, o.seed + 1);
+    if (!views.ok()) return InvalidArgument("--views: " + std::string(views.status().message()));
+    QuantizeToIntegerDegrees(&*views);
+    for (const LightSample& v : *views) {
+      if (v.theta_deg >= 85)
+        return InvalidArgument("--views '" + o.views + "' has a view at θ " +
+                               std::to_string(v.theta_deg) + "°; every view must be at θ < 85°");
+      r.views.push_back(v.direction);
+    }
+    auto maps = MakeMaterial(o.material, o.size, o.rows(), o.seed);
+    if (!maps.ok()) return maps.status();
+    r.truth = std::move(*maps);
+    r.cast_shadows = o.shadows || FindMaterial(o.material)->self_shadowing;
+    r.stack = RenderViews(r.truth, *lights, r.views, r.cast_shadows, progress);
+    PerturbOptions po = o.perturb;
+    po.seed = o.seed;
+    r.perturb = ApplyPerturbations(po, &r.stack);
+    r.stack.layout = LayoutName(o.layout);
+    r.stack.object_name = o.material;
+    r.params_json = ParamsJson(o, r);
+    return r;
+  }
   auto rendered =
       RenderMaterial(o.material, o.size, o.rows(), o.seed, *lights, o.shadows, progress);
   if (!rendered.ok()) return rendered.status();
-  SynthResult r;
   r.truth = std::move(rendered->truth);
   r.stack = std::move(rendered->stack);
   r.micro_surface = std::move(rendered->micro_surface);

@@ -30,6 +30,11 @@ struct SynthOptions {
   Layout layout = Layout::kBonn;  // output layout
   int bits = 16;                  // 8 (sRGB PNG), 16 (linear PNG), 32 (EXR)
   std::string format = "auto";    // image files: auto, png, jpg (8-bit), exr (writer.h)
+  // Views (a multi-view BTF, bonn/utia layouts): "" = the frontal view only; else a light-set
+  // name (light_sets.h: bonn81, dome:N, …) whose directions are the camera directions. Every
+  // view × light is rendered rectified to the reference plane (render_views.h): parallax and
+  // masking from the height field, cast shadows, Fresnel and Smith masking of the model.
+  std::string views;
 
   int rows() const { return height > 0 ? height : size; }
 
@@ -47,6 +52,7 @@ struct SynthResult {
   PerturbRecord perturb;  // what the perturbations did
   bool cast_shadows = false;
   std::string params_json;  // truth/params.json contents
+  std::vector<Vec3> views;  // SynthOptions::views: the camera directions, in stack order
 };
 
 // `material` (Materials()) at width × height texels under `lights`, noise-free: its truth maps

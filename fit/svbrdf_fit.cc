@@ -1,0 +1,170 @@
+// svbrdf (issue 17): the Cook–Torrance SVBRDF fitted jointly over every view × light of a
+// multi-view stack. Per texel, x = (p, q, ρ_r, ρ_g, ρ_b, F0, r) with n = normalize(p, q, 1):
+//   p_ic / I_ic = ρ_c max(0, n·l_i) + π D_GGX(n·h_i; r²) G_Smith F_Schlick(v_i·h_i) / (4 n·v_i)
+// (core/shading/shading.h, the functions the synthetic BTFs are rendered with), each sample i
+// with its own view v_i and half vector h_i = normalize(l_i + v_i). A single view pins F0 and
+// the roughness only through the lobe's shape over the lights; across views the Fresnel rise
+// and Smith masking toward grazing views separate them, so both are per texel here.
+//
+// Start: cook-torrance on the most frontal view (lambert-robust, then per-texel LM with the
+// material's roughness). Samples left out per texel: non-finite or clipped, seen at a grazing
+// angle (n·v < 0.05 at the start) or looking cast-shadowed (below half the start's prediction).
+// Solved by the fixed-size Levenberg–Marquardt of tiny_lm.h with the Cauchy loss.
+#include <algorithm>
+#include <atomic>
+#include <chrono>
+#include <cmath>
+#include <limits>
+#include <vector>
+
+#include "core/shading/shading.h"
+#include "core/stack_band.h"
+#include "fit/fit_common.h"
+#include "fit/lobe_problem.h"
+#include "fit/methods.h"
+#include "fit/tiny_lm.h"
+
+namespace matfit::fit {
+namespace {
+
+// Texels gathered together: their samples of every image are read as runs along a row (the
+// stack is plane-major), then fitted one by one.
+constexpr int kRun = 32;
+
+}  // namespace
+
+StatusOr<FitResult> FitSvbrdf(const LightStack& s, const FitOptions& o) {
+  const std::vector<std::vector<int>> groups = ViewGroups(s);
+  const std::vector<int>& frontal = groups[size_t(MostFrontalView(s, groups))];
+  // The start: cook-torrance on the most frontal view, its own view as the stack's.
+  LightStack front = SelectImages(s, frontal);
+  front.view_direction = s.ViewOf(frontal[0]);
+  AnglesDegFromDirection(front.view_direction, &front.view_theta_deg, &front.view_phi_deg);
+  FitOptions fo = o;
+  fo.progress = {};
+  auto init = FitCookTorrance(front, fo);
+  if (!init.ok()) return Status(init.status().code(), "svbrdf: " + init.status().message());
+
+  const auto t0 = std::chrono::steady_clock::now();
+  using Problem = lobe::TexelProblem<lobe::CookTorranceLobe, false>;
+  constexpr int P = Problem::kParams;  // 7
+  FitResult r;
+  InitResult(s, "cook-torrance", "svbrdf", &r);
+  r.status = init->status;
+  const int n = s.num_images(), C = s.channels(), W = s.width();
+  const std::vector<float> inv = InverseIntensities(s);
+  std::vector<Vec3> dirs(static_cast<size_t>(n)), views(dirs.size()), halves(dirs.size());
+  for (int i = 0; i < n; ++i) {
+    dirs[size_t(i)] = s.lights()[size_t(i)].direction;
+    views[size_t(i)] = Normalize(s.ViewOf(i));
+    halves[size_t(i)] = Normalize(dirs[size_t(i)] + views[size_t(i)]);
+  }
+  const float clip_level =
+      StackMayBeClipped(s) ? kClipLevel : std::numeric_limits<float>::infinity();
+  const MaterialMaps& im = init->maps;
+  const double r0 = im.roughness.empty() ? 0.5 : double(im.roughness.data()[0]);
+  Image xs(s.width(), s.height(), P);
+  std::vector<int> iterations(size_t(s.plane_size()), 0), used_samples(size_t(s.plane_size()), 0);
+
+  // Strips of ≈ 8² texels: a texel costs thousands of samples per LM iteration, so even a small
+  // stack needs many work units to keep every thread busy.
+  FitOptions so = o;
+  so.tile = 8;
+  const bool ok = ForEachTile(s, so, [&](const Tile& t) {
+    std::vector<double> obs(size_t(kRun) * n * C);
+    std::vector<float> scratch(kRun);
+    std::vector<char> use(static_cast<size_t>(n));
+    Problem prob;
+    prob.n = n, prob.channels = C, prob.lights = dirs.data(), prob.halves = halves.data();
+    prob.views = views.data(), prob.obs = nullptr, prob.use = use.data();
+    for (int y = t.y0; y < t.y0 + t.height; ++y)
+      for (int x0 = t.x0; x0 < t.x0 + t.width; x0 += kRun) {
+        const int len = std::min(kRun, t.x0 + t.width - x0);
+        const int64_t p0 = int64_t(y) * W + x0;
+        bool any = false;
+        for (int k = 0; k < len; ++k) any = any || r.status[size_t(p0 + k)] == kTexelOk;
+        if (!any) continue;
+        // obs[(k · n + i) · C + c]: texel k's sample of image i, channel c, intensity-normalised.
+        for (int i = 0; i < n; ++i)
+          for (int c = 0; c < C; ++c) {
+            const float* row = s.Texels(i, c, p0, len, scratch.data());
+            const float in = inv[size_t(i) * C + c];
+            for (int k = 0; k < len; ++k) {
+              const float raw = row[k];
+              // A clipped sample is marked NaN: dropped below like a non-finite one.
+              obs[(size_t(k) * n + i) * C + c] =
+                  raw < clip_level ? double(raw) * in : std::numeric_limits<double>::quiet_NaN();
+            }
+          }
+        for (int k = 0; k < len; ++k) {
+          const int64_t p = p0 + k;
+          if (r.status[size_t(p)] != kTexelOk) continue;
+          double* ob = obs.data() + size_t(k) * n * C;
+          const Vec3 n0(im.normal.Plane(0)[p], im.normal.Plane(1)[p], im.normal.Plane(2)[p]);
+          const double f0 = im.specular.Plane(0)[p];
+          int used = 0;
+          for (int i = 0; i < n; ++i) {
+            const Vec3& l = dirs[size_t(i)];
+            const Vec3& v = views[size_t(i)];
+            bool valid = Dot(n0, v) > 0.05;
+            double lum = 0, pred = 0;
+            const double spec =
+                shading::CookTorranceSpecularHalf(f0, r0, n0, l, v, halves[size_t(i)]);
+            for (int c = 0; c < C; ++c) {
+              double& ov = ob[size_t(i) * C + c];
+              valid = valid && std::isfinite(ov);
+              lum += ov;
+              pred += shading::Lambert(double(im.albedo.Plane(C == 1 ? 0 : c)[p]), n0, l) + spec;
+            }
+            if (!valid)
+              for (int c = 0; c < C; ++c) ob[size_t(i) * C + c] = 0;
+            use[size_t(i)] = valid && !(pred > 0.02 * C && lum < 0.5 * pred);
+            used += use[size_t(i)];
+          }
+          used_samples[size_t(p)] = used;
+          if (used * C < P + 2) {
+            r.status[size_t(p)] = kTexelTooFewLights;
+            continue;
+          }
+          prob.obs = ob;
+          Eigen::Matrix<double, P, 1> x;
+          const double nz = std::max(n0.z, 0.2);
+          x[0] = n0.x / nz, x[1] = n0.y / nz;
+          for (int c = 0; c < 3; ++c) x[2 + c] = im.albedo.Plane(C == 1 ? 0 : c)[p];
+          x[5] = f0, x[6] = r0;
+          prob.Project(x.data());
+          LmOptions lm;
+          lm.cauchy_scale = o.robust_scale;
+          iterations[size_t(p)] = SolveTinyLm<P>(prob, &x, lm).iterations;
+          if (!x.allFinite()) {
+            r.status[size_t(p)] = kTexelNonFinite;
+            continue;
+          }
+          for (int q = 0; q < P; ++q) xs.Plane(q)[p] = float(x[q]);
+        }
+      }
+  });
+
+  MaterialMaps& m = r.maps;
+  m.specular = Image(s.width(), s.height(), 1);
+  m.roughness = Image(s.width(), s.height(), 1);
+  double sums[3] = {0, 0, 0};  // Σ iterations, Σ samples used, texels
+  for (int64_t p = 0; p < s.plane_size(); ++p) {
+    if (r.status[size_t(p)] != kTexelOk) continue;
+    const Vec3 nn = Normalize(Vec3(xs.Plane(0)[p], xs.Plane(1)[p], 1.0));
+    for (int c = 0; c < 3; ++c)
+      m.normal.Plane(c)[p] = float(nn[c]), m.albedo.Plane(c)[p] = xs.Plane(2 + c)[p];
+    m.specular.Plane(0)[p] = xs.Plane(5)[p];
+    m.roughness.Plane(0)[p] = xs.Plane(6)[p];
+    sums[0] += iterations[size_t(p)], sums[1] += used_samples[size_t(p)], sums[2] += 1;
+  }
+  SumOverBands(s, sums, 3);
+  r.parameters["views"] = double(groups.size());
+  r.parameters["frontal_view_theta_deg"] = front.view_theta_deg;
+  r.parameters["start_roughness"] = r0;
+  r.parameters["mean_lm_iterations"] = sums[2] > 0 ? sums[0] / sums[2] : 0;
+  r.parameters["mean_samples_used"] = sums[2] > 0 ? sums[1] / sums[2] : 0;
+  return FinishFit(ok, t0, std::move(r));
+}
+
+}  // namespace matfit::fit

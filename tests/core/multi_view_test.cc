@@ -1,0 +1,198 @@
+// Multi-view BTFs (issue 17): rendering every view rectified (parallax, masking, shadows), writing
+// them in the Bonn and UTIA layouts and reading every view back (`--view all`).
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <filesystem>
+
+#include "core/dataset/dataset.h"
+#include "core/dataset/writer.h"
+#include "core/model/model.h"
+#include "core/synth/materials.h"
+#include "core/synth/render_views.h"
+#include "core/synth/synth.h"
+#include "tests/core/test_util.h"
+
+namespace matfit {
+namespace {
+
+namespace fs = std::filesystem;
+using testing::TempDir;
+
+// A tilted plane h = a·x + b (texel units) with a uniform Lambertian albedo.
+MaterialMaps TiltedPlane(int size, double a, double b) {
+  MaterialMaps m;
+  m.model = ShadingModel::kLambert;
+  m.width = m.height = size;
+  m.height_map = Image(size, size, 1);
+  m.albedo = Image(size, size, 3, 0.5f);
+  m.mask = Image(size, size, 1, 1.0f);
+  for (int y = 0; y < size; ++y)
+    for (int x = 0; x < size; ++x) m.height_map.At(0, y, x) = float(a * x + b);
+  m.normal = synth::NormalsFromHeight(m.height_map);
+  return m;
+}
+
+TEST(MultiView, TheFrontalViewSeesEveryTexelWhereItIs) {
+  auto maps = synth::MakeMaterial("lacquer", 24, 3);
+  ASSERT_TRUE(maps.ok());
+  const synth::ViewWarp w = synth::WarpToView(*maps, {0, 0, 1});
+  for (int64_t p = 0; p < 24 * 24; ++p) {
+    ASSERT_EQ(w.col[p], float(p % 24));
+    ASSERT_EQ(w.row[p], float(p / 24));
+    ASSERT_EQ(w.maps.roughness.data()[p], maps->roughness.data()[p]);
+    ASSERT_NEAR(w.maps.normal.Plane(2)[p], maps->normal.Plane(2)[p], 1e-6);
+  }
+}
+
+TEST(MultiView, AnObliqueViewSeesThePointItsRayMeets) {
+  // Plane h = 0.1 x + 2 seen from θv = 40° toward +x: the ray through (x, y, 0) rises s·v_z while
+  // moving s·v_x, so it meets the plane where s v_z = 0.1 (x + s v_x) + 2, s = (0.1x + 2) /
+  // (v_z − 0.1 v_x); rows do not move (v_y = 0).
+  const MaterialMaps m = TiltedPlane(40, 0.1, 2.0);
+  const double t = 40 * M_PI / 180;
+  const Vec3 v(std::sin(t), 0, std::cos(t));
+  const synth::ViewWarp w = synth::WarpToView(m, v);
+  for (int y : {5, 20}) {
+    for (int x : {0, 7, 13, 20}) {
+      const int64_t p = int64_t(y) * 40 + x;
+      const double s = (0.1 * x + 2) / (v.z - 0.1 * v.x);
+      EXPECT_NEAR(w.col[p], x + s * v.x, 1e-3) << x;
+      EXPECT_NEAR(w.row[p], y, 1e-6);
+      EXPECT_NEAR(w.z[p], s * v.z, 1e-3);
+    }
+  }
+  // The albedo is uniform, so the seen point's maps are the plane's.
+  EXPECT_NEAR(w.maps.albedo.At(0, 5, 7), 0.5f, 1e-6);
+}
+
+TEST(MultiView, ABumpHidesWhatIsBehindItFromAGrazingView) {
+  // A 6-texel-high wall across rows at x = 20 on a flat floor: from θv = 70° toward −x the camera
+  // rays through floor texels just beyond the wall (x = 21…30) meet the wall first (masking).
+  MaterialMaps m = TiltedPlane(48, 0, 0);
+  for (int y = 0; y < 48; ++y)
+    for (int x = 18; x <= 20; ++x) m.height_map.At(0, y, x) = 6;
+  m.normal = synth::NormalsFromHeight(m.height_map);
+  const double t = 70 * M_PI / 180;
+  const synth::ViewWarp w = synth::WarpToView(m, {-std::sin(t), 0, std::cos(t)});
+  for (int x = 21; x <= 22; ++x) EXPECT_GT(w.z[size_t(10 * 48 + x)], 1.0f) << x;  // on the wall
+  EXPECT_NEAR(w.z[size_t(10 * 48 + 40)], 0.0f, 1e-3);  // far from it: the floor
+  EXPECT_NEAR(w.col[size_t(10 * 48 + 40)], 40.0f, 1e-3);
+}
+
+TEST(MultiView, FresnelAndMaskingShowAcrossViewsOnly) {
+  // lacquer under one light at 45°: the same texel brightens toward a grazing view on the mirror
+  // side (Fresnel, the GGX lobe) — nothing one view could show.
+  auto maps = synth::MakeMaterial("lacquer", 16, 1);
+  ASSERT_TRUE(maps.ok());
+  const double t = 45 * M_PI / 180;
+  std::vector<LightSample> lights = {LightFromDirection({std::sin(t), 0, std::cos(t)})};
+  std::vector<Vec3> views;
+  for (double tv : {0.0, 30.0, 60.0, 75.0})
+    views.push_back({-std::sin(tv * M_PI / 180), 0, std::cos(tv * M_PI / 180)});
+  const LightStack s = synth::RenderViews(*maps, lights, views, false);
+  ASSERT_EQ(s.num_images(), 4);
+  ASSERT_TRUE(s.is_multi_view());
+  EXPECT_EQ(ViewGroups(s).size(), 4u);
+  for (int i = 0; i < 4; ++i) {
+    EXPECT_TRUE(s.lights()[size_t(i)].has_view);
+    EXPECT_NEAR(s.lights()[size_t(i)].view_theta_deg,
+                i == 0   ? 0
+                : i == 1 ? 30
+                : i == 2 ? 60
+                         : 75,
+                1e-9);
+  }
+  double mean[4] = {0, 0, 0, 0};
+  for (int i = 0; i < 4; ++i)
+    for (float v : s.Plane(i, 1)) mean[i] += v / 256.0;
+  EXPECT_GT(mean[2], 1.5 * mean[0]);  // the mirror direction (45°) lies between 30° and 60°
+  EXPECT_GT(mean[3], mean[0]);
+}
+
+TEST(MultiView, WritesAndReadsEveryViewInBothLayouts) {
+  for (Layout layout : {Layout::kBonn, Layout::kUtia}) {
+    TempDir tmp;
+    synth::SynthOptions o;
+    o.material = "lacquer";
+    o.lights = "bonn81";
+    o.views = "dome:6";
+    o.size = 12;
+    o.layout = layout;
+    o.bits = 32;
+    auto r = synth::Synthesize(o);
+    ASSERT_TRUE(r.ok()) << r.status().ToString();
+    ASSERT_EQ(r->stack.num_images(), 6 * 81);
+    const std::string dir = tmp / "btf";
+    ASSERT_TRUE(synth::WriteSynthDataset(*r, o, dir, false).ok());
+    if (layout == Layout::kBonn) {  // one folder per view
+      int folders = 0;
+      for (const auto& e : fs::directory_iterator(dir))
+        folders += e.is_directory() && e.path().filename() != "truth";
+      EXPECT_EQ(folders, 6);
+    }
+    ReadOptions ro;
+    ro.all_views = true;
+    auto back = ReadDataset(dir, ro);
+    ASSERT_TRUE(back.ok()) << back.status().ToString();
+    ASSERT_EQ(back->num_images(), 6 * 81);
+    EXPECT_TRUE(back->is_multi_view());
+    const auto groups = ViewGroups(*back);
+    ASSERT_EQ(groups.size(), 6u);
+    // Every written image is read back with its light, its view and its pixels (float EXR:
+    // exact), wherever the reader placed it.
+    for (int i = 0; i < r->stack.num_images(); ++i) {
+      const LightSample& w = r->stack.lights()[size_t(i)];
+      int found = -1;
+      for (int k = 0; k < back->num_images() && found < 0; ++k) {
+        const LightSample& b = back->lights()[size_t(k)];
+        if (Length(b.direction - w.direction) < 1e-9 && Length(b.view - w.view) < 1e-9) found = k;
+      }
+      ASSERT_GE(found, 0) << "image " << i << " not read back";
+      EXPECT_EQ(back->Sample(found, 1, 37), r->stack.Plane(i, 1)[37]);
+    }
+    // The reference view is the most frontal one, and one view alone reads as before.
+    EXPECT_NEAR(back->view_direction.z, back->ViewOf(groups[MostFrontalView(*back, groups)][0]).z,
+                1e-12);
+    auto one = ReadDataset(dir);
+    ASSERT_TRUE(one.ok());
+    EXPECT_EQ(one->num_images(), 81);
+    EXPECT_FALSE(one->is_multi_view());
+  }
+}
+
+TEST(MultiView, RefusesWhatCannotHoldSeveralViews) {
+  synth::SynthOptions o;
+  o.material = "lacquer";
+  o.views = "dome:4";
+  o.size = 8;
+  o.layout = Layout::kLp;
+  std::string why;
+  EXPECT_FALSE(o.Check(&why));
+  EXPECT_NE(why.find("--views needs --layout bonn or utia"), std::string::npos) << why;
+  o.layout = Layout::kBonn;
+  o.material = "micro-stone";
+  EXPECT_FALSE(o.Check(&why));
+  o.material = "lacquer";
+  o.near_lights = 100;
+  EXPECT_FALSE(o.Check(&why));
+  o.near_lights = 0;
+  EXPECT_TRUE(o.Check(&why)) << why;
+  // A multi-view stack in a layout that does not name the view.
+  auto r = synth::Synthesize(o);
+  ASSERT_TRUE(r.ok());
+  TempDir tmp;
+  DatasetWriteOptions wo;
+  wo.layout = Layout::kLp;
+  const Status st = WriteDataset(r->stack, wo, tmp.path());
+  EXPECT_FALSE(st.ok());
+  EXPECT_NE(st.message().find("bonn or utia"), std::string::npos) << st.message();
+  // --view all and one view at once.
+  ReadOptions ro;
+  ro.all_views = true;
+  ro.view = ViewAngles{0, 0};
+  EXPECT_FALSE(ro.Check(&why));
+}
+
+}  // namespace
+}  // namespace matfit
