@@ -126,6 +126,19 @@ int RunFit(FitArgs& a) {
         "failed)\n",
         r->heldout->rmse, r->heldout->deviation_percent, r->heldout->psnr_srgb8_db,
         r->heldout->folds, r->heldout->failed_folds);
+  if (r->heldout_views) {
+    std::string views;
+    for (const fit::HeldOutView& v : r->heldout_views->views)
+      views += (views.empty() ? "" : ", ") + std::to_string(int(std::lround(v.theta_deg))) + "/" +
+               std::to_string(int(std::lround(v.phi_deg)));
+    std::printf(
+        "held-out    views: rmse %.5f, deviation %.5f %% over %zu views (θv/φv %s), fitted on "
+        "%d\n",
+        r->heldout_views->all.rmse, r->heldout_views->all.deviation_percent,
+        r->heldout_views->views.size(), views.c_str(), r->heldout_views->train_views);
+  }
+  for (const auto& [tv, by_light] : r->deviation_by_view_theta)
+    std::printf("deviation   θv %2d°: by θl:%s\n", tv, ByTheta(by_light).c_str());
   for (const auto& [what, ratio] : {std::pair{"held-out lights", r->bound_ratio_heldout},
                                     std::pair{"truth", r->bound_ratio_truth}})
     if (ratio && ratio->texels > 0)
@@ -173,6 +186,10 @@ void RegisterFit(CLI::App& app, int* exit_code) {
   sub->add_option("--holdout", j.holdout,
                   "k-fold held-out-light error: K folds, loo (leave-one-out) or 0 (off)")
       ->transform(CLI::Transformer(std::map<std::string, int>{{"loo", fit::kLeaveOneOut}}))
+      ->capture_default_str();
+  sub->add_option("--holdout-views", j.holdout_views,
+                  "multi-view stacks (--view all): leave K whole views out of a second fit and "
+                  "predict them (never the most frontal view); 0 = off")
       ->capture_default_str();
   sub->add_option("--view", args->view,
                   "BTF view THETA,PHI in degrees (default: most frontal), or all (every view × "

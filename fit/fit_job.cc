@@ -136,6 +136,8 @@ Status FinishJob(const FitJobOptions& o, const LightStack& stack, const FitMetho
   ri.reconstruction = r.reconstruction;
   ri.reconstruction_common = r.reconstruction_common;
   ri.heldout = r.heldout;
+  ri.heldout_views = r.heldout_views;
+  ri.deviation_by_view_theta = r.deviation_by_view_theta;
   ri.truth = r.truth;
   ri.assessment = &r.assessment;
   ri.tone = r.tone ? &*r.tone : nullptr;
@@ -192,7 +194,7 @@ bool FitJobOptions::Check(std::string* why) const {
   };
   if (input.empty()) return fail("the dataset path is empty");
   if (decode_only) {
-    if (!out.empty() || !report_only.empty() || holdout != 0)
+    if (!out.empty() || !report_only.empty() || holdout != 0 || holdout_views != 0)
       return fail("--decode-only only reads the dataset: drop --out, --report-only and --holdout");
     return read.Check(why);
   }
@@ -214,6 +216,13 @@ bool FitJobOptions::Check(std::string* why) const {
           "--report-only is not run across MPI ranks; run it in one process (without "
           "mpirun)");
   }
+  if (holdout_views < 0)
+    return fail("--holdout-views must be 0 (off) or a number of views, got " +
+                std::to_string(holdout_views));
+  if (holdout_views > 0 && !read.all_views)
+    return fail("--holdout-views leaves whole views out: read every view with --view all");
+  if (holdout_views > 0 && (!report_only.empty() || (comm && comm->size() > 1)))
+    return fail("--holdout-views runs in a fit of one process (no --report-only or mpirun)");
   if (holdout == 1 || (holdout < 0 && holdout != kLeaveOneOut))
     return fail("--holdout must be 0 (off), ≥ 2 folds or loo (leave-one-out), got " +
                 std::to_string(holdout));
@@ -412,6 +421,17 @@ StatusOr<FitJobResult> RunFitJob(const FitJobOptions& o, const StageProgress& pr
     }
     stages.End();
   }
+  if (o.holdout_views > 0) {
+    if (!stages.Begin("heldout-views")) return Cancelled();
+    FitOptions ho = o.fit;
+    ho.progress = stages.Callback();
+    auto h = HeldOutViews(*method, *stack, o.holdout_views, ho);
+    if (!h.ok()) return h.status();
+    r.heldout_views = std::move(*h);
+    stages.End();
+  }
+  if (stack->is_multi_view() && !comm)
+    r.deviation_by_view_theta = DeviationByViewTheta(*stack, fit->maps, fit->status);
   if (comm) {
     // Every figure so far is the whole stack's (each step reduced over the bands); the per-texel
     // results go to rank 0, which scores against truth and writes the pack. The other ranks

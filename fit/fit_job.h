@@ -11,6 +11,7 @@
 #include "fit/assess.h"
 #include "fit/fit_types.h"
 #include "fit/holdout.h"
+#include "fit/holdout_views.h"
 #include "fit/metrics.h"
 #include "fit/report.h"
 #include "fit/select.h"
@@ -29,6 +30,7 @@ struct FitJobOptions {
   ReadOptions read;               // layout, view, colour space
   FitOptions fit;                 // tile, method options
   int holdout = 0;                // k-fold held-out-light error; 0 = off, ≥ 2, or kLeaveOneOut
+  int holdout_views = 0;          // whole views left out and predicted (multi-view); 0 = off
   std::string out;                // pack folder (or .zip with zip); report file with report_only
   std::string report_only;        // score this existing pack against the dataset (no fitting)
   bool zip = false, overwrite = false;
@@ -55,6 +57,9 @@ struct FitJobResult {
   ReconstructionMetrics reconstruction;
   ReconstructionMetrics reconstruction_common;  // every unmasked texel, as the pack stores it
   std::optional<HeldOutMetrics> heldout;
+  std::optional<HeldOutViewMetrics> heldout_views;  // --holdout-views
+  // Multi-view stacks: reconstruction dev% per (θv, θl) group (fit/holdout_views.h).
+  std::map<int, std::map<int, double>> deviation_by_view_theta;
   std::optional<TruthMetrics> truth;
   FitAssessment assessment;  // diagnostics + per-texel error bound (not report_only)
   std::optional<BoundRatio> bound_ratio_heldout, bound_ratio_truth;  // the bound's tightness

@@ -59,6 +59,31 @@ std::string MakeReportJson(const FitReportInputs& in) {
       {"warnings", r.warnings},
       {"heldout", nullptr},
   };
+  // Multi-view stacks (issue 17): dev% per (θv, θl) group, and the held-out views.
+  json by_view = json::object();
+  for (const auto& [tv, m] : in.deviation_by_view_theta) by_view[std::to_string(tv)] = ByTheta(m);
+  j["deviation_percent_by_view_theta"] =
+      in.deviation_by_view_theta.empty() ? json() : json(by_view);
+  j["heldout_views"] = nullptr;
+  if (in.heldout_views) {
+    const HeldOutViewMetrics& h = *in.heldout_views;
+    json views = json::array();
+    for (const HeldOutView& v : h.views)
+      views.push_back(
+          {{"theta_deg", v.theta_deg},
+           {"phi_deg", v.phi_deg},
+           {"rmse", v.metrics.rmse},
+           {"deviation_percent", v.metrics.deviation_percent},
+           {"deviation_percent_by_theta", ByTheta(v.metrics.deviation_percent_by_theta)},
+           {"psnr_db", Finite(v.metrics.psnr_db)}});
+    j["heldout_views"] = {{"views", views},
+                          {"train_views", h.train_views},
+                          {"rmse", h.all.rmse},
+                          {"deviation_percent", h.all.deviation_percent},
+                          {"psnr_db", Finite(h.all.psnr_db)},
+                          {"psnr_srgb8_db", Finite(h.all.psnr_srgb8_db)},
+                          {"samples", h.all.samples}};
+  }
   if (in.heldout) {
     const HeldOutMetrics& h = *in.heldout;
     j["heldout"] = {{"folds", h.folds},

@@ -9,6 +9,7 @@
 #include "fit/assess.h"
 #include "fit/fit_types.h"
 #include "fit/holdout.h"
+#include "fit/holdout_views.h"
 #include "fit/metrics.h"
 
 namespace matfit::fit {
@@ -27,6 +28,8 @@ struct FitReportInputs {
   ReconstructionMetrics reconstruction;
   ReconstructionMetrics reconstruction_common;  // over the common texel set (fit/metrics.h)
   std::optional<HeldOutMetrics> heldout;
+  std::optional<HeldOutViewMetrics> heldout_views;
+  std::map<int, std::map<int, double>> deviation_by_view_theta;  // multi-view stacks
   std::optional<TruthMetrics> truth;
   const FitAssessment* assessment = nullptr;  // optional
   // How the images were linearised, and what --color-space auto changed (optional).

@@ -87,9 +87,10 @@ StatusOr<HeldOutSums> Score(const FitMethod& m, const LightStack& fine, const Li
     if (f == 0) h.fit_seconds = fit->fit_seconds;
     h.any = true;
     // Batched: every test light's prediction of one coarse row, then the fine rows under it.
-    std::vector<Vec3f> test_dirs;
+    std::vector<Vec3f> test_dirs, test_views;  // each image at its own view (multi-view)
     for (int i : test) test_dirs.emplace_back(fine.lights()[i].direction);
-    const BatchEvaluator eval(fit->maps, test_dirs, v);
+    for (int i : test) test_views.emplace_back(fine.ViewOf(i));
+    const BatchEvaluator eval(fit->maps, test_dirs, test_views);
     const int W = fine.width(), CW = coarse.width(), CH = coarse.height();
     // Near lights: each fine texel under its own light (the coarse texel's maps).
     const bool near = fine.has_light_positions();
@@ -329,7 +330,10 @@ StatusOr<Selection> SelectModel(const LightStack& stack, const SceneSpec& scene,
   if (!fine.ok()) return fine.status();
   if (const StackDiagnostics d = DiagnoseStack(*fine); d.looks_gamma_encoded)
     return InvalidArgument("model selection: " + d.warnings.front());
-  std::vector<std::string> methods = o.methods.empty() ? MethodNames() : o.methods;
+  // A multi-view stack (every view of a BTF) is fitted by the methods over views only.
+  std::vector<std::string> methods = !o.methods.empty()      ? o.methods
+                                     : stack.is_multi_view() ? MultiViewMethodNames()
+                                                             : MethodNames();
   std::vector<std::pair<std::unique_ptr<FitMethod>, int>> cands;  // method, k
   std::vector<Candidate> table;
   for (const auto& name : methods) {

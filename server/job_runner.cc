@@ -62,7 +62,7 @@ bool HasFileMatching(const std::string& dir, const std::vector<std::string>& nee
 }
 
 std::optional<ViewAngles> ViewOf(const JobSpec& spec) {
-  if (spec.view.empty()) return std::nullopt;
+  if (spec.view.empty() || spec.view == "all") return std::nullopt;
   ViewAngles v;
   std::sscanf(spec.view.c_str(), "%lf,%lf", &v.theta_deg, &v.phi_deg);
   return v;
@@ -78,6 +78,7 @@ std::vector<std::string> ForApi(std::vector<std::string> messages) {
 ReadOptions JobReadOptions(const JobSpec& spec) {
   ReadOptions ro;
   ro.view = ViewOf(spec);
+  ro.all_views = spec.view == "all";  // every view of a BTF (model svbrdf or auto)
   if (!ParseLayout(spec.layout, &ro.layout)) ro.layout = Layout::kAuto;  // checked at parse
   if (!ParseColorSpaceChoice(spec.color_space, &ro.color_space))
     ro.color_space = ColorSpaceChoice::kAuto;

@@ -55,8 +55,9 @@ StatusOr<JobSpec> ParseJobSpecFields(const std::map<std::string, std::string>& f
       s.model = v;
     } else if (k == "view") {
       double t, p;
-      if (!v.empty() && !ParseView(v, &t, &p))
-        return FieldError("view", "must be THETA,PHI in degrees (θ in [0, 90]), got '" + v + "'");
+      if (!v.empty() && v != "all" && !ParseView(v, &t, &p))
+        return FieldError("view",
+                          "must be THETA,PHI in degrees (θ in [0, 90]) or all, got '" + v + "'");
       s.view = v;
     } else if (k == "holdout") {
       char* end = nullptr;
@@ -98,7 +99,9 @@ StatusOr<JobSpec> ParseJobSpecFields(const std::map<std::string, std::string>& f
       return FieldError("budget", "applies to model=auto only");
     bool known = s.model == "auto";
     std::string list;
-    for (const auto& n : fit::MethodNames()) {
+    std::vector<std::string> names = fit::MethodNames();
+    for (const auto& n : fit::MultiViewMethodNames()) names.push_back(n);
+    for (const auto& n : names) {
       known = known || n == s.model;
       list += (list.empty() ? "" : ", ") + n;
     }

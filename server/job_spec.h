@@ -13,7 +13,7 @@ namespace matfit::server {
 struct JobSpec {
   std::string mode = "fit";  // "fit" | "leaf"
   std::string model = "lambert-robust";
-  std::string view;             // "THETA,PHI" (BTF view) or empty
+  std::string view;             // "THETA,PHI" (BTF view), "all" (every view) or empty
   int holdout = 0;              // k-fold held-out-light error (fit); fit::kLeaveOneOut for "loo"
   double budget = 0;            // model "auto": held-out RMSE budget (0 = the default scene's)
   std::string layout = "auto";  // dataset layout (fit): auto, bonn, utia, lp, diligent, …

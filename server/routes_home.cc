@@ -14,12 +14,16 @@ void Server::Impl::RegisterHomeRoutes() {
   });
   http.Get("/api/v1/models", [](const httplib::Request&, httplib::Response& res) {
     json models = json::array();
-    for (const auto& name : fit::MethodNames()) {
-      const auto m = fit::MakeMethod(name);
-      models.push_back({{"name", name},
-                        {"description", m ? m->description() : ""},
-                        {"bytes_per_texel", m ? m->bytes_per_texel() : 0}});
-    }
+    // "views": what a job's view field must be for the model (one view, or all of a BTF).
+    for (const auto& [list, views] :
+         {std::pair{fit::MethodNames(), "one"}, std::pair{fit::MultiViewMethodNames(), "all"}})
+      for (const auto& name : list) {
+        const auto m = fit::MakeMethod(name);
+        models.push_back({{"name", name},
+                          {"description", m ? m->description() : ""},
+                          {"bytes_per_texel", m ? m->bytes_per_texel() : 0},
+                          {"views", views}});
+      }
     SendJson(res, 200,
              {{"models", models},
               {"default", "auto"},

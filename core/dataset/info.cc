@@ -121,6 +121,16 @@ DatasetInfo ComputeDatasetInfo(const LightStack& s) {
   info.memory_bytes = size_t(texel_counts[0] + table);
   info.sample_type = SampleTypeName(s.sample_type());
   info.view_theta_deg = s.view_theta_deg, info.view_phi_deg = s.view_phi_deg;
+  info.view_theta_min = info.view_theta_max = s.view_theta_deg;
+  if (s.is_multi_view()) {
+    const auto groups = ViewGroups(s);
+    info.views = int(groups.size());
+    for (const auto& g : groups) {
+      const double t = s.lights()[size_t(g[0])].view_theta_deg;
+      info.view_theta_min = std::min(info.view_theta_min, t);
+      info.view_theta_max = std::max(info.view_theta_max, t);
+    }
+  }
   info.has_mask = s.has_mask();
   info.mask_source = s.mask_source;
   info.source_width = s.source_width, info.source_height = s.source_height;
@@ -316,8 +326,14 @@ std::string FormatDatasetInfo(const DatasetInfo& d) {
          std::to_string(d.crop_x) + "," + std::to_string(d.crop_y) + " of the " +
          std::to_string(d.source_width) + "x" + std::to_string(d.source_height) +
          " images (--crop)\n";
-  o += "view         θv=" + Fmt("%.1f", d.view_theta_deg) + "° φv=" + Fmt("%.1f", d.view_phi_deg) +
-       "°\n";
+  if (d.views > 1)
+    o += "views        " + std::to_string(d.views) + ", θv " + Fmt("%.1f", d.view_theta_min) +
+         "°…" + Fmt("%.1f", d.view_theta_max) +
+         "°; reference (most frontal) θv=" + Fmt("%.1f", d.view_theta_deg) +
+         "° φv=" + Fmt("%.1f", d.view_phi_deg) + "°\n";
+  else
+    o += "view         θv=" + Fmt("%.1f", d.view_theta_deg) +
+         "° φv=" + Fmt("%.1f", d.view_phi_deg) + "°\n";
   for (const auto& e : d.encodings) o += "colour       " + e + "\n";
   o += "mask         " +
        (d.has_mask ? std::to_string(d.masked_texels) + " of " +
@@ -369,6 +385,10 @@ std::string DatasetInfoJson(const DatasetInfo& d) {
       {"memory_bytes", d.memory_bytes},
       {"sample_type", d.sample_type},
       {"view", {{"theta_deg", d.view_theta_deg}, {"phi_deg", d.view_phi_deg}}},
+      {"views",
+       {{"count", d.views},
+        {"theta_min_deg", d.view_theta_min},
+        {"theta_max_deg", d.view_theta_max}}},
       {"encodings", d.encodings},
       {"mask_texels", d.has_mask ? nlohmann::json(d.masked_texels) : nlohmann::json()},
       {"mask_source", d.mask_source},

@@ -23,6 +23,9 @@ struct DatasetInfo {
   // `matfit info`, empty when not estimated) and its verdict name.
   std::string tone_curve, tone_verdict;
   double view_theta_deg = 0, view_phi_deg = 0;
+  // Multi-view stacks (--view all): the number of views and their θv range (views 1: one view).
+  int views = 1;
+  double view_theta_min = 0, view_theta_max = 0;
   std::vector<ThetaGroup> theta_groups;  // light count per θ_l group
   double theta_min = 0, theta_max = 0, max_azimuth_gap_deg = 0;
   double singular_values[3] = {0, 0, 0};  // of the N × 3 light matrix, descending

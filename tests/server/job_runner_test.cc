@@ -11,7 +11,9 @@
 #include <utility>
 #include <vector>
 
+#include "core/synth/synth.h"
 #include "server/job_runner.h"
+#include "server/job_spec.h"
 
 namespace matfit::server {
 namespace {
@@ -49,6 +51,32 @@ TEST(JobRunner, FitProgressGrowsThroughEveryStage) {
     high = std::max(high, f);
   }
   EXPECT_DOUBLE_EQ(calls.back().second, 1.0);
+}
+
+// Issue 17: a multi-view BTF upload (view=all) fitted by svbrdf, its images counted against the
+// stack limit before any pixel is decoded.
+TEST(JobRunner, AMultiViewUploadIsFittedOverEveryView) {
+  auto spec = ParseJobSpecFields({{"view", "all"}, {"model", "svbrdf"}});
+  ASSERT_TRUE(spec.ok()) << spec.status().ToString();
+  EXPECT_TRUE(JobReadOptions(*spec).all_views);
+  EXPECT_FALSE(JobReadOptions(*spec).view.has_value());
+  const fs::path root = fs::temp_directory_path() / ("matfit-mv-job-" + std::to_string(::getpid()));
+  fs::remove_all(root);
+  synth::SynthOptions o;
+  o.material = "lacquer", o.lights = "bonn81", o.views = "dome:4", o.size = 12, o.bits = 16;
+  auto data = synth::Synthesize(o);
+  ASSERT_TRUE(data.ok());
+  ASSERT_TRUE(synth::WriteSynthDataset(*data, o, (root / "btf").string(), false).ok());
+  // 4 views × 81 lights × 12² × 3 samples: over a limit of 100 k, under 200 k.
+  std::string field;
+  const Status over = ValidateDataset(*spec, (root / "btf").string(), 100000, &field);
+  EXPECT_FALSE(over.ok());
+  EXPECT_TRUE(ValidateDataset(*spec, (root / "btf").string(), 200000, &field).ok());
+  auto r = RunJob(*spec, (root / "btf").string(), (root / "pack").string(),
+                  [](double, const std::string&) { return true; });
+  ASSERT_TRUE(r.ok()) << r.status().ToString();
+  EXPECT_NE(r->find("svbrdf"), std::string::npos) << *r;
+  fs::remove_all(root);
 }
 
 }  // namespace

@@ -1,0 +1,43 @@
+// Held-out views (issue 17): whole views of a multi-view stack left out of the fit and predicted
+// by it — what a renderer drawing the material from a new camera shows. And the reconstruction
+// error of a multi-view fit per (θv, θl) group.
+#pragma once
+
+#include <map>
+#include <vector>
+
+#include "core/light_stack.h"
+#include "fit/method.h"
+#include "fit/metrics.h"
+
+namespace matfit::fit {
+
+struct HeldOutView {
+  double theta_deg = 0, phi_deg = 0;  // the view
+  ReconstructionMetrics metrics;      // its images predicted by the fit without it
+};
+
+struct HeldOutViewMetrics {
+  std::vector<HeldOutView> views;  // the held-out views, by θv
+  ReconstructionMetrics all;       // every held-out image
+  int train_views = 0;
+};
+
+// `count` views spread over the view range in θv order (every (V − 1)/count-th of the views
+// sorted by θv, φv), never the most frontal one (svbrdf starts from it): indices into `groups`
+// (ViewGroups). count must be in [1, V − 1].
+std::vector<int> ChooseHeldOutViews(const LightStack& stack,
+                                    const std::vector<std::vector<int>>& groups, int count);
+
+// Fits `method` on the images of the other views and scores the held-out views' images with it
+// (reconstruction metrics, each image at its own view). options.progress sees the fit.
+StatusOr<HeldOutViewMetrics> HeldOutViews(const FitMethod& method, const LightStack& stack,
+                                          int count, const FitOptions& options);
+
+// dev% per (θv, θl) group of the maps' reconstruction of a multi-view stack: outer key θv, inner
+// θl, each rounded to the nearest multiple of 15° (as ReconstructionMetrics's θl groups).
+std::map<int, std::map<int, double>> DeviationByViewTheta(const LightStack& stack,
+                                                          const MaterialMaps& maps,
+                                                          const std::vector<uint8_t>& status);
+
+}  // namespace matfit::fit

@@ -1,0 +1,59 @@
+#!/usr/bin/env bash
+# Multi-view BTFs end to end (issue 17): synth --views in the Bonn and UTIA layouts, info and fit
+# of every view (--view all), held-out views, auto over the view-dependent models, refusals.
+# Usage: multi_view_cli_test.sh MATFIT_BINARY SOURCE_DIR
+set -u
+bin=$1; src=$2
+tmp=$(mktemp -d); trap 'rm -rf "$tmp"' EXIT
+. "$src/tests/app/lib.sh"
+cd "$tmp"
+
+"$bin" synth --material lacquer --lights bonn81 --views dome:9 --layout bonn --bits 32 --size 16 \
+  --out btf --quiet || bad "synth --views bonn"
+[ "$(find btf -mindepth 1 -maxdepth 1 -type d -name 'tv*' | wc -l)" = 9 ] && ok ||
+  bad "bonn: one folder per view expected"
+expect_contains "params views" "$(tr -d ' \n' <btf/truth/params.json)" '"view_set":"dome:9"'
+"$bin" synth --material lacquer --lights bonn81 --views dome:4 --layout utia --bits 16 --size 16 \
+  --out utia --quiet || bad "synth --views utia"
+
+out=$("$bin" info btf --view all --quiet 2>&1) || bad "info --view all: $out"
+expect_contains "info images" "$out" "images       729 x 16x16"
+expect_contains "info views" "$out" "views        9, θv"
+out=$("$bin" info btf --quiet 2>&1) || bad "info one view: $out"
+expect_contains "info one view" "$out" "images       81 x 16x16"
+out=$("$bin" info utia --view all --quiet 2>&1) || bad "info utia --view all: $out"
+expect_contains "info utia views" "$out" "views        4, θv"
+
+out=$("$bin" fit btf --view all --model svbrdf --holdout-views 3 --out pack --quiet 2>&1) ||
+  bad "fit svbrdf: $out"
+report=$(tr -d ' \n' <pack/report.json)
+expect_contains "report method" "$report" '"method":"svbrdf"'
+expect_contains "report held-out views" "$report" '"heldout_views":{"deviation_percent"'
+expect_contains "report train views" "$report" '"train_views":6'
+expect_contains "report by view" "$report" '"deviation_percent_by_view_theta":{"15":{'
+expect_contains "pack model" "$(tr -d ' \n' <pack/material.json)" '"name":"cook-torrance"'
+python3 - pack/report.json <<'PY' && ok || bad "svbrdf on lacquer: normals or held-out views out of bounds"
+import json, sys
+r = json.load(open(sys.argv[1]))
+assert r["normal_mae_deg"] < 1.5, r["normal_mae_deg"]
+assert len(r["heldout_views"]["views"]) == 3
+assert all(v["theta_deg"] > 0 for v in r["heldout_views"]["views"])
+PY
+"$bin" render pack --camera 45,90 --light 30,270 --size 32 --backend cpu --out view.png --quiet ||
+  bad "render the svbrdf pack from another camera"
+
+out=$("$bin" fit btf --view all --model auto --out auto --quiet 2>&1) || bad "fit auto: $out"
+expect_contains "auto picks the view-dependent model" "$(tr -d ' \n' <auto/report.json)" '"method":"svbrdf"'
+
+# Refusals name what to do.
+out=$("$bin" fit btf --view all --model lambert --out bad1 --quiet 2>&1) && bad "lambert over views accepted"
+expect_contains "single-view model" "$out" "--model svbrdf"
+out=$("$bin" fit btf --model svbrdf --holdout-views 2 --out bad2 --quiet 2>&1) && bad "held-out views of one view accepted"
+expect_contains "holdout-views needs all" "$out" "--view all"
+out=$("$bin" fit btf --view all --model svbrdf --holdout-views 9 --out bad3 --quiet 2>&1) && bad "every view held out accepted"
+expect_contains "holdout-views range" "$out" "--holdout-views must be in [1, 8]"
+out=$("$bin" synth --material lacquer --views dome:4 --layout lp --size 8 --out bad4 --quiet 2>&1) && bad "views in lp accepted"
+expect_contains "views layout" "$out" "--views needs --layout bonn or utia"
+
+echo "multi-view CLI: $pass passed, $fail failed"
+[ "$fail" = 0 ]
