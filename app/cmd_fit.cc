@@ -18,7 +18,7 @@ namespace {
 
 struct FitArgs {
   fit::FitJobOptions job;
-  std::string layout = "auto", view, color_space = "auto", crop;
+  std::string layout = "auto", view, color_space = "auto", crop, memory;
   int threads = 0;
   bool quiet = false;
 };
@@ -32,6 +32,26 @@ void PrintModels() {
     std::printf("%-10s %6d %6d  %s\n", name.c_str(), m->parameters_per_texel(),
                 m->bytes_per_texel(), m->description().c_str());
   }
+}
+
+// "512M", "2G", "1048576" → bytes (K, M, G: powers of 1024); false when malformed or ≤ 0.
+bool ParseByteSize(const std::string& text, int64_t* out) {
+  char* end = nullptr;
+  const double v = std::strtod(text.c_str(), &end);
+  if (end == text.c_str() || !(v > 0)) return false;
+  double scale = 1;
+  const std::string suffix(end);
+  if (suffix == "K" || suffix == "k")
+    scale = 1024.0;
+  else if (suffix == "M" || suffix == "m")
+    scale = 1024.0 * 1024;
+  else if (suffix == "G" || suffix == "g")
+    scale = 1024.0 * 1024 * 1024;
+  else if (!suffix.empty())
+    return false;
+  if (!(v * scale < 9e18)) return false;
+  *out = int64_t(v * scale);
+  return *out > 0;
 }
 
 std::string ByTheta(const std::map<int, double>& m) {
@@ -69,6 +89,11 @@ int RunFit(FitArgs& a) {
   if (!root) a.quiet = true;
   if (int rc = ApplyReadArgs("fit", a.layout, a.view, a.color_space, a.crop, &a.job.read))
     return rc;
+  if (!a.memory.empty() && !ParseByteSize(a.memory, &a.job.memory_bytes))
+    return Fail("fit", ("--memory '" + a.memory +
+                        "' must be a size: a number of bytes with an optional K, M or G suffix "
+                        "(e.g. 512M, 2G)")
+                           .c_str());
   std::string why;
   if (!a.job.Check(&why)) return root ? Fail("fit", why.c_str()) : 1;
   SetNumThreads(a.threads);
@@ -195,6 +220,12 @@ void RegisterFit(CLI::App& app, int* exit_code) {
                   "BTF view THETA,PHI in degrees (default: most frontal), or all (every view × "
                   "light: --model svbrdf)");
   sub->add_option("--crop", args->crop, kCropHelp);
+  sub->add_option("--memory", args->memory,
+                  "--view all: memory budget (e.g. 512M, 2G; default 2G); a stack larger as float "
+                  "is decoded once into a band cache on disk and fitted band by band (svbrdf)");
+  sub->add_option("--cache-dir", j.cache_dir,
+                  "where the out-of-core band cache goes (default: the system temp folder); "
+                  "needs the stack's size at its file depth");
   sub->add_option("--layout", args->layout, "auto, bonn, utia, lp, diligent, lights-txt")
       ->capture_default_str();
   sub->add_option("--color-space", args->color_space, "auto, srgb or linear")

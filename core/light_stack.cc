@@ -144,7 +144,7 @@ LightSample LightFromDirection(const Vec3& d) {
 }
 
 bool LightStack::is_multi_view() const {
-  for (int i = 1; i < num_images_; ++i)
+  for (int i = 1; i < int(lights_.size()); ++i)
     if (Length(ViewOf(i) - ViewOf(0)) > 1e-9) return true;
   return false;
 }
@@ -152,7 +152,7 @@ bool LightStack::is_multi_view() const {
 std::vector<std::vector<int>> ViewGroups(const LightStack& s) {
   std::vector<std::vector<int>> groups;
   std::vector<Vec3> views;
-  for (int i = 0; i < s.num_images(); ++i) {
+  for (int i = 0; i < int(s.lights().size()); ++i) {  // a headers-only stack has lights only
     const Vec3 v = s.ViewOf(i);
     size_t g = 0;
     while (g < views.size() && Length(views[g] - v) > 1e-9) ++g;

@@ -247,7 +247,8 @@ class LightStack {
 LightStack SelectImages(const LightStack& stack, const std::vector<int>& indices);
 
 // The images of each distinct view (ViewOf equal within 1e-9), views in order of first
-// appearance, images in stack order. One group for a single-view stack.
+// appearance, images in stack order (every light of a headers-only stack). One group for a
+// single-view stack.
 std::vector<std::vector<int>> ViewGroups(const LightStack& stack);
 // The group of ViewGroups whose view is the most frontal (largest z; the first on ties).
 int MostFrontalView(const LightStack& stack, const std::vector<std::vector<int>>& groups);

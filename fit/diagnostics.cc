@@ -227,6 +227,13 @@ struct TexelCollector {
 }  // namespace
 
 StackDiagnostics DiagnoseStack(const LightStack& s, int max_texels) {
+  // A multi-view stack is diagnosed on its most frontal view: the tone-curve estimate fits a
+  // Lambertian per texel, which the other views' Fresnel and masking would bend (a linear
+  // lacquer BTF read as γ 1.21, "sRGB read as linear", over all its views).
+  if (s.is_multi_view()) {
+    const auto groups = ViewGroups(s);
+    return DiagnoseStack(SelectImages(s, groups[size_t(MostFrontalView(s, groups))]), max_texels);
+  }
   StackDiagnostics d;
   const int n = s.num_images(), C = s.channels(), W = s.width();
   if (n < 6) return d;

@@ -22,6 +22,7 @@
 #include "fit/method.h"
 #include "fit/report.h"
 #include "fit/score.h"
+#include "fit/stream_fit.h"
 
 namespace matfit::fit {
 namespace {
@@ -76,6 +77,8 @@ class Stages {
 
 Status Cancelled() { return Status(StatusCode::kCancelled, "cancelled"); }
 
+std::string Megabytes(int64_t bytes) { return std::to_string((bytes + (1 << 19)) >> 20) + " MB"; }
+
 // The truth maps of the stack's region: a dataset read with --crop is compared with the same
 // region of its truth (maps of the whole images' size are cut; a stack at a lower mip, or truth
 // of another size, is left to fail the size check).
@@ -110,7 +113,7 @@ Status FinishJob(const FitJobOptions& o, const LightStack& stack, const FitMetho
       // The bound claims the supported cone: scored there, as the stability matrix does. Only
       // where relighting the truth maps gives the true appearance (not micro-geometry truth).
       const Confidence& c = r.assessment.confidence;
-      if (synth::TruthMapsAreTheAppearance(truth_dir, o.read.confine_to))
+      if (!c.bound.empty() && synth::TruthMapsAreTheAppearance(truth_dir, o.read.confine_to))
         r.bound_ratio_truth = BoundToActualRatio(
             c.bound,
             RelightingError(fit.maps, *truth,
@@ -139,7 +142,8 @@ Status FinishJob(const FitJobOptions& o, const LightStack& stack, const FitMetho
   ri.heldout_views = r.heldout_views;
   ri.deviation_by_view_theta = r.deviation_by_view_theta;
   ri.truth = r.truth;
-  ri.assessment = &r.assessment;
+  // An out-of-core fit has no assessment (no bound, no diagnosis): report.json says null.
+  ri.assessment = r.assessment.confidence.bound.empty() ? nullptr : &r.assessment;
   ri.tone = r.tone ? &*r.tone : nullptr;
   ri.read_encoding = r.read_encoding;
   ri.bound_ratio_heldout = r.bound_ratio_heldout;
@@ -163,13 +167,15 @@ Status FinishJob(const FitJobOptions& o, const LightStack& stack, const FitMetho
   info.model_parameters = r.fit.parameters;
   info.mm_per_texel = stack.mm_per_texel;
   info.warnings = r.fit.warnings;
-  Image bound(stack.width(), stack.full_height(), 1);
-  std::copy(r.assessment.confidence.bound.begin(), r.assessment.confidence.bound.end(),
-            bound.Plane(0).begin());
-  info.extra_maps.push_back({"confidence", "confidence.exr",
-                             "per-texel bound on the RMS relighting error (linear, per unit "
-                             "light; +inf = flagged), docs/stability.md",
-                             std::move(bound)});
+  if (!r.assessment.confidence.bound.empty()) {  // none for an out-of-core fit
+    Image bound(stack.width(), stack.full_height(), 1);
+    std::copy(r.assessment.confidence.bound.begin(), r.assessment.confidence.bound.end(),
+              bound.Plane(0).begin());
+    info.extra_maps.push_back({"confidence", "confidence.exr",
+                               "per-texel bound on the RMS relighting error (linear, per unit "
+                               "light; +inf = flagged), docs/stability.md",
+                               std::move(bound)});
+  }
   if (!r.fit.dropped_lights.empty()) {
     Image dropped(stack.width(), stack.full_height(), 1);
     for (size_t p = 0; p < r.fit.dropped_lights.size(); ++p)
@@ -183,6 +189,51 @@ Status FinishJob(const FitJobOptions& o, const LightStack& stack, const FitMetho
       WritePack(r.fit.maps, r.fit.status, info, {o.zip, o.overwrite, o.compact_maps}, o.out));
   stages->End();
   return Status::Ok();
+}
+
+// A multi-view stack over the memory budget: the band cache, svbrdf's start on the frontal view,
+// the bands, then truth and the pack as any fit (no confidence bound: it pools residual
+// statistics over the whole stack).
+StatusOr<FitJobResult> RunStreamedJob(const FitJobOptions& o, int64_t budget, StreamedFit* sf,
+                                      Stages* stages) {
+  const std::string size =
+      Megabytes(sf->FloatBytes()) + " as float > --memory " + Megabytes(budget);
+  if (o.model != "svbrdf")
+    return InvalidArgument("--model " + o.model + ": this stack (" + size +
+                           ") is fitted out of core, which --model svbrdf does; name it, or raise "
+                           "--memory to fit in memory");
+  if (o.holdout != 0 || o.holdout_views != 0)
+    return InvalidArgument("--holdout/--holdout-views: this stack (" + size +
+                           ") is fitted out of core, where held-out folds are not run yet; raise "
+                           "--memory or drop them");
+  stages->End();  // read: the headers
+  FitJobResult r;
+  r.images = int(sf->shape().lights().size());
+  r.width = sf->shape().width(), r.height = sf->shape().height();
+  r.channels = sf->shape().channels();
+  if (!stages->Begin("cache", r.images)) return Cancelled();
+  StreamFitOptions so;
+  so.memory_bytes = budget, so.cache_dir = o.cache_dir;
+  MATFIT_RETURN_IF_ERROR(sf->BuildCache(so, stages->Callback()));
+  stages->End();
+  if (!stages->Begin("start")) return Cancelled();
+  MATFIT_RETURN_IF_ERROR(sf->FitStart(o.fit));
+  stages->End();
+  if (!stages->Begin("fit", sf->bands())) return Cancelled();
+  MATFIT_RETURN_IF_ERROR(sf->FitBands(o.fit, stages->Callback()));
+  stages->End();
+  r.reconstruction = r.reconstruction_common = sf->reconstruction();
+  r.deviation_by_view_theta = sf->DeviationByViewTheta();
+  r.streamed_bands = sf->bands();
+  r.read_encoding = DescribeReadEncoding(sf->decoded());
+  FitResult fit = std::move(sf->result());
+  fit.parameters["streamed_cache_mb"] = double(sf->cache_bytes()) / (1 << 20);
+  const auto method = MakeMethod("svbrdf");
+  const std::vector<uint8_t> fitted_status = fit.status;
+  MATFIT_RETURN_IF_ERROR(FinishJob(o, sf->shape(), *method, std::nullopt, SceneSpec{},
+                                   fitted_status, std::move(fit), stages, &r));
+  r.timings = stages->Snapshot();
+  return r;
 }
 
 }  // namespace
@@ -216,6 +267,9 @@ bool FitJobOptions::Check(std::string* why) const {
           "--report-only is not run across MPI ranks; run it in one process (without "
           "mpirun)");
   }
+  if (memory_bytes < 0)
+    return fail("--memory must be a size in bytes (e.g. 512M, 2G), got " +
+                std::to_string(memory_bytes));
   if (holdout_views < 0)
     return fail("--holdout-views must be 0 (off) or a number of views, got " +
                 std::to_string(holdout_views));
@@ -249,6 +303,14 @@ StatusOr<FitJobResult> RunFitJob(const FitJobOptions& o, const StageProgress& pr
   }
   Stages stages(progress);
   if (!stages.Begin("read")) return Cancelled();
+  // Every view of a BTF over the memory budget: out of core (fit/stream_fit.h), from its headers.
+  if (o.read.all_views && !o.decode_only && o.report_only.empty() &&
+      !(o.comm && o.comm->size() > 1)) {
+    auto streamed = StreamedFit::Open(o.input, o.read);
+    if (!streamed.ok()) return streamed.status();
+    const int64_t budget = o.memory_bytes > 0 ? o.memory_bytes : kDefaultMemoryBudget;
+    if (streamed->FloatBytes() > budget) return RunStreamedJob(o, budget, &*streamed, &stages);
+  }
   ReadOptions ro = o.read;
   ro.progress = stages.Callback();
   // Distributed: this rank reads only its band of rows of every image (fit/bands.h).

@@ -31,8 +31,13 @@ struct FitJobOptions {
   FitOptions fit;                 // tile, method options
   int holdout = 0;                // k-fold held-out-light error; 0 = off, ≥ 2, or kLeaveOneOut
   int holdout_views = 0;          // whole views left out and predicted (multi-view); 0 = off
-  std::string out;                // pack folder (or .zip with zip); report file with report_only
-  std::string report_only;        // score this existing pack against the dataset (no fitting)
+  // --view all: the memory budget (bytes; 0 = kDefaultMemoryBudget, fit/stream_fit.h). A stack
+  // whose float size is above it is fitted out of core: decoded once into a band cache in
+  // cache_dir (empty: the system temp folder) and fitted band by band (svbrdf only).
+  int64_t memory_bytes = 0;
+  std::string cache_dir;
+  std::string out;          // pack folder (or .zip with zip); report file with report_only
+  std::string report_only;  // score this existing pack against the dataset (no fitting)
   bool zip = false, overwrite = false;
   bool compact_maps = false;  // PackWriteOptions::compact
   // Read the dataset and stop: the decode floor (same reader, parallel decode and threads as a
@@ -60,6 +65,7 @@ struct FitJobResult {
   std::optional<HeldOutViewMetrics> heldout_views;  // --holdout-views
   // Multi-view stacks: reconstruction dev% per (θv, θl) group (fit/holdout_views.h).
   std::map<int, std::map<int, double>> deviation_by_view_theta;
+  int streamed_bands = 0;  // > 0: fitted out of core in that many bands (fit/stream_fit.h)
   std::optional<TruthMetrics> truth;
   FitAssessment assessment;  // diagnostics + per-texel error bound (not report_only)
   std::optional<BoundRatio> bound_ratio_heldout, bound_ratio_truth;  // the bound's tightness

@@ -73,29 +73,36 @@ StatusOr<HeldOutViewMetrics> HeldOutViews(const FitMethod& method, const LightSt
   return m;
 }
 
-std::map<int, std::map<int, double>> DeviationByViewTheta(const LightStack& s,
-                                                          const MaterialMaps& maps,
-                                                          const std::vector<uint8_t>& status) {
-  // Per θv bucket: the samples of its views' θl groups, weighted by their sample counts.
-  std::map<int, std::map<int, std::pair<double, double>>> sums;  // θv → θl → (Σ dev·n, Σ n)
+void AddDeviationByViewTheta(const LightStack& s, const MaterialMaps& maps,
+                             const std::vector<uint8_t>& status, ViewThetaSums* sums) {
   for (const std::vector<int>& g : ViewGroups(s)) {
-    const int tv =
-        Group15(s.lights()[size_t(g[0])].has_view ? s.lights()[size_t(g[0])].view_theta_deg
-                                                  : s.view_theta_deg);
-    // The θl groups of this view's images, each scored with its own image count as weight.
+    const LightSample& first = s.lights()[size_t(g[0])];
+    const int tv = Group15(first.has_view ? first.view_theta_deg : s.view_theta_deg);
+    // The θl groups of this view's images, each weighted by its sample count.
     std::map<int, std::vector<int>> by_light;
     for (int i : g) by_light[Group15(s.lights()[size_t(i)].theta_deg)].push_back(i);
     for (const auto& [tl, images] : by_light) {
       const ReconstructionMetrics r = Reconstruction(s, images, maps, status);
-      auto& [sum, n] = sums[tv][tl];
+      auto& [sum, n] = (*sums)[tv][tl];
       sum += r.deviation_percent * double(r.samples), n += double(r.samples);
     }
   }
+}
+
+std::map<int, std::map<int, double>> DeviationByViewTheta(const ViewThetaSums& sums) {
   std::map<int, std::map<int, double>> out;
   for (const auto& [tv, m] : sums)
     for (const auto& [tl, sn] : m)
       if (sn.second > 0) out[tv][tl] = sn.first / sn.second;
   return out;
+}
+
+std::map<int, std::map<int, double>> DeviationByViewTheta(const LightStack& s,
+                                                          const MaterialMaps& maps,
+                                                          const std::vector<uint8_t>& status) {
+  ViewThetaSums sums;
+  AddDeviationByViewTheta(s, maps, status, &sums);
+  return DeviationByViewTheta(sums);
 }
 
 }  // namespace matfit::fit

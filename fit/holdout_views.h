@@ -39,5 +39,11 @@ StatusOr<HeldOutViewMetrics> HeldOutViews(const FitMethod& method, const LightSt
 std::map<int, std::map<int, double>> DeviationByViewTheta(const LightStack& stack,
                                                           const MaterialMaps& maps,
                                                           const std::vector<uint8_t>& status);
+// The same in parts (bands of a streamed fit): Σ dev%·samples and Σ samples per group, added up
+// over the parts, then divided.
+using ViewThetaSums = std::map<int, std::map<int, std::pair<double, double>>>;
+void AddDeviationByViewTheta(const LightStack& stack, const MaterialMaps& maps,
+                             const std::vector<uint8_t>& status, ViewThetaSums* sums);
+std::map<int, std::map<int, double>> DeviationByViewTheta(const ViewThetaSums& sums);
 
 }  // namespace matfit::fit

@@ -29,6 +29,13 @@ StatusOr<FitResult> FitCookTorrance(const LightStack& stack, const FitOptions& o
 // (each sample with its own view), started from cook-torrance on the most frontal view. On a
 // single-view stack it is cook-torrance with a per-texel roughness. Maps as cook-torrance.
 StatusOr<FitResult> FitSvbrdf(const LightStack& stack, const FitOptions& options);
+// Its two steps (a streamed fit runs the second band by band, fit/stream_fit.h): the start,
+// cook-torrance on the most frontal view alone (a single-view stack); then the joint refinement
+// over the images of `stack`, whose row 0 is row `row0` of the start's maps. Per texel, so a
+// band's texels come out as the whole stack's.
+StatusOr<FitResult> SvbrdfStart(const LightStack& frontal_view, const FitOptions& options);
+StatusOr<FitResult> RefineSvbrdf(const LightStack& stack, const FitResult& start, int row0,
+                                 const FitOptions& options);
 
 // lafortune (METHODS.md §4): 1 or 2 isotropic lobes (C_z = 1; amplitude, C_xy and exponent per
 // lobe), same two-stage per-texel LM with one lobe shape per material by default.

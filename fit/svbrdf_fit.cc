@@ -17,6 +17,7 @@
 #include <limits>
 #include <vector>
 
+#include "core/parallel.h"
 #include "core/shading/shading.h"
 #include "core/stack_band.h"
 #include "fit/fit_common.h"
@@ -29,9 +30,18 @@ namespace {
 
 // Texels gathered together: their samples of every image are read as runs along a row (the
 // stack is plane-major), then fitted one by one.
-constexpr int kRun = 32;
+constexpr int kRun = 16;
 
 }  // namespace
+
+StatusOr<FitResult> SvbrdfStart(const LightStack& front, const FitOptions& o) {
+  FitOptions fo = o;
+  fo.progress = {};
+  auto init = FitCookTorrance(front, fo);
+  if (!init.ok()) return Status(init.status().code(), "svbrdf: " + init.status().message());
+  init->parameters["frontal_view_theta_deg"] = front.view_theta_deg;
+  return init;
+}
 
 StatusOr<FitResult> FitSvbrdf(const LightStack& s, const FitOptions& o) {
   const std::vector<std::vector<int>> groups = ViewGroups(s);
@@ -40,17 +50,26 @@ StatusOr<FitResult> FitSvbrdf(const LightStack& s, const FitOptions& o) {
   LightStack front = SelectImages(s, frontal);
   front.view_direction = s.ViewOf(frontal[0]);
   AnglesDegFromDirection(front.view_direction, &front.view_theta_deg, &front.view_phi_deg);
-  FitOptions fo = o;
-  fo.progress = {};
-  auto init = FitCookTorrance(front, fo);
-  if (!init.ok()) return Status(init.status().code(), "svbrdf: " + init.status().message());
+  auto start = SvbrdfStart(front, o);
+  if (!start.ok()) return start.status();
+  return RefineSvbrdf(s, *start, 0, o);
+}
 
+StatusOr<FitResult> RefineSvbrdf(const LightStack& s, const FitResult& start, int row0,
+                                 const FitOptions& o) {
+  const int view_count = int(ViewGroups(s).size());
+  const MaterialMaps& im = start.maps;
+  if (im.width != s.width() || row0 < 0 || row0 + s.height() > im.height)
+    return InvalidArgument("svbrdf: the start's maps do not cover rows " + std::to_string(row0) +
+                           ".." + std::to_string(row0 + s.height() - 1) + " of the stack");
   const auto t0 = std::chrono::steady_clock::now();
   using Problem = lobe::TexelProblem<lobe::CookTorranceLobe, false>;
   constexpr int P = Problem::kParams;  // 7
   FitResult r;
   InitResult(s, "cook-torrance", "svbrdf", &r);
-  r.status = init->status;
+  const int64_t off = int64_t(row0) * s.width();  // texel p of s is texel p + off of the start
+  std::copy(start.status.begin() + off, start.status.begin() + off + s.plane_size(),
+            r.status.begin());
   const int n = s.num_images(), C = s.channels(), W = s.width();
   const std::vector<float> inv = InverseIntensities(s);
   std::vector<Vec3> dirs(static_cast<size_t>(n)), views(dirs.size()), halves(dirs.size());
@@ -61,25 +80,30 @@ StatusOr<FitResult> FitSvbrdf(const LightStack& s, const FitOptions& o) {
   }
   const float clip_level =
       StackMayBeClipped(s) ? kClipLevel : std::numeric_limits<float>::infinity();
-  const MaterialMaps& im = init->maps;
   const double r0 = im.roughness.empty() ? 0.5 : double(im.roughness.data()[0]);
   Image xs(s.width(), s.height(), P);
   std::vector<int> iterations(size_t(s.plane_size()), 0), used_samples(size_t(s.plane_size()), 0);
 
-  // Strips of ≈ 8² texels: a texel costs thousands of samples per LM iteration, so even a small
-  // stack needs many work units to keep every thread busy.
-  FitOptions so = o;
-  so.tile = 8;
-  const bool ok = ForEachTile(s, so, [&](const Tile& t) {
+  // Work units are runs of kRun texels along a row (not row strips): a texel costs thousands of
+  // samples per LM iteration, so even one row (a band of a streamed fit) must keep every thread
+  // busy.
+  const int runs_per_row = (W + kRun - 1) / kRun;
+  const int64_t runs = int64_t(s.height()) * runs_per_row;
+  std::atomic<int64_t> done{0};
+  std::atomic<bool> cancelled{false};
+  ParallelFor(0, runs, [&](int64_t run0, int64_t run1) {
     std::vector<double> obs(size_t(kRun) * n * C);
     std::vector<float> scratch(kRun);
     std::vector<char> use(static_cast<size_t>(n));
     Problem prob;
     prob.n = n, prob.channels = C, prob.lights = dirs.data(), prob.halves = halves.data();
     prob.views = views.data(), prob.obs = nullptr, prob.use = use.data();
-    for (int y = t.y0; y < t.y0 + t.height; ++y)
-      for (int x0 = t.x0; x0 < t.x0 + t.width; x0 += kRun) {
-        const int len = std::min(kRun, t.x0 + t.width - x0);
+    for (int64_t run = run0; run < run1 && !cancelled; ++run) {
+      const int64_t d = ++done;  // runs started
+      if (o.progress && (d % 64 == 0 || d == runs) && !o.progress(d, runs)) cancelled = true;
+      {
+        const int y = int(run / runs_per_row), x0 = int(run % runs_per_row) * kRun;
+        const int len = std::min(kRun, W - x0);
         const int64_t p0 = int64_t(y) * W + x0;
         bool any = false;
         for (int k = 0; k < len; ++k) any = any || r.status[size_t(p0 + k)] == kTexelOk;
@@ -100,8 +124,9 @@ StatusOr<FitResult> FitSvbrdf(const LightStack& s, const FitOptions& o) {
           const int64_t p = p0 + k;
           if (r.status[size_t(p)] != kTexelOk) continue;
           double* ob = obs.data() + size_t(k) * n * C;
-          const Vec3 n0(im.normal.Plane(0)[p], im.normal.Plane(1)[p], im.normal.Plane(2)[p]);
-          const double f0 = im.specular.Plane(0)[p];
+          const int64_t q = p + off;
+          const Vec3 n0(im.normal.Plane(0)[q], im.normal.Plane(1)[q], im.normal.Plane(2)[q]);
+          const double f0 = im.specular.Plane(0)[q];
           int used = 0;
           for (int i = 0; i < n; ++i) {
             const Vec3& l = dirs[size_t(i)];
@@ -114,7 +139,7 @@ StatusOr<FitResult> FitSvbrdf(const LightStack& s, const FitOptions& o) {
               double& ov = ob[size_t(i) * C + c];
               valid = valid && std::isfinite(ov);
               lum += ov;
-              pred += shading::Lambert(double(im.albedo.Plane(C == 1 ? 0 : c)[p]), n0, l) + spec;
+              pred += shading::Lambert(double(im.albedo.Plane(C == 1 ? 0 : c)[q]), n0, l) + spec;
             }
             if (!valid)
               for (int c = 0; c < C; ++c) ob[size_t(i) * C + c] = 0;
@@ -130,7 +155,7 @@ StatusOr<FitResult> FitSvbrdf(const LightStack& s, const FitOptions& o) {
           Eigen::Matrix<double, P, 1> x;
           const double nz = std::max(n0.z, 0.2);
           x[0] = n0.x / nz, x[1] = n0.y / nz;
-          for (int c = 0; c < 3; ++c) x[2 + c] = im.albedo.Plane(C == 1 ? 0 : c)[p];
+          for (int c = 0; c < 3; ++c) x[2 + c] = im.albedo.Plane(C == 1 ? 0 : c)[q];
           x[5] = f0, x[6] = r0;
           prob.Project(x.data());
           LmOptions lm;
@@ -140,10 +165,12 @@ StatusOr<FitResult> FitSvbrdf(const LightStack& s, const FitOptions& o) {
             r.status[size_t(p)] = kTexelNonFinite;
             continue;
           }
-          for (int q = 0; q < P; ++q) xs.Plane(q)[p] = float(x[q]);
+          for (int k2 = 0; k2 < P; ++k2) xs.Plane(k2)[p] = float(x[k2]);
         }
       }
+    }
   });
+  const bool ok = !cancelled;
 
   MaterialMaps& m = r.maps;
   m.specular = Image(s.width(), s.height(), 1);
@@ -159,8 +186,10 @@ StatusOr<FitResult> FitSvbrdf(const LightStack& s, const FitOptions& o) {
     sums[0] += iterations[size_t(p)], sums[1] += used_samples[size_t(p)], sums[2] += 1;
   }
   SumOverBands(s, sums, 3);
-  r.parameters["views"] = double(groups.size());
-  r.parameters["frontal_view_theta_deg"] = front.view_theta_deg;
+  r.parameters["views"] = double(view_count);
+  r.parameters["frontal_view_theta_deg"] = start.parameters.count("frontal_view_theta_deg")
+                                               ? start.parameters.at("frontal_view_theta_deg")
+                                               : 0.0;
   r.parameters["start_roughness"] = r0;
   r.parameters["mean_lm_iterations"] = sums[2] > 0 ? sums[0] / sums[2] : 0;
   r.parameters["mean_samples_used"] = sums[2] > 0 ? sums[1] / sums[2] : 0;

@@ -5,6 +5,7 @@
 #include <cmath>
 #include <filesystem>
 
+#include "core/dataset/band_cache.h"
 #include "core/dataset/dataset.h"
 #include "core/dataset/writer.h"
 #include "core/model/model.h"
@@ -158,6 +159,60 @@ TEST(MultiView, WritesAndReadsEveryViewInBothLayouts) {
     ASSERT_TRUE(one.ok());
     EXPECT_EQ(one->num_images(), 81);
     EXPECT_FALSE(one->is_multi_view());
+  }
+}
+
+TEST(MultiView, TheBandCacheHoldsEveryImagesRowsAsReadInMemory) {
+  for (int bits : {8, 16, 32}) {
+    TempDir tmp;
+    synth::SynthOptions o;
+    o.material = "lacquer", o.lights = "bonn81", o.views = "dome:5", o.size = 20, o.bits = bits;
+    auto r = synth::Synthesize(o);
+    ASSERT_TRUE(r.ok());
+    ASSERT_TRUE(synth::WriteSynthDataset(*r, o, tmp / "btf", false).ok());
+    ReadOptions ro;
+    ro.all_views = true;
+    auto whole = ReadDataset(tmp / "btf", ro);
+    ASSERT_TRUE(whole.ok());
+    ro.headers_only = true;
+    auto shape = ReadDataset(tmp / "btf", ro);
+    ASSERT_TRUE(shape.ok());
+    ro.headers_only = false;
+    // Bands of 3 rows (the last 2); decode chunks of 37 images at float size then 74 or 148 at
+    // the native depth: a chunk boundary that moves after the first chunk.
+    BandCacheOptions co;
+    co.band_bytes = int64_t(405) * 3 * 20 * 3 * (bits / 8);
+    co.dir = tmp.path();
+    int64_t reported = 0;
+    co.progress = [&](int64_t done, int64_t total) {
+      EXPECT_EQ(total, 405);
+      reported = done;
+      return true;
+    };
+    auto cache = BandCache::Build(*shape, ro, co);
+    ASSERT_TRUE(cache.ok()) << cache.status().ToString();
+    EXPECT_EQ(reported, 405);
+    ASSERT_EQ(cache->bands(), 7) << bits;
+    EXPECT_EQ(cache->band_rows(6), 2);
+    for (int b = 0; b < cache->bands(); ++b) {
+      auto band = cache->Load(b);
+      ASSERT_TRUE(band.ok());
+      ASSERT_EQ(band->num_images(), 405);
+      EXPECT_EQ(band->sample_type(), whole->sample_type());
+      EXPECT_TRUE(band->is_multi_view());
+      for (int i = 0; i < 405; ++i)
+        for (int c = 0; c < 3; ++c)
+          for (int y = 0; y < band->height(); ++y)
+            for (int x = 0; x < 20; ++x)
+              ASSERT_EQ(band->At(i, c, y, x), whole->At(i, c, cache->band_row0(b) + y, x))
+                  << bits << "-bit, band " << b << ", image " << i;
+    }
+    const std::string dir = cache->dir();
+    EXPECT_TRUE(fs::exists(dir));
+    auto second = BandCache::Build(*shape, ro, co);
+    ASSERT_TRUE(second.ok());
+    *cache = std::move(*second);  // the first cache's files are removed with it
+    EXPECT_FALSE(fs::exists(dir));
   }
 }
 
