@@ -15,23 +15,27 @@ constexpr float kClippedLevel = 0.9999f;
 LightStack EmptyLike(const LightStack& s, int w, int h, bool native) {
   LightStack out = native ? LightStack(w, h, s.channels(), s.num_images(), s.sample_type(), s.lut())
                           : LightStack(w, h, s.channels(), s.num_images());
-  out.lights() = s.lights();
-  out.view_direction = s.view_direction;
-  out.view_theta_deg = s.view_theta_deg, out.view_phi_deg = s.view_phi_deg;
-  out.mm_per_texel = s.mm_per_texel;
-  out.near_frame = s.near_frame;
-  out.layout = s.layout, out.source = s.source, out.object_name = s.object_name;
-  out.image_files = s.image_files;
-  out.encodings = s.encodings, out.encoding_reasons = s.encoding_reasons;
-  out.saturated_pixels = s.saturated_pixels, out.nonfinite_samples = s.nonfinite_samples;
-  out.band = s.band;
-  out.mask_source = s.mask_source;
-  out.source_width = s.source_width, out.source_height = s.source_height;
-  out.crop_x = s.crop_x, out.crop_y = s.crop_y, out.crop_w = s.crop_w, out.crop_h = s.crop_h;
+  CopyStackMetadata(s, &out);
   return out;
 }
 
 }  // namespace
+
+void CopyStackMetadata(const LightStack& s, LightStack* out) {
+  out->lights() = s.lights();
+  out->view_direction = s.view_direction;
+  out->view_theta_deg = s.view_theta_deg, out->view_phi_deg = s.view_phi_deg;
+  out->mm_per_texel = s.mm_per_texel;
+  out->near_frame = s.near_frame;
+  out->layout = s.layout, out->source = s.source, out->object_name = s.object_name;
+  out->image_files = s.image_files;
+  out->encodings = s.encodings, out->encoding_reasons = s.encoding_reasons;
+  out->saturated_pixels = s.saturated_pixels, out->nonfinite_samples = s.nonfinite_samples;
+  out->band = s.band;
+  out->mask_source = s.mask_source;
+  out->source_width = s.source_width, out->source_height = s.source_height;
+  out->crop_x = s.crop_x, out->crop_y = s.crop_y, out->crop_w = s.crop_w, out->crop_h = s.crop_h;
+}
 
 StatusOr<LightStack> CropStack(const LightStack& s, int x, int y, int w, int h) {
   if (w < 1 || h < 1 || x < 0 || y < 0 || x + w > s.width() || y + h > s.height())

@@ -7,6 +7,11 @@
 
 namespace matfit {
 
+// Copies what describes the stack but not its samples or size — lights, view, physical size,
+// near frame, band, provenance, per-image decode records (not read_warnings), mask source,
+// source size and crop — from `from` to `to` (the mask is the caller's: its size is the stack's).
+void CopyStackMetadata(const LightStack& from, LightStack* to);
+
 // The stack restricted to the rectangle [x, x + w) × [y, y + h) (must lie inside); samples are
 // copied as stored (same sample type and table).
 StatusOr<LightStack> CropStack(const LightStack& stack, int x, int y, int w, int h);

@@ -202,6 +202,10 @@ StatusOr<FitJobResult> RunStreamedJob(const FitJobOptions& o, int64_t budget, St
     return InvalidArgument("--model " + o.model + ": this stack (" + size +
                            ") is fitted out of core, which --model svbrdf does; name it, or raise "
                            "--memory to fit in memory");
+  if (sf->shape().has_light_positions())
+    return InvalidArgument(
+        "svbrdf: near lights (light_positions.txt) over several views are not "
+        "supported; use --distant-lights");
   if (o.holdout != 0 || o.holdout_views != 0)
     return InvalidArgument("--holdout/--holdout-views: this stack (" + size +
                            ") is fitted out of core, where held-out folds are not run yet; raise "
@@ -222,7 +226,9 @@ StatusOr<FitJobResult> RunStreamedJob(const FitJobOptions& o, int64_t budget, St
   if (!stages->Begin("fit", sf->bands())) return Cancelled();
   MATFIT_RETURN_IF_ERROR(sf->FitBands(o.fit, stages->Callback()));
   stages->End();
-  r.reconstruction = r.reconstruction_common = sf->reconstruction();
+  r.reconstruction = sf->reconstruction();
+  r.reconstruction_common = sf->reconstruction_common();
+  r.tone = sf->tone();
   r.deviation_by_view_theta = sf->DeviationByViewTheta();
   r.streamed_bands = sf->bands();
   r.read_encoding = DescribeReadEncoding(sf->decoded());
@@ -246,7 +252,9 @@ bool FitJobOptions::Check(std::string* why) const {
   if (input.empty()) return fail("the dataset path is empty");
   if (decode_only) {
     if (!out.empty() || !report_only.empty() || holdout != 0 || holdout_views != 0)
-      return fail("--decode-only only reads the dataset: drop --out, --report-only and --holdout");
+      return fail(
+          "--decode-only only reads the dataset: drop --out, --report-only, --holdout and "
+          "--holdout-views");
     return read.Check(why);
   }
   if (out.empty() && report_only.empty()) return fail("--out PACK is required");
@@ -493,7 +501,7 @@ StatusOr<FitJobResult> RunFitJob(const FitJobOptions& o, const StageProgress& pr
     stages.End();
   }
   if (stack->is_multi_view() && !comm)
-    r.deviation_by_view_theta = DeviationByViewTheta(*stack, fit->maps, fit->status);
+    r.deviation_by_view_theta = DeviationByViewTheta(*stack, fit->maps, fitted_status);
   if (comm) {
     // Every figure so far is the whole stack's (each step reduced over the bands); the per-texel
     // results go to rank 0, which scores against truth and writes the pack. The other ranks

@@ -73,6 +73,16 @@ Status StreamedFit::FitStart(const FitOptions& o) {
   one.view = ViewAngles{front.view_theta_deg, front.view_phi_deg};
   auto stack = ReadDataset(input_, one);
   if (!stack.ok()) return stack.status();
+  if (cache_ && !cache_->mask().empty()) {  // the mask of every view, as an in-memory read has
+    stack->mask = cache_->mask();
+    stack->mask_source = cache_->meta().mask_source;
+  }
+  if (read_.color_space == ColorSpaceChoice::kAuto) {
+    StackDiagnostics diagnosis = DiagnoseStack(*stack);
+    tone_ = ResolveToneCurve(&*stack, &diagnosis);
+    if (tone_->corrected && !stack->encoding_reasons.empty())
+      tone_reason_ = stack->encoding_reasons[0];
+  }
   auto start = SvbrdfStart(*stack, o);
   if (!start.ok()) return start.status();
   start_ = std::move(*start);
@@ -89,16 +99,25 @@ Status StreamedFit::FitBands(const FitOptions& o, const ProgressFn& progress) {
   r.maps = start_->maps;  // model, size, mask; every texel map is overwritten band by band
   r.maps.specular = Image(W, H, 1), r.maps.roughness = Image(W, H, 1);
   r.status.assign(size_t(W) * H, 0);
-  double sse = 0, samples = 0, iterations = 0, used = 0, fitted = 0;
-  for (int b = 0; b < cache_->bands(); ++b) {
+  double sse = 0, samples = 0, sse_common = 0, samples_common = 0;
+  double iterations = 0, used = 0, fitted = 0;
+  const int bands = cache_->bands();
+  for (int b = 0; b < bands; ++b) {
     auto band = cache_->Load(b);
     if (!band.ok()) return band.status();
-    FitOptions bo = o;
-    bo.progress = {};
+    if (tone_ && tone_->corrected) band->Relinearise(tone_->to, tone_reason_);
+    FitOptions bo = o;  // the band's runs as its share of every band's
+    bo.progress = [&](int64_t d, int64_t t) {
+      return !progress || t <= 0 || progress(int64_t(b) * t + d, int64_t(bands) * t);
+    };
     auto fit = RefineSvbrdf(*band, *start_, cache_->band_row0(b), bo);
     if (!fit.ok()) return fit.status();
     const ReconstructionMetrics m = Reconstruction(*band, fit->maps, fit->status);
     sse += m.rmse * m.rmse * double(m.samples), samples += double(m.samples);
+    const ReconstructionMetrics mc =
+        AnyFlagged(fit->status) ? Reconstruction(*band, fit->maps, CommonTexelStatus(fit->status))
+                                : m;
+    sse_common += mc.rmse * mc.rmse * double(mc.samples), samples_common += double(mc.samples);
     AddDeviationByViewTheta(*band, fit->maps, fit->status, &view_theta_);
     // The band's rows into the whole maps.
     const int64_t off = int64_t(cache_->band_row0(b)) * W, T = band->plane_size();
@@ -118,20 +137,23 @@ Status StreamedFit::FitBands(const FitOptions& o, const ProgressFn& progress) {
     used += fit->parameters["mean_samples_used"] * double(ok);
     fitted += double(ok);
     if (b == 0) r.parameters = fit->parameters;
-    if (progress && !progress(b + 1, cache_->bands()))
-      return Status(StatusCode::kCancelled, "cancelled");
   }
   r.parameters["mean_lm_iterations"] = fitted > 0 ? iterations / fitted : 0;
   r.parameters["mean_samples_used"] = fitted > 0 ? used / fitted : 0;
   r.parameters["streamed_bands"] = cache_->bands();
   SummariseStatus(&r);
   // The whole stack's figures from the bands' sums (dev% = 100 · mean squared difference).
-  reconstruction_ = ReconstructionMetrics();
-  reconstruction_.samples = int64_t(samples);
-  const double mse = samples > 0 ? sse / samples : 0;
-  reconstruction_.rmse = std::sqrt(mse);
-  reconstruction_.deviation_percent = 100 * mse;
-  reconstruction_.psnr_db = mse > 0 ? 10 * std::log10(1 / mse) : INFINITY;
+  auto from_sums = [](double e, double count) {
+    ReconstructionMetrics m;
+    m.samples = int64_t(count);
+    const double mse = count > 0 ? e / count : 0;
+    m.rmse = std::sqrt(mse);
+    m.deviation_percent = 100 * mse;
+    m.psnr_db = mse > 0 ? 10 * std::log10(1 / mse) : INFINITY;
+    return m;
+  };
+  reconstruction_ = from_sums(sse, samples);
+  reconstruction_common_ = from_sums(sse_common, samples_common);
   std::map<int, std::pair<double, double>> by_light;
   for (const auto& [tv, m] : view_theta_)
     for (const auto& [tl, sn] : m) by_light[tl].first += sn.first, by_light[tl].second += sn.second;

@@ -13,6 +13,7 @@
 
 #include "core/dataset/band_cache.h"
 #include "core/dataset/dataset.h"
+#include "fit/diagnostics.h"
 #include "fit/fit_types.h"
 #include "fit/holdout_views.h"
 #include "fit/metrics.h"
@@ -38,7 +39,9 @@ class StreamedFit {
   // Decodes every image once into the band cache, bands sized to half of what the budget leaves
   // after the process's resident memory, the fit's per-thread buffers and the maps.
   Status BuildCache(const StreamFitOptions& options, const ProgressFn& progress);
-  // Reads the most frontal view alone and fits svbrdf's start on it.
+  // Reads the most frontal view alone (with the cache's mask over every view) and fits svbrdf's
+  // start on it. With --color-space auto the tone curve is estimated on it, as an in-memory fit
+  // of the multi-view stack does (fit/diagnostics.h), and a correction applies to every band.
   Status FitStart(const FitOptions& options);
   // Loads, refines and scores each band; progress counts bands. The whole stack's maps, status
   // and figures after the last.
@@ -46,6 +49,9 @@ class StreamedFit {
 
   FitResult& result() { return result_; }
   const ReconstructionMetrics& reconstruction() const { return reconstruction_; }
+  // Over the common texel set (fit/metrics.h): every unmasked texel as stored.
+  const ReconstructionMetrics& reconstruction_common() const { return reconstruction_common_; }
+  const std::optional<ToneResolution>& tone() const { return tone_; }
   std::map<int, std::map<int, double>> DeviationByViewTheta() const;
   int bands() const { return cache_ ? cache_->bands() : 0; }
   int64_t cache_bytes() const { return cache_ ? cache_->bytes() : 0; }
@@ -61,8 +67,10 @@ class StreamedFit {
   int64_t band_bytes_ = 0;
   std::optional<FitResult> start_;
   FitResult result_;
-  ReconstructionMetrics reconstruction_;
+  ReconstructionMetrics reconstruction_, reconstruction_common_;
   ViewThetaSums view_theta_;
+  std::optional<ToneResolution> tone_;  // --color-space auto: the estimate on the frontal view
+  std::string tone_reason_;
 };
 
 }  // namespace matfit::fit

@@ -49,7 +49,12 @@ StatusOr<FitResult> FitSvbrdf(const LightStack& s, const FitOptions& o) {
   // The start: cook-torrance on the most frontal view, its own view as the stack's.
   LightStack front = SelectImages(s, frontal);
   front.view_direction = s.ViewOf(frontal[0]);
-  AnglesDegFromDirection(front.view_direction, &front.view_theta_deg, &front.view_phi_deg);
+  // The view's angles as the reader parsed them (a streamed fit reads this view alone).
+  const LightSample& fl = s.lights()[size_t(frontal[0])];
+  if (fl.has_view)
+    front.view_theta_deg = fl.view_theta_deg, front.view_phi_deg = fl.view_phi_deg;
+  else
+    AnglesDegFromDirection(front.view_direction, &front.view_theta_deg, &front.view_phi_deg);
   auto start = SvbrdfStart(front, o);
   if (!start.ok()) return start.status();
   return RefineSvbrdf(s, *start, 0, o);
@@ -68,8 +73,8 @@ StatusOr<FitResult> RefineSvbrdf(const LightStack& s, const FitResult& start, in
   FitResult r;
   InitResult(s, "cook-torrance", "svbrdf", &r);
   const int64_t off = int64_t(row0) * s.width();  // texel p of s is texel p + off of the start
-  std::copy(start.status.begin() + off, start.status.begin() + off + s.plane_size(),
-            r.status.begin());
+  for (int64_t p = 0; p < s.plane_size(); ++p)    // the start's verdict inside this stack's mask
+    if (r.status[size_t(p)] != kTexelMasked) r.status[size_t(p)] = start.status[size_t(p + off)];
   const int n = s.num_images(), C = s.channels(), W = s.width();
   const std::vector<float> inv = InverseIntensities(s);
   std::vector<Vec3> dirs(static_cast<size_t>(n)), views(dirs.size()), halves(dirs.size());
@@ -80,7 +85,15 @@ StatusOr<FitResult> RefineSvbrdf(const LightStack& s, const FitResult& start, in
   }
   const float clip_level =
       StackMayBeClipped(s) ? kClipLevel : std::numeric_limits<float>::infinity();
-  const double r0 = im.roughness.empty() ? 0.5 : double(im.roughness.data()[0]);
+  // The start's roughness: the material's when cook-torrance shared one (the default), else the
+  // texel's own where it was fitted, else 0.5.
+  const auto shared_roughness = start.parameters.find("roughness");
+  const bool shared = shared_roughness != start.parameters.end();
+  auto start_roughness = [&](int64_t q) {
+    if (shared) return shared_roughness->second;
+    const float t = im.roughness.empty() ? 0.0f : im.roughness.data()[size_t(q)];
+    return t > 0 ? double(t) : 0.5;
+  };
   Image xs(s.width(), s.height(), P);
   std::vector<int> iterations(size_t(s.plane_size()), 0), used_samples(size_t(s.plane_size()), 0);
 
@@ -126,7 +139,7 @@ StatusOr<FitResult> RefineSvbrdf(const LightStack& s, const FitResult& start, in
           double* ob = obs.data() + size_t(k) * n * C;
           const int64_t q = p + off;
           const Vec3 n0(im.normal.Plane(0)[q], im.normal.Plane(1)[q], im.normal.Plane(2)[q]);
-          const double f0 = im.specular.Plane(0)[q];
+          const double f0 = im.specular.Plane(0)[q], r0 = start_roughness(q);
           int used = 0;
           for (int i = 0; i < n; ++i) {
             const Vec3& l = dirs[size_t(i)];
@@ -190,7 +203,7 @@ StatusOr<FitResult> RefineSvbrdf(const LightStack& s, const FitResult& start, in
   r.parameters["frontal_view_theta_deg"] = start.parameters.count("frontal_view_theta_deg")
                                                ? start.parameters.at("frontal_view_theta_deg")
                                                : 0.0;
-  r.parameters["start_roughness"] = r0;
+  if (shared) r.parameters["start_roughness"] = shared_roughness->second;
   r.parameters["mean_lm_iterations"] = sums[2] > 0 ? sums[0] / sums[2] : 0;
   r.parameters["mean_samples_used"] = sums[2] > 0 ? sums[1] / sums[2] : 0;
   return FinishFit(ok, t0, std::move(r));

@@ -11,6 +11,7 @@
 #include "core/dataset/stack_loader.h"
 #include "core/path_util.h"
 #include "core/sample_type.h"
+#include "core/stack_ops.h"
 
 namespace matfit {
 namespace {
@@ -34,10 +35,14 @@ std::string BandFile(const std::string& dir, int b) {
   return (fs::path(dir) / name).string();
 }
 
-Status FileError(const std::string& what, const std::string& path) {
-  return IoError(what + " '" + path + "': " + std::strerror(errno) +
-                 " (the out-of-core cache needs room for the whole stack at its native depth; "
-                 "point --cache-dir at a disk that has it)");
+// `err`: the errno of the failed call (0: a short read or write, e.g. a truncated file).
+Status FileError(const std::string& what, const std::string& path, int err) {
+  return IoError(what + " '" + path + "': " +
+                 (err ? std::string(std::strerror(err)) : std::string("short read or write")) +
+                 (err == ENOSPC || err == EDQUOT
+                      ? " (the out-of-core cache needs room for the whole stack at its native "
+                        "depth; point --cache-dir at a disk that has it)"
+                      : ""));
 }
 
 }  // namespace
@@ -85,10 +90,14 @@ StatusOr<BandCache> BandCache::Build(const LightStack& shape, const ReadOptions&
         "read)");
   BandCache cache;
   cache.meta_ = shape;  // lights, views, provenance; no images
-  const fs::path parent = o.dir.empty() ? fs::temp_directory_path() : fs::path(o.dir);
+  std::error_code ec;
+  const fs::path parent = o.dir.empty() ? fs::temp_directory_path(ec) : fs::path(o.dir);
+  if (ec)
+    return IoError("no temporary folder for the out-of-core cache (" + ec.message() +
+                   "); give one with --cache-dir");
   std::string templ = (parent / "matfit-cache-XXXXXX").string();
   if (!::mkdtemp(templ.data()))
-    return FileError("cannot create the cache folder in", parent.string());
+    return FileError("cannot create the cache folder in", parent.string(), errno);
   cache.dir_ = templ;
 
   ImageReadOptions io;
@@ -105,11 +114,6 @@ StatusOr<BandCache> BandCache::Build(const LightStack& shape, const ReadOptions&
   // Chunks and bands are sized at float32 until the first chunk tells the native depth.
   int chunk = int(std::clamp<int64_t>(o.band_bytes / (image_samples * 4), 1, n));
   int64_t bps = 0;  // bytes per sample, from the first chunk
-  std::vector<int> fds;
-  auto close_all = [&] {
-    for (int fd : fds) ::close(fd);
-    fds.clear();
-  };
   cache.meta_.encodings.clear(), cache.meta_.encoding_reasons.clear();
   cache.meta_.saturated_pixels.clear(), cache.meta_.nonfinite_samples.clear();
   for (int i0 = 0, i1 = 0; i0 < n; i0 = i1) {  // the chunk grows after the first: step by i1
@@ -117,10 +121,17 @@ StatusOr<BandCache> BandCache::Build(const LightStack& shape, const ReadOptions&
     std::vector<std::string> files(shape.image_files.begin() + i0, shape.image_files.begin() + i1);
     std::vector<LightSample> lights(shape.lights().begin() + i0, shape.lights().begin() + i1);
     auto part = LoadStack(files, std::move(lights), io, chunk_read);
-    if (!part.ok()) {
-      close_all();
-      return part.status();
-    }
+    if (!part.ok()) return part.status();
+    // The header read sized everything: a chunk that decodes to another shape is refused.
+    if (part->width() != W || part->height() != H || part->channels() != C ||
+        part->num_images() != i1 - i0)
+      return DataError("'" + DatasetRelative(files[0], read.confine_to) +
+                       "' and the images after it decode to " + std::to_string(part->width()) +
+                       "x" + std::to_string(part->height()) + " with " +
+                       std::to_string(part->channels()) + " channel(s), but '" +
+                       DatasetRelative(shape.image_files[0], read.confine_to) + "' is " +
+                       std::to_string(W) + "x" + std::to_string(H) + " with " + std::to_string(C) +
+                       ": all images of a stack must have the same size and channels");
     if (i0 == 0) {  // the native depth: bands and chunks at their real size from here on
       cache.type_ = part->sample_type(), cache.lut_ = part->lut();
       bps = SampleBytes(cache.type_);
@@ -129,17 +140,7 @@ StatusOr<BandCache> BandCache::Build(const LightStack& shape, const ReadOptions&
       const int rows = int(std::clamp<int64_t>(o.band_bytes / row_bytes, 1, H));
       for (int r0 = 0; r0 < H; r0 += rows)
         cache.row0_.push_back(r0), cache.rows_.push_back(std::min(rows, H - r0));
-      for (int b = 0; b < cache.bands(); ++b) {
-        const std::string path = BandFile(cache.dir_, b);
-        const int fd = ::open(path.c_str(), O_CREAT | O_TRUNC | O_WRONLY | O_CLOEXEC, 0600);
-        if (fd < 0) {
-          close_all();
-          return FileError("cannot create the cache file", path);
-        }
-        fds.push_back(fd);
-      }
     } else if (part->sample_type() != cache.type_ || part->lut() != cache.lut_) {
-      close_all();
       return DataError("'" + DatasetRelative(files[0], read.confine_to) +
                        "' decodes to another sample depth or transfer function than '" +
                        DatasetRelative(shape.image_files[0], read.confine_to) +
@@ -156,29 +157,34 @@ StatusOr<BandCache> BandCache::Build(const LightStack& shape, const ReadOptions&
     append(cache.meta_.saturated_pixels, part->saturated_pixels);
     append(cache.meta_.nonfinite_samples, part->nonfinite_samples);
     append(cache.meta_.read_warnings, part->read_warnings);
-    // Each band file: planes (image, channel) of band_rows × W samples, in stack order.
+    // Each band file: planes (image, channel) of band_rows × W samples, in stack order. One band
+    // file open at a time (a tall stack under a small budget has thousands of bands).
     const char* src = Bytes(*part);
-    for (int k = 0; k < i1 - i0; ++k)
-      for (int c = 0; c < C; ++c) {
-        const char* plane = src + (int64_t(k) * C + c) * W * H * bps;
-        for (int b = 0; b < cache.bands(); ++b) {
-          const int64_t len = int64_t(cache.rows_[size_t(b)]) * W * bps;
+    for (int b = 0; b < cache.bands(); ++b) {
+      const std::string path = BandFile(cache.dir_, b);
+      const int fd = ::open(path.c_str(), O_CREAT | O_WRONLY | O_CLOEXEC, 0600);
+      if (fd < 0) return FileError("cannot create the cache file", path, errno);
+      const int64_t len = int64_t(cache.rows_[size_t(b)]) * W * bps;
+      for (int k = 0; k < i1 - i0; ++k)
+        for (int c = 0; c < C; ++c) {
+          const char* from =
+              src + ((int64_t(k) * C + c) * H + cache.row0_[size_t(b)]) * int64_t(W) * bps;
           const int64_t at = (int64_t(i0 + k) * C + c) * len;
-          const char* from = plane + int64_t(cache.row0_[size_t(b)]) * W * bps;
           for (int64_t done = 0; done < len;) {
-            const ssize_t w = ::pwrite(fds[size_t(b)], from + done, size_t(len - done), at + done);
+            errno = 0;
+            const ssize_t w = ::pwrite(fd, from + done, size_t(len - done), at + done);
             if (w <= 0) {
-              const std::string path = BandFile(cache.dir_, b);
-              close_all();
-              return FileError("cannot write the cache file", path);
+              const int err = errno;
+              ::close(fd);
+              return FileError("cannot write the cache file", path, err);
             }
             done += w;
           }
         }
-      }
-    if (o.progress) o.progress(i1, n);
+      ::close(fd);
+    }
+    if (o.progress && !o.progress(i1, n)) return Status(StatusCode::kCancelled, "cancelled");
   }
-  close_all();
   cache.bytes_ = int64_t(n) * image_samples * bps;
   return cache;
 }
@@ -189,27 +195,22 @@ StatusOr<LightStack> BandCache::Load(int b) const {
   LightStack s(W, rows, C, n, type_, lut_, LightStack::Uninitialised{});
   const std::string path = BandFile(dir_, b);
   const int fd = ::open(path.c_str(), O_RDONLY | O_CLOEXEC);
-  if (fd < 0) return FileError("cannot open the cache file", path);
+  if (fd < 0) return FileError("cannot open the cache file", path, errno);
   char* dst = Bytes(s);
   const int64_t len = int64_t(n) * C * rows * W * SampleBytes(type_);
   for (int64_t done = 0; done < len;) {
+    errno = 0;
     const ssize_t r = ::pread(fd, dst + done, size_t(len - done), done);
     if (r <= 0) {
+      const int err = errno;
       ::close(fd);
-      return FileError("cannot read the cache file", path);
+      return FileError("cannot read the cache file", path, err);
     }
     done += r;
   }
   ::close(fd);
-  s.lights() = meta_.lights();
-  s.view_direction = meta_.view_direction;
-  s.view_theta_deg = meta_.view_theta_deg, s.view_phi_deg = meta_.view_phi_deg;
-  s.mm_per_texel = meta_.mm_per_texel;
-  s.layout = meta_.layout, s.source = meta_.source, s.object_name = meta_.object_name;
-  s.image_files = meta_.image_files;
-  s.encodings = meta_.encodings, s.encoding_reasons = meta_.encoding_reasons;
-  s.saturated_pixels = meta_.saturated_pixels, s.nonfinite_samples = meta_.nonfinite_samples;
-  s.mask_source = meta_.mask_source;
+  CopyStackMetadata(meta_, &s);  // a standalone stack of the band's rows: no band record
+  s.band = StackBand{};
   if (!mask_.empty())
     s.mask.assign(mask_.begin() + int64_t(row0_[size_t(b)]) * W,
                   mask_.begin() + int64_t(row0_[size_t(b)] + rows) * W);

@@ -43,6 +43,8 @@ class BandCache {
   const std::string& dir() const { return dir_; }
   // The stack without images: lights, views, how each image was decoded (encodings, clipping).
   const LightStack& meta() const { return meta_; }
+  // The mask over every image (alpha in every image, LoadStack's rule); empty: none.
+  const std::vector<uint8_t>& mask() const { return mask_; }
   // Band b as a stack of band_rows(b) rows: every image's rows, its lights (and views), code
   // table, mask rows and provenance; a standalone stack (row 0 = the band's first row).
   StatusOr<LightStack> Load(int b) const;

@@ -69,6 +69,16 @@ StatusOr<LightStack> ReadBtfFolder(const std::string& dir, Layout layout, const 
   const std::vector<Entry>* chosen = nullptr;
   std::vector<Entry> every;
   if (o.all_views) {
+    // θv = 0 is one direction whatever φv says: two such views would be one view twice.
+    const std::pair<long, long>* overhead = nullptr;
+    for (const auto& [k, v] : views) {
+      if (k.first != 0) continue;
+      if (overhead)
+        return DataError("views θv=0° φv=" + std::to_string(overhead->second / 1000) +
+                         "° and φv=" + std::to_string(k.second / 1000) + "° in '" + dir +
+                         "' are the same (straight-down) view; keep one of them");
+      overhead = &k;
+    }
     // Views in (θv, φv) order (the map's), each view's images sorted by light below; the most
     // frontal view is the stack's reference view.
     for (const auto& [k, v] : views) {

@@ -272,6 +272,10 @@ StatusOr<LightStack> ReadLayout(const std::string& path, const ReadOptions& opti
     if (!detected.ok()) return detected.status();
     layout = *detected;
   }
+  if (options.all_views && layout != Layout::kBonn && layout != Layout::kUtia)
+    return InvalidArgument(std::string("--view all reads every view of a BTF (the bonn and utia "
+                                       "layouts); this dataset is ") +
+                           LayoutName(layout) + ", one view: drop --view all");
   std::error_code ec;
   switch (layout) {
     case Layout::kBonn:

@@ -248,21 +248,15 @@ StatusOr<SynthResult> Synthesize(const SynthOptions& o, const ProgressFn& progre
     r.truth = std::move(*maps);
     r.cast_shadows = o.shadows || FindMaterial(o.material)->self_shadowing;
     r.stack = RenderViews(r.truth, *lights, r.views, r.cast_shadows, progress);
-    PerturbOptions po = o.perturb;
-    po.seed = o.seed;
-    r.perturb = ApplyPerturbations(po, &r.stack);
-    r.stack.layout = LayoutName(o.layout);
-    r.stack.object_name = o.material;
-    r.params_json = ParamsJson(o, r);
-    return r;
+  } else {
+    auto rendered =
+        RenderMaterial(o.material, o.size, o.rows(), o.seed, *lights, o.shadows, progress);
+    if (!rendered.ok()) return rendered.status();
+    r.truth = std::move(rendered->truth);
+    r.stack = std::move(rendered->stack);
+    r.micro_surface = std::move(rendered->micro_surface);
+    r.cast_shadows = rendered->cast_shadows;
   }
-  auto rendered =
-      RenderMaterial(o.material, o.size, o.rows(), o.seed, *lights, o.shadows, progress);
-  if (!rendered.ok()) return rendered.status();
-  r.truth = std::move(rendered->truth);
-  r.stack = std::move(rendered->stack);
-  r.micro_surface = std::move(rendered->micro_surface);
-  r.cast_shadows = rendered->cast_shadows;
   PerturbOptions po = o.perturb;
   po.seed = o.seed;
   r.perturb = ApplyPerturbations(po, &r.stack);

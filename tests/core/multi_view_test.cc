@@ -8,6 +8,7 @@
 #include "core/dataset/band_cache.h"
 #include "core/dataset/dataset.h"
 #include "core/dataset/writer.h"
+#include "core/image_io.h"
 #include "core/model/model.h"
 #include "core/synth/materials.h"
 #include "core/synth/render_views.h"
@@ -247,6 +248,30 @@ TEST(MultiView, RefusesWhatCannotHoldSeveralViews) {
   ro.all_views = true;
   ro.view = ViewAngles{0, 0};
   EXPECT_FALSE(ro.Check(&why));
+  // --view all of a layout that names no view.
+  o.layout = Layout::kLp, o.views = "";
+  auto lp = synth::Synthesize(o);
+  ASSERT_TRUE(lp.ok());
+  ASSERT_TRUE(synth::WriteSynthDataset(*lp, o, tmp / "lp", false).ok());
+  ReadOptions all;
+  all.all_views = true;
+  auto read = ReadDataset(tmp / "lp", all);
+  ASSERT_FALSE(read.ok());
+  EXPECT_NE(read.status().message().find("--view all reads every view of a BTF"), std::string::npos)
+      << read.status().message();
+  // Two straight-down views that differ only in φv are one view twice.
+  const std::string utia = tmp / "utia";
+  fs::create_directories(utia);
+  const Image img(4, 4, 3, 0.5f);
+  for (const char* view : {"tv000_pv000", "tv000_pv090"})
+    for (const char* light : {"tl000_pl000", "tl045_pl000", "tl045_pl120", "tl045_pl240"})
+      ASSERT_TRUE(WriteImage(utia + "/" + light + "_" + view + ".png", img,
+                             {PixelFormat::kUint16, TransferFunction::kLinear})
+                      .ok());
+  read = ReadDataset(utia, all);
+  ASSERT_FALSE(read.ok());
+  EXPECT_NE(read.status().message().find("are the same (straight-down) view"), std::string::npos)
+      << read.status().message();
 }
 
 }  // namespace

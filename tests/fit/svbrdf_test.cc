@@ -112,6 +112,21 @@ TEST(Svbrdf, PredictsHeldOutViewsBetterThanAnyFrontalOnlyModel) {
   EXPECT_LE(2 * joint_err, best);
 }
 
+TEST(Svbrdf, StartsFromTheMaterialsRoughnessWhenTheFirstTexelIsMasked) {
+  synth::SynthResult d = MultiViewLacquer(16, "dome:9");
+  d.stack.mask.assign(16 * 16, 1);
+  for (int x = 0; x < 16; ++x) d.stack.mask[size_t(x)] = 0;  // the first row outside the sample
+  auto fit = FitSvbrdf(d.stack, {});
+  ASSERT_TRUE(fit.ok()) << fit.status().ToString();
+  EXPECT_EQ(fit->status[0], kTexelMasked);
+  // The start is the material's roughness (0.2–0.5 truth), not the masked texel's 0.
+  EXPECT_GT(fit->parameters.at("start_roughness"), 0.2);
+  std::vector<double> r_rel;
+  for (int64_t p = 16; p < 16 * 16; ++p)
+    r_rel.push_back(std::abs(fit->maps.roughness.data()[p] / d.truth.roughness.data()[p] - 1));
+  EXPECT_LE(Median(r_rel), 0.10);
+}
+
 TEST(Svbrdf, SingleViewMethodsRefuseAMultiViewStackAndSayWhatToDo) {
   const synth::SynthResult d = MultiViewLacquer(8, "dome:3");
   auto f = MakeMethod("lambert")->Fit(d.stack, {});
