@@ -162,6 +162,12 @@ int RunFit(FitArgs& a) {
         r->heldout_views->all.rmse, r->heldout_views->all.deviation_percent,
         r->heldout_views->views.size(), views.c_str(), r->heldout_views->train_views);
   }
+  for (const fit::PcaPoint& pt : r->per_view_pca)
+    std::printf(
+        "per-view PCA k=%d: %.0f bytes/texel, rmse %.5f (the fit: %d bytes/texel, rmse "
+        "%.5f)\n",
+        pt.k, pt.bytes_per_texel, pt.rmse, fit::MakeMethod(r->fit.method)->bytes_per_texel(),
+        r->reconstruction.rmse);
   for (const auto& [tv, by_light] : r->deviation_by_view_theta)
     std::printf("deviation   θv %2d°: by θl:%s\n", tv, ByTheta(by_light).c_str());
   for (const auto& [what, ratio] : {std::pair{"held-out lights", r->bound_ratio_heldout},
@@ -212,6 +218,10 @@ void RegisterFit(CLI::App& app, int* exit_code) {
                   "k-fold held-out-light error: K folds, loo (leave-one-out) or 0 (off)")
       ->transform(CLI::Transformer(std::map<std::string, int>{{"loo", fit::kLeaveOneOut}}))
       ->capture_default_str();
+  sub->add_option("--components", j.pca_components,
+                  "multi-view stacks (--view all): also the per-view PCA reference with these "
+                  "component counts (e.g. 1,2,4,8): bytes per texel and RMSE in report.json")
+      ->delimiter(',');
   sub->add_option("--holdout-views", j.holdout_views,
                   "multi-view stacks (--view all): leave K whole views out of a second fit and "
                   "predict them (never the most frontal view); 0 = off")

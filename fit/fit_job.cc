@@ -141,6 +141,7 @@ Status FinishJob(const FitJobOptions& o, const LightStack& stack, const FitMetho
   ri.heldout = r.heldout;
   ri.heldout_views = r.heldout_views;
   ri.deviation_by_view_theta = r.deviation_by_view_theta;
+  ri.per_view_pca = r.per_view_pca;
   ri.truth = r.truth;
   // An out-of-core fit has no assessment (no bound, no diagnosis): report.json says null.
   ri.assessment = r.assessment.confidence.bound.empty() ? nullptr : &r.assessment;
@@ -281,6 +282,11 @@ bool FitJobOptions::Check(std::string* why) const {
   if (holdout_views < 0)
     return fail("--holdout-views must be 0 (off) or a number of views, got " +
                 std::to_string(holdout_views));
+  for (int k : pca_components)
+    if (k < 1 || k > 4096)
+      return fail("--components takes component counts in [1, 4096], got " + std::to_string(k));
+  if (!pca_components.empty() && !read.all_views)
+    return fail("--components is the per-view PCA of every view: read them with --view all");
   if (holdout_views > 0 && !read.all_views)
     return fail("--holdout-views leaves whole views out: read every view with --view all");
   if (holdout_views > 0 && (!report_only.empty() || (comm && comm->size() > 1)))
@@ -502,6 +508,11 @@ StatusOr<FitJobResult> RunFitJob(const FitJobOptions& o, const StageProgress& pr
   }
   if (stack->is_multi_view() && !comm)
     r.deviation_by_view_theta = DeviationByViewTheta(*stack, fit->maps, fitted_status);
+  if (!o.pca_components.empty() && stack->is_multi_view() && !comm) {
+    if (!stages.Begin("pca")) return Cancelled();
+    r.per_view_pca = PerViewPcaCurve(*stack, o.pca_components, fitted_status);
+    stages.End();
+  }
   if (comm) {
     // Every figure so far is the whole stack's (each step reduced over the bands); the per-texel
     // results go to rank 0, which scores against truth and writes the pack. The other ranks

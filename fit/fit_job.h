@@ -13,6 +13,7 @@
 #include "fit/holdout.h"
 #include "fit/holdout_views.h"
 #include "fit/metrics.h"
+#include "fit/per_view_pca.h"
 #include "fit/report.h"
 #include "fit/select.h"
 
@@ -36,6 +37,9 @@ struct FitJobOptions {
   // cache_dir (empty: the system temp folder) and fitted band by band (svbrdf only).
   int64_t memory_bytes = 0;
   std::string cache_dir;
+  // --components K,…: the per-view PCA reference of a multi-view fit (fit/per_view_pca.h) at
+  // these component counts, in report.json per_view_pca (in-memory fits; empty: none).
+  std::vector<int> pca_components;
   std::string out;          // pack folder (or .zip with zip); report file with report_only
   std::string report_only;  // score this existing pack against the dataset (no fitting)
   bool zip = false, overwrite = false;
@@ -66,6 +70,7 @@ struct FitJobResult {
   // Multi-view stacks: reconstruction dev% per (θv, θl) group (fit/holdout_views.h).
   std::map<int, std::map<int, double>> deviation_by_view_theta;
   int streamed_bands = 0;  // > 0: fitted out of core in that many bands (fit/stream_fit.h)
+  std::vector<PcaPoint> per_view_pca;  // --components
   std::optional<TruthMetrics> truth;
   FitAssessment assessment;  // diagnostics + per-texel error bound (not report_only)
   std::optional<BoundRatio> bound_ratio_heldout, bound_ratio_truth;  // the bound's tightness

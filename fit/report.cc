@@ -64,6 +64,10 @@ std::string MakeReportJson(const FitReportInputs& in) {
   for (const auto& [tv, m] : in.deviation_by_view_theta) by_view[std::to_string(tv)] = ByTheta(m);
   j["deviation_percent_by_view_theta"] =
       in.deviation_by_view_theta.empty() ? json() : json(by_view);
+  json pca = json::array();  // the per-view PCA reference (--components)
+  for (const PcaPoint& pt : in.per_view_pca)
+    pca.push_back({{"k", pt.k}, {"bytes_per_texel", pt.bytes_per_texel}, {"rmse", pt.rmse}});
+  j["per_view_pca"] = in.per_view_pca.empty() ? json() : pca;
   j["heldout_views"] = nullptr;
   if (in.heldout_views) {
     const HeldOutViewMetrics& h = *in.heldout_views;

@@ -11,6 +11,7 @@
 #include "fit/holdout.h"
 #include "fit/holdout_views.h"
 #include "fit/metrics.h"
+#include "fit/per_view_pca.h"
 
 namespace matfit::fit {
 
@@ -30,6 +31,7 @@ struct FitReportInputs {
   std::optional<HeldOutMetrics> heldout;
   std::optional<HeldOutViewMetrics> heldout_views;
   std::map<int, std::map<int, double>> deviation_by_view_theta;  // multi-view stacks
+  std::vector<PcaPoint> per_view_pca;                            // --components
   std::optional<TruthMetrics> truth;
   const FitAssessment* assessment = nullptr;  // optional
   // How the images were linearised, and what --color-space auto changed (optional).

@@ -25,7 +25,7 @@ expect_contains "info one view" "$out" "images       81 x 16x16"
 out=$("$bin" info utia --view all --quiet 2>&1) || bad "info utia --view all: $out"
 expect_contains "info utia views" "$out" "views        4, θv"
 
-out=$("$bin" fit btf --view all --model svbrdf --holdout-views 3 --out pack --quiet 2>&1) ||
+out=$("$bin" fit btf --view all --model svbrdf --holdout-views 3 --components 1,8 --out pack --quiet 2>&1) ||
   bad "fit svbrdf: $out"
 report=$(tr -d ' \n' <pack/report.json)
 expect_contains "report method" "$report" '"method":"svbrdf"'
@@ -33,12 +33,15 @@ expect_contains "report held-out views" "$report" '"heldout_views":{"deviation_p
 expect_contains "report train views" "$report" '"train_views":6'
 expect_contains "report by view" "$report" '"deviation_percent_by_view_theta":{"15":{'
 expect_contains "pack model" "$(tr -d ' \n' <pack/material.json)" '"name":"cook-torrance"'
+expect_contains "per-view PCA" "$report" '"k":8,"rmse"'
 python3 - pack/report.json <<'PY' && ok || bad "svbrdf on lacquer: normals or held-out views out of bounds"
 import json, sys
 r = json.load(open(sys.argv[1]))
 assert r["normal_mae_deg"] < 1.5, r["normal_mae_deg"]
 assert len(r["heldout_views"]["views"]) == 3
 assert all(v["theta_deg"] > 0 for v in r["heldout_views"]["views"])
+pca = r["per_view_pca"]
+assert [p["k"] for p in pca] == [1, 8] and pca[1]["rmse"] < pca[0]["rmse"], pca
 PY
 "$bin" render pack --camera 45,90 --light 30,270 --size 32 --backend cpu --out view.png --quiet ||
   bad "render the svbrdf pack from another camera"

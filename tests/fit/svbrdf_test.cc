@@ -12,6 +12,7 @@
 #include "fit/method.h"
 #include "fit/methods.h"
 #include "fit/metrics.h"
+#include "fit/per_view_pca.h"
 
 namespace matfit::fit {
 namespace {
@@ -125,6 +126,34 @@ TEST(Svbrdf, StartsFromTheMaterialsRoughnessWhenTheFirstTexelIsMasked) {
   for (int64_t p = 16; p < 16 * 16; ++p)
     r_rel.push_back(std::abs(fit->maps.roughness.data()[p] / d.truth.roughness.data()[p] - 1));
   EXPECT_LE(Median(r_rel), 0.10);
+}
+
+// Per-view PCA (the data-driven reference): a Lambertian field over lights is ρ_c (n·l) per
+// sample, so per view it spans (ρ_c) ⊗ (l_x, l_y, l_z) — rank ≤ 6 for plaster, whose albedo is a
+// fixed colour plus one grey variation — and 6 components hold it exactly; fewer lose energy in
+// order, and the storage grows with k.
+TEST(Svbrdf, PerViewPcaHoldsALambertianFieldInSixComponents) {
+  synth::SynthOptions o;
+  o.material = "plaster", o.lights = "dome:30", o.views = "dome:4", o.size = 24;
+  o.layout = Layout::kBonn, o.bits = 32;
+  auto d = synth::Synthesize(o);
+  ASSERT_TRUE(d.ok());
+  const auto curve = PerViewPcaCurve(d->stack, {1, 2, 3, 6, 90});
+  ASSERT_EQ(curve.size(), 5u);
+  double rms = 0;  // of the samples themselves
+  for (int i = 0; i < d->stack.num_images(); ++i)
+    for (float v : d->stack.Plane(i, 1)) rms += double(v) * v;
+  rms = std::sqrt(rms / (double(d->stack.num_images()) * 24 * 24));
+  for (size_t q = 1; q < curve.size(); ++q) {
+    EXPECT_LE(curve[q].rmse, curve[q - 1].rmse + 1e-12);
+    EXPECT_GT(curve[q].bytes_per_texel, curve[q - 1].bytes_per_texel);
+  }
+  EXPECT_GT(curve[0].rmse, 1e-3 * rms);
+  EXPECT_LT(curve[3].rmse, 1e-5 * rms) << "k = 6";
+  EXPECT_LT(curve[4].rmse, 1e-6 * rms) << "k = every dimension";
+  // 4 views × k half floats per texel, plus the shared vectors (4 views × (1 + k) × 90 floats
+  // over 576 texels).
+  EXPECT_NEAR(curve[0].bytes_per_texel, 4 * 2 + 4.0 * 4 * 2 * 90 / 576, 1e-9);
 }
 
 TEST(Svbrdf, SingleViewMethodsRefuseAMultiViewStackAndSayWhatToDo) {
