@@ -207,10 +207,10 @@ StatusOr<FitJobResult> RunStreamedJob(const FitJobOptions& o, int64_t budget, St
     return InvalidArgument(
         "svbrdf: near lights (light_positions.txt) over several views are not "
         "supported; use --distant-lights");
-  if (o.holdout != 0 || o.holdout_views != 0)
-    return InvalidArgument("--holdout/--holdout-views: this stack (" + size +
-                           ") is fitted out of core, where held-out folds are not run yet; raise "
-                           "--memory or drop them");
+  if (o.holdout != 0 || o.holdout_views != 0 || !o.pca_components.empty())
+    return InvalidArgument("--holdout/--holdout-views/--components: this stack (" + size +
+                           ") is fitted out of core, where held-out folds and the PCA reference "
+                           "are not run yet; raise --memory or drop them");
   stages->End();  // read: the headers
   FitJobResult r;
   r.images = int(sf->shape().lights().size());
