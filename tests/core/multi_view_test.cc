@@ -35,6 +35,15 @@ MaterialMaps TiltedPlane(int size, double a, double b) {
   return m;
 }
 
+// Synthesises `o` into `dir` and reads it back with `ro`.
+StatusOr<LightStack> WriteAndRead(const synth::SynthOptions& o, const std::string& dir,
+                                  const ReadOptions& ro) {
+  auto r = synth::Synthesize(o);
+  if (!r.ok()) return r.status();
+  MATFIT_RETURN_IF_ERROR(synth::WriteSynthDataset(*r, o, dir, false));
+  return ReadDataset(dir, ro);
+}
+
 TEST(MultiView, TheFrontalViewSeesEveryTexelWhereItIs) {
   auto maps = synth::MakeMaterial("lacquer", 24, 3);
   ASSERT_TRUE(maps.ok());
@@ -168,13 +177,10 @@ TEST(MultiView, TheBandCacheHoldsEveryImagesRowsAsReadInMemory) {
     TempDir tmp;
     synth::SynthOptions o;
     o.material = "lacquer", o.lights = "bonn81", o.views = "dome:5", o.size = 20, o.bits = bits;
-    auto r = synth::Synthesize(o);
-    ASSERT_TRUE(r.ok());
-    ASSERT_TRUE(synth::WriteSynthDataset(*r, o, tmp / "btf", false).ok());
     ReadOptions ro;
     ro.all_views = true;
-    auto whole = ReadDataset(tmp / "btf", ro);
-    ASSERT_TRUE(whole.ok());
+    auto whole = WriteAndRead(o, tmp / "btf", ro);
+    ASSERT_TRUE(whole.ok()) << whole.status().ToString();
     ro.headers_only = true;
     auto shape = ReadDataset(tmp / "btf", ro);
     ASSERT_TRUE(shape.ok());
@@ -250,12 +256,9 @@ TEST(MultiView, RefusesWhatCannotHoldSeveralViews) {
   EXPECT_FALSE(ro.Check(&why));
   // --view all of a layout that names no view.
   o.layout = Layout::kLp, o.views = "";
-  auto lp = synth::Synthesize(o);
-  ASSERT_TRUE(lp.ok());
-  ASSERT_TRUE(synth::WriteSynthDataset(*lp, o, tmp / "lp", false).ok());
   ReadOptions all;
   all.all_views = true;
-  auto read = ReadDataset(tmp / "lp", all);
+  auto read = WriteAndRead(o, tmp / "lp", all);
   ASSERT_FALSE(read.ok());
   EXPECT_NE(read.status().message().find("--view all reads every view of a BTF"), std::string::npos)
       << read.status().message();
