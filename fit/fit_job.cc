@@ -510,7 +510,7 @@ StatusOr<FitJobResult> RunFitJob(const FitJobOptions& o, const StageProgress& pr
     r.deviation_by_view_theta = DeviationByViewTheta(*stack, fit->maps, fitted_status);
   if (!o.pca_components.empty() && stack->is_multi_view() && !comm) {
     if (!stages.Begin("pca")) return Cancelled();
-    r.per_view_pca = PerViewPcaCurve(*stack, o.pca_components, fitted_status);
+    r.per_view_pca = PerViewPcaCurve(*stack, o.pca_components, fitted_status, stages.Callback());
     stages.End();
   }
   if (comm) {

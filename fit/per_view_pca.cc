@@ -12,7 +12,8 @@
 namespace matfit::fit {
 
 std::vector<PcaPoint> PerViewPcaCurve(const LightStack& s, const std::vector<int>& ks,
-                                      const std::vector<uint8_t>& status) {
+                                      const std::vector<uint8_t>& status,
+                                      const ProgressFn& progress) {
   const auto groups = ViewGroups(s);
   const int C = s.channels();
   const int64_t T = s.plane_size();
@@ -21,7 +22,9 @@ std::vector<PcaPoint> PerViewPcaCurve(const LightStack& s, const std::vector<int
   double samples = 0;                            // Σ n·D
   std::vector<double> weights(ks.size(), 0.0);   // Σ over views of min(k, D): weights per texel
   std::vector<double> shared(ks.size(), 0.0);    // Σ over views of D (1 + min(k, D)): floats
+  int views_done = 0;
   for (const std::vector<int>& g : groups) {
+    if (progress) progress(views_done++, int64_t(groups.size()));
     const int D = int(g.size()) * C;
     Eigen::MatrixXd cross = Eigen::MatrixXd::Zero(D, D);
     Eigen::VectorXd sum = Eigen::VectorXd::Zero(D);

@@ -10,6 +10,7 @@
 #include <vector>
 
 #include "core/light_stack.h"
+#include "core/progress_fn.h"
 
 namespace matfit::fit {
 
@@ -23,7 +24,9 @@ struct PcaPoint {
 
 // One point per k in `ks` (k ≥ 1, capped at L·C of each view); texels where `status` is non-zero
 // are left out (empty: every texel). Parallel over texels; the covariance sums are double.
+// `progress` (display only) counts views.
 std::vector<PcaPoint> PerViewPcaCurve(const LightStack& stack, const std::vector<int>& ks,
-                                      const std::vector<uint8_t>& status = {});
+                                      const std::vector<uint8_t>& status = {},
+                                      const ProgressFn& progress = {});
 
 }  // namespace matfit::fit

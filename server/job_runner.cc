@@ -26,7 +26,15 @@ using json = nlohmann::json;
 // stages of fit::RunFitJob (fit/fit_job.h) and leaf::RunLeafJob. model=auto adds the selection
 // (several fits per candidate) before the final fit. Without held-out folds or truth the job
 // jumps over their spans.
-const std::map<std::string, std::pair<double, double>>& StageSpans(bool leaf, bool select) {
+const std::map<std::string, std::pair<double, double>>& StageSpans(bool leaf, bool select,
+                                                                   bool views) {
+  // Every view of a BTF (view=all): the svbrdf fit dominates; out of core, the headers, the band
+  // cache and the frontal start come between read and fit.
+  static const std::map<std::string, std::pair<double, double>> multi_view = {
+      {"read", {0.0, 0.05}},           {"cache", {0.05, 0.12}},
+      {"start", {0.12, 0.14}},         {"fit", {0.14, 0.85}},
+      {"reconstruction", {0.85, 0.9}}, {"confidence", {0.9, 0.92}},
+      {"truth", {0.92, 0.95}},         {"write", {0.95, 1}}};
   static const std::map<std::string, std::pair<double, double>> fit = {
       {"read", {0.0, 0.1}},       {"fit", {0.1, 0.35}},     {"reconstruction", {0.35, 0.5}},
       {"confidence", {0.5, 0.6}}, {"heldout", {0.6, 0.93}}, {"truth", {0.93, 0.95}},
@@ -38,13 +46,13 @@ const std::map<std::string, std::pair<double, double>>& StageSpans(bool leaf, bo
       {"truth", {0.97, 0.98}},     {"write", {0.98, 1}}};
   static const std::map<std::string, std::pair<double, double>> lf = {
       {"read", {0.0, 0.1}}, {"sheet", {0.1, 0.4}}, {"leaves", {0.4, 0.95}}, {"write", {0.95, 1}}};
-  return leaf ? lf : (select ? autofit : fit);
+  return leaf ? lf : select ? autofit : views ? multi_view : fit;
 }
 
-bool Forward(const JobProgress& p, bool leaf, bool select, const std::string& stage, int64_t done,
-             int64_t total) {
+bool Forward(const JobProgress& p, bool leaf, bool select, bool views, const std::string& stage,
+             int64_t done, int64_t total) {
   if (!p) return true;
-  const auto& spans = StageSpans(leaf, select);
+  const auto& spans = StageSpans(leaf, select, views);
   const auto it = spans.find(stage);
   const auto [a, b] = it == spans.end() ? std::pair<double, double>{0, 1} : it->second;
   const double f = total > 0 ? std::clamp(double(done) / double(total), 0.0, 1.0) : 0.0;
@@ -144,9 +152,9 @@ Status ValidateDataset(const JobSpec& spec, const std::string& dir, int64_t max_
 StatusOr<std::string> RunJob(const JobSpec& spec, const std::string& dataset,
                              const std::string& out_dir, const JobProgress& progress,
                              const std::string& source_label, int64_t max_stack_samples) {
-  const bool leaf = spec.mode == "leaf", select = spec.model == "auto";
+  const bool leaf = spec.mode == "leaf", select = spec.model == "auto", views = spec.view == "all";
   auto stage = [&](const std::string& s, int64_t d, int64_t t) {
-    return Forward(progress, leaf, select, s, d, t);
+    return Forward(progress, leaf, select, views, s, d, t);
   };
   if (leaf) {
     leaf::LeafJobOptions o;

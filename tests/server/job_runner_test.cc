@@ -72,9 +72,22 @@ TEST(JobRunner, AMultiViewUploadIsFittedOverEveryView) {
   const Status over = ValidateDataset(*spec, (root / "btf").string(), 100000, &field);
   EXPECT_FALSE(over.ok());
   EXPECT_TRUE(ValidateDataset(*spec, (root / "btf").string(), 200000, &field).ok());
+  // The multi-view job's stages map in order: the job's fraction never goes back.
+  std::vector<std::pair<std::string, double>> calls;
   auto r = RunJob(*spec, (root / "btf").string(), (root / "pack").string(),
-                  [](double, const std::string&) { return true; });
+                  [&](double f, const std::string& stage) {
+                    calls.emplace_back(stage, f);
+                    return true;
+                  });
   ASSERT_TRUE(r.ok()) << r.status().ToString();
+  double high = 0;
+  for (size_t i = 0; i < calls.size(); ++i)
+    if (i > 0 && calls[i].first != calls[i - 1].first) {
+      EXPECT_GE(calls[i].second, high) << calls[i].first << " starts below";
+      high = std::max(high, calls[i].second);
+    } else {
+      high = std::max(high, calls[i].second);
+    }
   EXPECT_NE(r->find("svbrdf"), std::string::npos) << *r;
   fs::remove_all(root);
 }
