@@ -15,6 +15,7 @@
 #include <chrono>
 #include <cmath>
 #include <limits>
+#include <mutex>
 #include <vector>
 
 #include "core/parallel.h"
@@ -104,6 +105,7 @@ StatusOr<FitResult> RefineSvbrdf(const LightStack& s, const FitResult& start, in
   const int64_t runs = int64_t(s.height()) * runs_per_row;
   std::atomic<int64_t> done{0};
   std::atomic<bool> cancelled{false};
+  std::mutex progress_mutex;  // the callback is not required to be thread-safe
   ParallelFor(0, runs, [&](int64_t run0, int64_t run1) {
     std::vector<double> obs(size_t(kRun) * n * C);
     std::vector<float> scratch(kRun);
@@ -113,7 +115,10 @@ StatusOr<FitResult> RefineSvbrdf(const LightStack& s, const FitResult& start, in
     prob.views = views.data(), prob.obs = nullptr, prob.use = use.data();
     for (int64_t run = run0; run < run1 && !cancelled; ++run) {
       const int64_t d = ++done;  // runs started
-      if (o.progress && (d % 64 == 0 || d == runs) && !o.progress(d, runs)) cancelled = true;
+      if (o.progress && (d % 64 == 0 || d == runs)) {
+        std::lock_guard<std::mutex> lock(progress_mutex);
+        if (!o.progress(d, runs)) cancelled = true;
+      }
       {
         const int y = int(run / runs_per_row), x0 = int(run % runs_per_row) * kRun;
         const int len = std::min(kRun, W - x0);
