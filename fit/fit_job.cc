@@ -285,6 +285,10 @@ bool FitJobOptions::Check(std::string* why) const {
   for (int k : pca_components)
     if (k < 1 || k > 4096)
       return fail("--components takes component counts in [1, 4096], got " + std::to_string(k));
+  if ((memory_bytes > 0 || !cache_dir.empty()) && !read.all_views)
+    return fail(
+        "--memory and --cache-dir apply to every view of a BTF (--view all); a single-view "
+        "fit runs in memory: drop them or add --view all");
   if (!pca_components.empty() && !read.all_views)
     return fail("--components is the per-view PCA of every view: read them with --view all");
   if (holdout_views > 0 && !read.all_views)

@@ -198,7 +198,7 @@ StatusOr<std::string> RunJob(const JobSpec& spec, const std::string& dataset,
   o.read.max_stack_samples = max_stack_samples;
   // A multi-view job over the memory budget streams through a band cache: in the job's own folder
   // (beside its pack, on the server's data disk and removed with the cache), not in /tmp.
-  o.cache_dir = fs::path(out_dir).parent_path().string();
+  if (o.read.all_views) o.cache_dir = fs::path(out_dir).parent_path().string();
   auto r = fit::RunFitJob(o, stage);
   if (!r.ok()) return r.status();
   json s = {{"mode", "fit"},

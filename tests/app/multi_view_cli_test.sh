@@ -71,6 +71,8 @@ expect_contains "out of core needs svbrdf" "$out" "--model svbrdf"
 # Refusals name what to do.
 out=$("$bin" fit btf --view all --model lambert --out bad1 --quiet 2>&1) && bad "lambert over views accepted"
 expect_contains "single-view model" "$out" "--model svbrdf"
+out=$("$bin" fit btf --model lambert --memory 48M --out bad5 --quiet 2>&1) && bad "--memory on one view accepted"
+expect_contains "memory needs all views" "$out" "--memory and --cache-dir apply to every view"
 out=$("$bin" fit btf --model svbrdf --holdout-views 2 --out bad2 --quiet 2>&1) && bad "held-out views of one view accepted"
 expect_contains "holdout-views needs all" "$out" "--view all"
 out=$("$bin" fit btf --view all --model svbrdf --holdout-views 9 --out bad3 --quiet 2>&1) && bad "every view held out accepted"
