@@ -29,8 +29,8 @@ struct BenchArgs {
   eval::BenchOptions bench;
   eval::StabilityOptions stability;
   std::string out, shared_data = "../shared/data", methods, cases;
-  bool no_loo = false, no_stability = false, stability_only = false, no_png = false,
-       overwrite = false;
+  bool no_loo = false, no_multi_view = false, no_stability = false, stability_only = false,
+       no_png = false, overwrite = false;
   bool quiet = false, stability_size_given = false;
   int threads = 0;
 };
@@ -95,6 +95,20 @@ void PrintBench(const eval::BenchResult& r) {
                 opt(p.loo_rmse, "%.4f").c_str(), opt(p.loo_psnr_srgb8_db, "%.2f dB").c_str(),
                 p.normal_mae_deg ? std::to_string(*p.normal_mae_deg).substr(0, 6).c_str() : "-");
   }
+  if (!r.multi_view.empty())
+    std::printf("\n%-17s %-23s %-9s %9s %10s %9s %9s %8s\n", "multi-view case", "method", "family",
+                "B/texel", "held-out", "fit s", "texels/s", "normal°");
+  for (const auto& p : r.multi_view) {
+    if (!p.ok) {
+      std::printf("%-17s %-23s refused: %s\n", p.dataset.c_str(), p.method.c_str(),
+                  p.error.c_str());
+      continue;
+    }
+    std::printf("%-17s %-23s %-9s %9.1f %10.4f %9s %9s %8s\n", p.dataset.c_str(), p.method.c_str(),
+                p.family.c_str(), p.bytes_per_texel, p.heldout_view_rmse,
+                opt(p.fit_seconds, "%.3f").c_str(), opt(p.texels_per_second, "%.0f").c_str(),
+                p.normal_mae_deg ? opt(*p.normal_mae_deg, "%.3f").c_str() : "-");
+  }
   for (const auto& s : r.skipped) std::printf("skipped: %s\n", s.c_str());
   for (const auto& h : r.hl2)
     std::printf("leaf HL2 N_L %4d: mean error %.2f %%, fast precompute %.1f ms\n", h.directions,
@@ -123,6 +137,7 @@ int RunBench(BenchArgs& a) {
   a.bench.shared_data = a.shared_data;
   a.bench.cases = SplitComma(a.cases);
   a.bench.loo = !a.no_loo;
+  a.bench.multi_view = !a.no_multi_view;
   a.stability.methods = SplitComma(a.methods);
   for (const auto& m : a.stability.methods)  // leaf-hl2 is a stability row only
     if (m != "leaf-hl2") a.bench.methods.push_back(m);
@@ -202,6 +217,8 @@ void RegisterBench(CLI::App& app, int* exit_code) {
   sub->add_option("--stability-size", args->stability.size,
                   "texels per side of stability cases (default 32, --quick 20)")
       ->each([args](const std::string&) { args->stability_size_given = true; });
+  sub->add_flag("--no-multi-view", args->no_multi_view,
+                "skip the multi-view BTF cases (storage vs held-out-view error)");
   sub->add_flag("--no-stability", args->no_stability, "skip the stability matrix");
   sub->add_flag("--stability-only", args->stability_only, "only the stability matrix");
   sub->add_flag("--no-png", args->no_png, "SVG charts only");

@@ -1,5 +1,6 @@
 // matfit fit: dataset → material pack, with a summary table.
 #include <CLI/CLI.hpp>
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <map>
@@ -32,6 +33,9 @@ void PrintModels() {
     std::printf("%-10s %6d %6d  %s\n", name.c_str(), m->parameters_per_texel(),
                 m->bytes_per_texel(), m->description().c_str());
   }
+  std::printf(
+      "per-view:MODEL  any model above but svbrdf fitted to each view of a BTF on its own (--view "
+      "all; params and bytes per view)\n");
 }
 
 // "512M", "2G", "1048576" → bytes (K, M, G: powers of 1024); false when malformed or ≤ 0.
@@ -166,7 +170,9 @@ int RunFit(FitArgs& a) {
     std::printf(
         "per-view PCA k=%d: %.0f bytes/texel, rmse %.5f (the fit: %d bytes/texel, rmse "
         "%.5f)\n",
-        pt.k, pt.bytes_per_texel, pt.rmse, fit::MakeMethod(r->fit.method)->bytes_per_texel(),
+        pt.k, pt.bytes_per_texel, pt.rmse,
+        fit::MakeMethod(r->fit.method)->bytes_per_texel() *
+            std::max<int>(1, int(r->fit.views.size())),
         r->reconstruction.rmse);
   for (const auto& [tv, by_light] : r->deviation_by_view_theta)
     std::printf("deviation   θv %2d°: by θl:%s\n", tv, ByTheta(by_light).c_str());

@@ -62,6 +62,13 @@ int RunRender(RenderArgs a) {
     return Fail("render", "zipped packs are not read yet; unzip it and pass the folder");
   auto pack = ReadPack(a.pack);
   if (!pack.ok()) return Fail("render", pack.status().message().c_str());
+  // A per-view pack (per-view:<model>): the maps of the fitted view nearest the camera.
+  if (const int v = NearestPackView(*pack, o.camera_theta_deg, o.camera_phi_deg); v >= 0) {
+    if (!a.quiet)
+      std::fprintf(stderr, "matfit render: per-view pack: drawing the maps of view %g,%g\n",
+                   pack->views[size_t(v)].theta_deg, pack->views[size_t(v)].phi_deg);
+    pack->maps = std::move(pack->views[size_t(v)].maps);
+  }
 
   std::unique_ptr<render::EglRenderer> egl;
   if (a.backend != "cpu") {

@@ -169,6 +169,18 @@ int MostFrontalView(const LightStack& s, const std::vector<std::vector<int>>& gr
   return best;
 }
 
+LightStack SelectView(const LightStack& s, const std::vector<int>& group) {
+  LightStack out = SelectImages(s, group);
+  if (group.empty()) return out;
+  out.view_direction = s.ViewOf(group[0]);
+  const LightSample& l = s.lights()[size_t(group[0])];
+  if (l.has_view)
+    out.view_theta_deg = l.view_theta_deg, out.view_phi_deg = l.view_phi_deg;
+  else
+    out.view_theta_deg = s.view_theta_deg, out.view_phi_deg = s.view_phi_deg;
+  return out;
+}
+
 LightStack SelectImages(const LightStack& s, const std::vector<int>& idx) {
   LightStack out(s.width(), s.height(), s.channels(), int(idx.size()), s.sample_type(), s.lut());
   auto pick = [&](const auto& v, auto& dst) {

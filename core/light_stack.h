@@ -252,5 +252,9 @@ LightStack SelectImages(const LightStack& stack, const std::vector<int>& indices
 std::vector<std::vector<int>> ViewGroups(const LightStack& stack);
 // The group of ViewGroups whose view is the most frontal (largest z; the first on ties).
 int MostFrontalView(const LightStack& stack, const std::vector<std::vector<int>>& groups);
+// The images of one view (a group of ViewGroups) as a single-view stack: SelectImages, with that
+// view as the stack's view_direction and angles (as the reader gave them), so a single-view
+// method fits them as it fits a BTF read with --view THETA,PHI.
+LightStack SelectView(const LightStack& stack, const std::vector<int>& group);
 
 }  // namespace matfit

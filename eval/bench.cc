@@ -223,10 +223,13 @@ bool BenchOptions::Check(std::string* why) const {
     return false;
   }
   const std::vector<BenchCase> all = DefaultSuite(quick);
+  const std::vector<MultiViewCase> views = MultiViewSuite(quick);
   for (const auto& c : cases)
-    if (std::none_of(all.begin(), all.end(), [&](const BenchCase& b) { return b.name == c; })) {
+    if (std::none_of(all.begin(), all.end(), [&](const BenchCase& b) { return b.name == c; }) &&
+        std::none_of(views.begin(), views.end(),
+                     [&](const MultiViewCase& b) { return b.name == c; })) {
       *why = "--cases: '" + c + "' is not a case of the" + (quick ? " --quick" : "") +
-             " suite (e.g. psm-gray, psm-cat, leaf-sheet, plastic-64)";
+             " suite (e.g. psm-gray, psm-cat, leaf-sheet, plastic-64, " + views[0].name + ")";
       return false;
     }
   for (const auto& m : methods)
@@ -272,7 +275,16 @@ StatusOr<BenchResult> RunBench(const BenchOptions& o) {
   for (const BenchCase& c : DefaultSuite(o.quick))
     if (o.cases.empty() || std::find(o.cases.begin(), o.cases.end(), c.name) != o.cases.end())
       suite.push_back(c);
-  const int64_t total = int64_t(suite.size() * methods.size()) + 1;
+  std::vector<MultiViewCase> view_cases;
+  for (const MultiViewCase& c : MultiViewSuite(o.quick))
+    if (o.multi_view && ((o.cases.empty() && o.methods.empty()) ||
+                         std::find(o.cases.begin(), o.cases.end(), c.name) != o.cases.end()))
+      view_cases.push_back(c);
+  const MultiViewMethods view_methods;
+  const int64_t per_view_case = int64_t(view_methods.joint.size() + view_methods.per_view.size() +
+                                        view_methods.frontal.size() + 1);
+  const int64_t total =
+      int64_t(suite.size() * methods.size()) + int64_t(view_cases.size()) * per_view_case + 1;
   int64_t done = 0;
   for (BenchCase c : suite) {
     if (!c.path.empty()) {
@@ -299,6 +311,19 @@ StatusOr<BenchResult> RunBench(const BenchOptions& o) {
       if (o.progress && !o.progress(++done, total))
         return Status(StatusCode::kCancelled, "cancelled");
     }
+  }
+  for (const MultiViewCase& c : view_cases) {
+    const int64_t base = done;
+    auto pts = RunMultiViewCase(c, view_methods, repeats, [&](int64_t d, int64_t) {
+      return !o.progress || o.progress(base + d, total);
+    });
+    if (!pts.ok()) {
+      if (pts.status().code() == StatusCode::kCancelled) return pts.status();
+      res.skipped.push_back(c.name + ": " + pts.status().message());
+    } else {
+      for (auto& p : *pts) res.multi_view.push_back(std::move(p));
+    }
+    done = base + per_view_case;
   }
   res.hl2 = RunHl2(o.quick, &res.hl2_leaf);
   if (o.progress) o.progress(total, total);
@@ -352,14 +377,34 @@ std::string BenchJson(const BenchResult& r) {
                       {"flagged_texels", p.flagged_texels},
                       {"bound_median", num(p.bound_median)}});
   }
+  json views = json::array();
+  for (const auto& p : r.multi_view)
+    views.push_back({{"dataset", p.dataset},
+                     {"method", p.method},
+                     {"family", p.family},
+                     {"k", p.family == "pca" ? json(p.k) : json()},
+                     {"ok", p.ok},
+                     {"error", p.ok ? json() : json(p.error)},
+                     {"bytes_per_texel", num(p.bytes_per_texel)},
+                     {"heldout_view_rmse", num(p.heldout_view_rmse)},
+                     {"fit_seconds", num(p.fit_seconds)},
+                     {"texels_per_second", num(p.texels_per_second)},
+                     {"normal_mae_deg", opt(p.normal_mae_deg)}});
   for (const auto& h : r.hl2)
     hl2.push_back({{"directions", h.directions},
                    {"mean_error_percent", h.mean_error_percent},
                    {"error_percent_by_elevation", h.error_percent_by_elevation},
                    {"precompute_seconds", h.precompute_seconds}});
-  json j = {{"schema", "matfit.bench/1"}, {"cases", cases},         {"skipped", r.skipped},
-            {"points", points},           {"hl2_leaf", r.hl2_leaf}, {"hl2", hl2},
-            {"holdout", r.holdout},       {"loo", r.loo},           {"threads", r.threads},
+  json j = {{"schema", "matfit.bench/1"},
+            {"cases", cases},
+            {"skipped", r.skipped},
+            {"points", points},
+            {"multi_view", views},
+            {"hl2_leaf", r.hl2_leaf},
+            {"hl2", hl2},
+            {"holdout", r.holdout},
+            {"loo", r.loo},
+            {"threads", r.threads},
             {"seconds", r.seconds}};
   return j.dump(2, ' ', false, json::error_handler_t::replace) + "\n";
 }

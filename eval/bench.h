@@ -14,6 +14,7 @@
 #include "core/material_maps.h"
 #include "core/progress.h"
 #include "core/status.h"
+#include "eval/multi_view_bench.h"
 
 namespace matfit::eval {
 
@@ -38,7 +39,10 @@ struct BenchOptions {
   int holdout = 4;                   // k-fold held-out lights
   bool loo = true;                   // real cases: also leave-one-out held-out lights
   std::vector<std::string> cases;    // empty: the whole suite; else these case names only
-  ProgressFn progress;               // points done / total
+  // The multi-view cases (eval/multi_view_bench.h): run when neither cases nor methods narrow
+  // the suite, or when cases names one.
+  bool multi_view = true;
+  ProgressFn progress;  // points done / total
 
   bool Check(std::string* why) const;
 };
@@ -83,9 +87,10 @@ struct BenchResult {
   std::vector<BenchCase> cases;
   std::vector<std::string> skipped;  // e.g. real data absent
   std::vector<BenchPoint> points;
-  std::vector<Hl2Point> hl2;     // leaf HL2 precompute: error vs N_L
-  std::string hl2_leaf;          // which leaf
-  int holdout = 0, threads = 0;  // as run
+  std::vector<MultiViewPoint> multi_view;  // storage vs held-out-view error (issue 17)
+  std::vector<Hl2Point> hl2;               // leaf HL2 precompute: error vs N_L
+  std::string hl2_leaf;                    // which leaf
+  int holdout = 0, threads = 0;            // as run
   bool loo = false;
   double seconds = 0;
 };

@@ -20,6 +20,7 @@
 #include "fit/bands.h"
 #include "fit/fit_common.h"
 #include "fit/method.h"
+#include "fit/per_view_fit.h"
 #include "fit/report.h"
 #include "fit/score.h"
 #include "fit/stream_fit.h"
@@ -134,7 +135,8 @@ Status FinishJob(const FitJobOptions& o, const LightStack& stack, const FitMetho
   FitReportInputs ri;
   ri.result = &r.fit;
   ri.parameters_per_texel = method.parameters_per_texel();
-  ri.bytes_per_texel = method.bytes_per_texel();
+  // A per-view pack stores the base model's maps once per view.
+  ri.bytes_per_texel = method.bytes_per_texel() * std::max<int>(1, int(r.fit.views.size()));
   ri.images = r.images;
   ri.reconstruction = r.reconstruction;
   ri.reconstruction_common = r.reconstruction_common;
@@ -186,6 +188,8 @@ Status FinishJob(const FitJobOptions& o, const LightStack& stack, const FitMetho
                                "fit dropped (8-bit count, 255 = 255 or more)",
                                std::move(dropped)});
   }
+  for (const ViewFit& v : r.fit.views)
+    info.views.push_back({v.theta_deg, v.phi_deg, &v.maps, &v.status});
   MATFIT_RETURN_IF_ERROR(
       WritePack(r.fit.maps, r.fit.status, info, {o.zip, o.overwrite, o.compact_maps}, o.out));
   stages->End();
@@ -397,14 +401,18 @@ StatusOr<FitJobResult> RunFitJob(const FitJobOptions& o, const StageProgress& pr
     r.fit.maps = std::move(pack->maps);
     r.fit.status = std::move(pack->status);
     r.fit.method = pack->method;
+    // A per-view pack: each image scored with its nearest view's maps (fit/per_view_fit.h).
+    for (PackViewContents& v : pack->views)
+      r.fit.views.push_back({v.theta_deg, v.phi_deg, DirectionFromAnglesDeg(v.theta_deg, v.phi_deg),
+                             std::move(v.maps), std::move(v.status)});
     with_dataset_warnings(&r.fit.warnings);
     for (uint8_t st : r.fit.status) r.fit.flagged_texels += st != 0 && st != 1;
     if (!stages.Begin("reconstruction")) return Cancelled();
-    r.reconstruction = Reconstruction(*stack, r.fit.maps, r.fit.status, stages.Callback());
-    r.reconstruction_common =
-        AnyFlagged(r.fit.status)
-            ? Reconstruction(*stack, r.fit.maps, CommonTexelStatus(r.fit.status))
-            : r.reconstruction;
+    const ScoreParts recon{.reconstruction = true, .residuals = false};
+    r.reconstruction = ScoreFit(*stack, r.fit, false, stages.Callback(), recon).reconstruction;
+    r.reconstruction_common = AnyFlagged(r.fit.status) || !r.fit.views.empty()
+                                  ? ScoreFit(*stack, r.fit, true, {}, recon).reconstruction
+                                  : r.reconstruction;
     stages.End();
     const std::string truth_dir = synth::FindTruthFolder(o.input);
     if (!truth_dir.empty()) {
@@ -467,19 +475,32 @@ StatusOr<FitJobResult> RunFitJob(const FitJobOptions& o, const StageProgress& pr
 
   r.images = stack->num_images();
   // One pass predicts every image: the reconstruction metrics and the bound's residual sums.
+  // A per-view fit predicts each view's images from its own maps (fit/per_view_fit.h).
+  const bool per_view = !fit->views.empty();
   if (!stages.Begin("reconstruction")) return Cancelled();
-  StackScore score = ScoreStack(*stack, fit->maps, fit->status, stages.Callback());
+  StackScore score = ScoreFit(*stack, *fit, false, stages.Callback(),
+                              {.reconstruction = true, .residuals = !per_view});
   r.reconstruction = score.reconstruction;
   // The common texel set costs a second pass only when the fit flagged texels (no progress of
   // its own: the stage's bar has reached its end once).
-  r.reconstruction_common = AnyFlagged(*stack, fit->status)
-                                ? Reconstruction(*stack, fit->maps, CommonTexelStatus(fit->status))
-                                : r.reconstruction;
+  bool flagged = AnyFlagged(*stack, fit->status);
+  for (const ViewFit& v : fit->views) flagged = flagged || AnyFlagged(*stack, v.status);
+  r.reconstruction_common =
+      flagged ? ScoreFit(*stack, *fit, true, {}, {.reconstruction = true, .residuals = false})
+                    .reconstruction
+              : r.reconstruction;
   stages.End();
   std::vector<uint8_t> fitted_status = fit->status;  // metrics describe what was fitted
   if (!stages.Begin("confidence")) return Cancelled();
-  r.assessment = AssessFit(*stack, *method, &*fit, {}, stages.Callback(), &score.residuals,
-                           diagnosis ? &*diagnosis : nullptr);
+  if (per_view) {
+    // The pack's own maps are the most frontal view's: their bound, from that view's images.
+    const LightStack front = SelectView(*stack, ViewGroups(*stack)[size_t(fit->frontal_view)]);
+    r.assessment = AssessFit(front, *PerViewBase(*method), &*fit, {}, stages.Callback(), nullptr,
+                             diagnosis ? &*diagnosis : nullptr);
+  } else {
+    r.assessment = AssessFit(*stack, *method, &*fit, {}, stages.Callback(), &score.residuals,
+                             diagnosis ? &*diagnosis : nullptr);
+  }
   with_dataset_warnings(&fit->warnings);
   stages.End();
   if (selection) {
@@ -511,7 +532,8 @@ StatusOr<FitJobResult> RunFitJob(const FitJobOptions& o, const StageProgress& pr
     stages.End();
   }
   if (stack->is_multi_view() && !comm)
-    r.deviation_by_view_theta = DeviationByViewTheta(*stack, fit->maps, fitted_status);
+    r.deviation_by_view_theta = per_view ? DeviationByViewTheta(*stack, *fit)
+                                         : DeviationByViewTheta(*stack, fit->maps, fitted_status);
   if (!o.pca_components.empty() && stack->is_multi_view() && !comm) {
     if (!stages.Begin("pca")) return Cancelled();
     r.per_view_pca = PerViewPcaCurve(*stack, o.pca_components, fitted_status, stages.Callback());
@@ -524,6 +546,10 @@ StatusOr<FitJobResult> RunFitJob(const FitJobOptions& o, const StageProgress& pr
     (void)stages.Begin("gather");  // timed; not cancellable (the ranks must stay in step)
     GatherMaps(*comm, stack->full_height(), &fit->maps);
     GatherPlane(*comm, &fit->status);
+    for (ViewFit& v : fit->views) {  // a per-view fit: every view's band
+      GatherMaps(*comm, stack->full_height(), &v.maps);
+      GatherPlane(*comm, &v.status);
+    }
     GatherPlane(*comm, &fitted_status);
     GatherPlane(*comm, &r.assessment.confidence.bound);
     if (r.heldout) GatherPlane(*comm, &r.heldout->texel_rmse);

@@ -8,6 +8,7 @@
 
 #include "core/material_maps.h"
 #include "core/progress.h"
+#include "core/vec3.h"
 
 namespace matfit::fit {
 
@@ -54,6 +55,14 @@ struct FitOptions {
   bool Check(std::string* why) const;
 };
 
+// One view's fit of a per-view model (per-view:<model>, fit/per_view_fit.h).
+struct ViewFit {
+  double theta_deg = 0, phi_deg = 0;  // the view, as the reader gave it
+  Vec3 view{0, 0, 1};                 // unit, toward the camera, tangent frame
+  MaterialMaps maps;
+  std::vector<uint8_t> status;
+};
+
 struct FitResult {
   MaterialMaps maps;
   std::vector<uint8_t> status;  // TexelStatus per texel (row-major)
@@ -67,6 +76,11 @@ struct FitResult {
   std::vector<uint16_t> dropped_lights;
   int64_t refit_texels = 0, dropped_samples = 0;
   std::vector<std::string> warnings;
+  // per-view:<model>: every view's maps, in the stack's view order; maps and status above are
+  // the most frontal view's (views[frontal_view]'s, which render and glTF show). Empty for a
+  // model with one set of maps.
+  std::vector<ViewFit> views;
+  int frontal_view = 0;
 };
 
 }  // namespace matfit::fit

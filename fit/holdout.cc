@@ -3,6 +3,7 @@
 #include <cmath>
 
 #include "fit/metrics.h"
+#include "fit/per_view_fit.h"
 #include "fit/score.h"
 
 namespace matfit::fit {
@@ -39,16 +40,19 @@ StatusOr<HeldOutMetrics> HeldOut(const FitMethod& method, const LightStack& s, i
       ++h.failed_folds;
       continue;
     }
-    StackScore score = ScoreStack(s, test, fit->maps, fit->status, {},
-                                  {.reconstruction = true, .residuals = true, .srgb8 = true});
+    // A per-view fit predicts each image from its own view's maps (fit/per_view_fit.h).
+    StackScore score = ScoreFit(s, test, *fit, /*common=*/false, {},
+                                {.reconstruction = true, .residuals = true, .srgb8 = true});
     const ReconstructionMetrics& m = score.reconstruction;
     for (size_t p = 0; p < texel_rss.size(); ++p)
       texel_rss[p] += score.residuals.rss[p], texel_samples[p] += score.residuals.samples[p];
     total += m.deviation_percent / 100 * double(m.samples);
     h.samples += m.samples;
     const ReconstructionMetrics mc =
-        AnyFlagged(s, fit->status)
-            ? Reconstruction(s, test, fit->maps, CommonTexelStatus(fit->status))
+        AnyFlagged(s, fit->status) || !fit->views.empty()
+            ? ScoreFit(s, test, *fit, /*common=*/true, {},
+                       {.reconstruction = true, .residuals = false, .srgb8 = true})
+                  .reconstruction
             : m;
     total_common += mc.deviation_percent / 100 * double(mc.samples);
     total8 += m.rmse_srgb8 * m.rmse_srgb8 * double(m.samples);

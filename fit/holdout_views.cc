@@ -5,6 +5,9 @@
 #include <numeric>
 #include <string>
 
+#include "fit/per_view_fit.h"
+#include "fit/score.h"
+
 namespace matfit::fit {
 namespace {
 
@@ -57,7 +60,9 @@ StatusOr<HeldOutViewMetrics> HeldOutViews(const FitMethod& method, const LightSt
                   "held-out views: the fit without them failed: " + fit.status().message());
   HeldOutViewMetrics m;
   m.train_views = v - count;
-  m.all = Reconstruction(s, test, fit->maps, fit->status);
+  // A per-view fit predicts a held-out view from the nearest fitted view (fit/per_view_fit.h).
+  const ScoreParts parts{.reconstruction = true, .residuals = false, .srgb8 = true};
+  m.all = ScoreFit(s, test, *fit, false, {}, parts).reconstruction;
   std::vector<int> by_theta = held;
   std::sort(by_theta.begin(), by_theta.end(), [&](int a, int b) {
     const LightSample &la = s.lights()[size_t(groups[size_t(a)][0])],
@@ -68,25 +73,33 @@ StatusOr<HeldOutViewMetrics> HeldOutViews(const FitMethod& method, const LightSt
   for (int g : by_theta) {
     const LightSample& l = s.lights()[size_t(groups[size_t(g)][0])];
     m.views.push_back({l.view_theta_deg, l.view_phi_deg,
-                       Reconstruction(s, groups[size_t(g)], fit->maps, fit->status)});
+                       ScoreFit(s, groups[size_t(g)], *fit, false, {}, parts).reconstruction});
   }
   return m;
 }
 
-void AddDeviationByViewTheta(const LightStack& s, const MaterialMaps& maps,
-                             const std::vector<uint8_t>& status, ViewThetaSums* sums) {
+void AddDeviationByViewTheta(const LightStack& s, const MapsOfView& maps_of, ViewThetaSums* sums) {
   for (const std::vector<int>& g : ViewGroups(s)) {
     const LightSample& first = s.lights()[size_t(g[0])];
     const int tv = Group15(first.has_view ? first.view_theta_deg : s.view_theta_deg);
+    const auto [maps, status] = maps_of(s.ViewOf(g[0]));
     // The θl groups of this view's images, each weighted by its sample count.
     std::map<int, std::vector<int>> by_light;
     for (int i : g) by_light[Group15(s.lights()[size_t(i)].theta_deg)].push_back(i);
     for (const auto& [tl, images] : by_light) {
-      const ReconstructionMetrics r = Reconstruction(s, images, maps, status);
+      const ReconstructionMetrics r =
+          ScoreStack(s, images, *maps, *status, {}, {.reconstruction = true, .residuals = false})
+              .reconstruction;
       auto& [sum, n] = (*sums)[tv][tl];
       sum += r.deviation_percent * double(r.samples), n += double(r.samples);
     }
   }
+}
+
+void AddDeviationByViewTheta(const LightStack& s, const MaterialMaps& maps,
+                             const std::vector<uint8_t>& status, ViewThetaSums* sums) {
+  AddDeviationByViewTheta(
+      s, [&](const Vec3&) { return std::pair(&maps, &status); }, sums);
 }
 
 std::map<int, std::map<int, double>> DeviationByViewTheta(const ViewThetaSums& sums) {

@@ -3,7 +3,9 @@
 // error of a multi-view fit per (θv, θl) group.
 #pragma once
 
+#include <functional>
 #include <map>
+#include <utility>
 #include <vector>
 
 #include "core/light_stack.h"
@@ -45,5 +47,11 @@ using ViewThetaSums = std::map<int, std::map<int, std::pair<double, double>>>;
 void AddDeviationByViewTheta(const LightStack& stack, const MaterialMaps& maps,
                              const std::vector<uint8_t>& status, ViewThetaSums* sums);
 std::map<int, std::map<int, double>> DeviationByViewTheta(const ViewThetaSums& sums);
+// The same with maps that depend on the view (per-view fits): maps_of(view) gives the maps and
+// status that predict that view's images.
+using MapsOfView =
+    std::function<std::pair<const MaterialMaps*, const std::vector<uint8_t>*>(const Vec3& view)>;
+void AddDeviationByViewTheta(const LightStack& stack, const MapsOfView& maps_of,
+                             ViewThetaSums* sums);
 
 }  // namespace matfit::fit

@@ -4,6 +4,7 @@
 
 #include "fit/methods.h"
 #include "fit/near_fit.h"
+#include "fit/per_view_fit.h"
 
 namespace matfit::fit {
 namespace {
@@ -31,7 +32,9 @@ class FunctionMethod : public FitMethod {
         return InvalidArgument(
             name_ + " fits images of one view, but this stack holds " +
             std::to_string(ViewGroups(s).size()) +
-            " views; read one view (--view THETA,PHI) or fit every view with --model svbrdf");
+            " views; read one view (--view THETA,PHI), fit every view jointly with --model "
+            "svbrdf, or each view on its own with --model per-view:" +
+            name_);
       if (s.has_light_positions())
         return InvalidArgument(
             "svbrdf: near lights (light_positions.txt) over several views are "
@@ -56,7 +59,15 @@ std::vector<std::string> MethodNames() {
 
 std::vector<std::string> MultiViewMethodNames() { return {"svbrdf"}; }
 
+std::vector<std::string> PerViewMethodNames() {
+  std::vector<std::string> names;
+  for (const std::string& n : MethodNames()) names.push_back(kPerViewPrefix + n);
+  return names;
+}
+
 std::unique_ptr<FitMethod> MakeMethod(const std::string& name) {
+  if (name.starts_with(kPerViewPrefix))
+    return MakePerViewMethod(name.substr(std::string_view(kPerViewPrefix).size()));
   // Bytes per texel as packed: 8-bit sRGB colour (3), 16-bit normal (6), 8-bit ambient (3),
   // 16-bit normal scale (2), 8-bit specular colour (3); the exponent is one per material;
   // PTM coefficients as 16-bit half floats (18 × 2).

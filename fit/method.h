@@ -32,6 +32,9 @@ std::vector<std::string> MethodNames();  // the ladder, simplest first
 // Methods over the views of a multi-view stack (issue 17; `--view all`): fitted only when asked
 // for by name, not part of the single-view ladder that bench, stability and auto run.
 std::vector<std::string> MultiViewMethodNames();
+// per-view:<model> for every model of the ladder (fit/per_view_fit.h): each view fitted on its
+// own; also fitted only when asked for by name.
+std::vector<std::string> PerViewMethodNames();
 // nullptr when `name` is not a method.
 std::unique_ptr<FitMethod> MakeMethod(const std::string& name);
 

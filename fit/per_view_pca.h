@@ -29,4 +29,15 @@ std::vector<PcaPoint> PerViewPcaCurve(const LightStack& stack, const std::vector
                                       const std::vector<uint8_t>& status = {},
                                       const ProgressFn& progress = {});
 
+// Per-view PCA as a predictor of views it was not made from: each view of `held` (indices into
+// ViewGroups) predicted by the k-component reconstruction of the nearest other view (largest
+// cosine), each held-out image by that view's image of the nearest light — the nearest-view
+// lookup a per-view BTF renderer does. rmse over the held-out views' finite, unclipped samples
+// (as ScoreStack counts them; texels with status ≠ 0 or a non-finite training sample left out);
+// bytes_per_texel of the PCA of the other views. `progress` counts held-out views.
+std::vector<PcaPoint> PerViewPcaHeldOutViews(const LightStack& stack, const std::vector<int>& held,
+                                             const std::vector<int>& ks,
+                                             const std::vector<uint8_t>& status = {},
+                                             const ProgressFn& progress = {});
+
 }  // namespace matfit::fit

@@ -48,14 +48,7 @@ StatusOr<FitResult> FitSvbrdf(const LightStack& s, const FitOptions& o) {
   const std::vector<std::vector<int>> groups = ViewGroups(s);
   const std::vector<int>& frontal = groups[size_t(MostFrontalView(s, groups))];
   // The start: cook-torrance on the most frontal view, its own view as the stack's.
-  LightStack front = SelectImages(s, frontal);
-  front.view_direction = s.ViewOf(frontal[0]);
-  // The view's angles as the reader parsed them (a streamed fit reads this view alone).
-  const LightSample& fl = s.lights()[size_t(frontal[0])];
-  if (fl.has_view)
-    front.view_theta_deg = fl.view_theta_deg, front.view_phi_deg = fl.view_phi_deg;
-  else
-    AnglesDegFromDirection(front.view_direction, &front.view_theta_deg, &front.view_phi_deg);
+  const LightStack front = SelectView(s, frontal);
   auto start = SvbrdfStart(front, o);
   if (!start.ok()) return start.status();
   return RefineSvbrdf(s, *start, 0, o);

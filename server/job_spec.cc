@@ -101,10 +101,10 @@ StatusOr<JobSpec> ParseJobSpecFields(const std::map<std::string, std::string>& f
     std::string list;
     std::vector<std::string> names = fit::MethodNames();
     for (const auto& n : fit::MultiViewMethodNames()) names.push_back(n);
-    for (const auto& n : names) {
-      known = known || n == s.model;
-      list += (list.empty() ? "" : ", ") + n;
-    }
+    for (const auto& n : names) list += (list.empty() ? "" : ", ") + n;
+    list += ", per-view:<one of the first " + std::to_string(fit::MethodNames().size()) + ">";
+    for (const auto& n : fit::PerViewMethodNames()) names.push_back(n);
+    for (const auto& n : names) known = known || n == s.model;
     if (!known)
       return FieldError("model",
                         "'" + s.model + "' is not a model; choose one of: " + list + " or auto");

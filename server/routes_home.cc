@@ -16,7 +16,8 @@ void Server::Impl::RegisterHomeRoutes() {
     json models = json::array();
     // "views": what a job's view field must be for the model (one view, or all of a BTF).
     for (const auto& [list, views] :
-         {std::pair{fit::MethodNames(), "one"}, std::pair{fit::MultiViewMethodNames(), "all"}})
+         {std::pair{fit::MethodNames(), "one"}, std::pair{fit::MultiViewMethodNames(), "all"},
+          std::pair{fit::PerViewMethodNames(), "all"}})
       for (const auto& name : list) {
         const auto m = fit::MakeMethod(name);
         models.push_back({{"name", name},

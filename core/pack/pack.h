@@ -20,6 +20,14 @@ struct PackExtraMap {
   Image image;
 };
 
+// One view of a per-view pack (per-view:<model>, docs/pack.md "Per-view packs"): its maps are
+// written as a pack of their own under views/.
+struct PackView {
+  double theta_deg = 0, phi_deg = 0;
+  const MaterialMaps* maps = nullptr;
+  const std::vector<uint8_t>* status = nullptr;
+};
+
 struct PackInfo {
   std::string method;                              // fitting method name
   std::string source;                              // dataset path
@@ -33,6 +41,9 @@ struct PackInfo {
   // When set, called after every other file of the pack is written; its result is written as
   // report.json instead of report_json (so the report can time the write itself).
   std::function<std::string()> final_report_json;
+  // A per-view fit: every view's maps (the pack's own maps are the most frontal view's), each
+  // written as a complete pack views/vNNN/ and listed in material.json "views".
+  std::vector<PackView> views;
 };
 
 struct PackWriteOptions {

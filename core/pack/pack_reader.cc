@@ -11,6 +11,7 @@
 
 #include "core/image_io.h"
 #include "core/model/model.h"
+#include "core/vec3.h"
 
 namespace matfit {
 namespace {
@@ -27,9 +28,60 @@ std::optional<std::string> StringField(const json& o, const char* key) {
   return v.get<std::string>();
 }
 
+constexpr size_t kMaxPackViews = 65536;  // 151 × 151 Bonn views and more
+
+StatusOr<PackContents> ReadPackFolder(const std::string& dir, bool views_allowed);
+
+// material.json "views": each entry's pack, read and checked against the pack's own size.
+Status ReadPackViews(const std::string& dir, const std::string& mj, const json& jv,
+                     PackContents* pc) {
+  if (jv.is_null()) return Status::Ok();
+  if (!jv.is_array() || jv.size() > kMaxPackViews)
+    return DataError("'" + mj + "': field 'views' must be a list of at most " +
+                     std::to_string(kMaxPackViews) + " views");
+  for (size_t v = 0; v < jv.size(); ++v) {
+    const json& e = jv[v];
+    const std::string at = "'" + mj + "': views[" + std::to_string(v) + "]";
+    const std::optional<std::string> pack = StringField(e, "pack");
+    if (!e.is_object() || !pack || pack->empty() || !e.contains("theta_deg") ||
+        !e["theta_deg"].is_number() || !e.contains("phi_deg") || !e["phi_deg"].is_number())
+      return DataError(at + " needs numbers 'theta_deg', 'phi_deg' and a string 'pack'");
+    const double theta = e["theta_deg"].get<double>(), phi = e["phi_deg"].get<double>();
+    if (!(theta >= 0 && theta <= 90) || !std::isfinite(phi))
+      return DataError(at + ": theta_deg must be in [0, 90] and phi_deg finite");
+    const fs::path f(*pack);
+    if (f.is_absolute() || std::find(f.begin(), f.end(), "..") != f.end())
+      return DataError(at + " points outside the pack ('" + *pack +
+                       "'); give a folder relative to the pack");
+    auto sub = ReadPackFolder((fs::path(dir) / f).string(), /*views_allowed=*/false);
+    if (!sub.ok()) return Status(sub.status().code(), at + ": " + sub.status().message());
+    if (sub->maps.width != pc->maps.width || sub->maps.height != pc->maps.height)
+      return DataError(at + ": its maps are " + std::to_string(sub->maps.width) + " x " +
+                       std::to_string(sub->maps.height) + ", the pack's " +
+                       std::to_string(pc->maps.width) + " x " + std::to_string(pc->maps.height));
+    pc->views.push_back({theta, phi, std::move(sub->maps), std::move(sub->status)});
+  }
+  return Status::Ok();
+}
+
 }  // namespace
 
-StatusOr<PackContents> ReadPack(const std::string& dir) {
+int NearestPackView(const PackContents& pack, double theta_deg, double phi_deg) {
+  const Vec3 d = DirectionFromAnglesDeg(theta_deg, phi_deg);
+  int best = -1;
+  double best_cos = -2;
+  for (size_t v = 0; v < pack.views.size(); ++v) {
+    const double c = Dot(DirectionFromAnglesDeg(pack.views[v].theta_deg, pack.views[v].phi_deg), d);
+    if (c > best_cos + 1e-12) best = int(v), best_cos = c;
+  }
+  return best;
+}
+
+StatusOr<PackContents> ReadPack(const std::string& dir) { return ReadPackFolder(dir, true); }
+
+namespace {
+
+StatusOr<PackContents> ReadPackFolder(const std::string& dir, bool views_allowed) {
   const std::string mj = (fs::path(dir) / "material.json").string();
   std::ifstream in(mj);
   if (!in) return NotFound("'" + mj + "' not found: is '" + dir + "' a material pack folder?");
@@ -136,7 +188,14 @@ StatusOr<PackContents> ReadPack(const std::string& dir) {
   if (!status.empty())
     for (size_t p = 0; p < pc.status.size(); ++p)
       pc.status[p] = uint8_t(std::lround(status.data()[p] * 255));
+  if (j.contains("views") && !j["views"].is_null()) {
+    if (!views_allowed)
+      return DataError("'" + mj + "': a view's pack cannot hold views of its own");
+    MATFIT_RETURN_IF_ERROR(ReadPackViews(dir, mj, j["views"], &pc));
+  }
   return pc;
 }
+
+}  // namespace
 
 }  // namespace matfit

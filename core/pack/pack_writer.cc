@@ -4,6 +4,7 @@
 #include <bit>
 #include <chrono>
 #include <cmath>
+#include <cstdio>
 #include <ctime>
 #include <deque>
 #include <filesystem>
@@ -393,6 +394,31 @@ Status WritePack(const MaterialMaps& m, const std::vector<uint8_t>& status, cons
         "normals face away)");
   }
 
+  // Per-view packs: each view a pack of its own (maps, glTF, preview), written in turn (each
+  // write is parallel inside) into this pack's staging folder.
+  json views = json::array();
+  if (!info.views.empty()) {
+    fs::create_directories(root / "views", ec);
+    if (ec) return IoError("cannot create '" + (root / "views").string() + "': " + ec.message());
+  }
+  for (size_t v = 0; v < info.views.size(); ++v) {
+    const PackView& pv = info.views[v];
+    if (!pv.maps || !pv.status || pv.maps->width != m.width || pv.maps->height != m.height)
+      return InvalidArgument("pack: view " + std::to_string(v) + " has no maps of the pack's size");
+    char name[32];
+    std::snprintf(name, sizeof name, "v%03u", unsigned(v));
+    PackInfo vi;
+    vi.method = info.method;
+    vi.source = info.source;
+    vi.model_parameters = info.model_parameters;
+    vi.mm_per_texel = info.mm_per_texel;
+    MATFIT_RETURN_IF_ERROR(WritePack(*pv.maps, *pv.status, vi, {false, false, options.compact},
+                                     (root / "views" / name).string()));
+    views.push_back({{"theta_deg", pv.theta_deg},
+                     {"phi_deg", pv.phi_deg},
+                     {"pack", std::string("views/") + name}});
+  }
+
   json params = json::object();
   for (const auto& [k, v] : info.model_parameters) params[k] = v;
   std::map<std::string, double> model_params;
@@ -429,6 +455,7 @@ Status WritePack(const MaterialMaps& m, const std::vector<uint8_t>& status, cons
       {"report", "report.json"},
       {"report_summary", report_summary},
       {"warnings", info.warnings},
+      {"views", info.views.empty() ? json() : views},
       {"provenance",
        {{"input", info.source},
         {"method", info.method},

@@ -46,6 +46,40 @@ PY
 "$bin" render pack --camera 45,90 --light 30,270 --size 32 --backend cpu --out view.png --quiet ||
   bad "render the svbrdf pack from another camera"
 
+# per-view:<model>: each view fitted on its own, one pack per view under views/, the camera's
+# nearest view rendered, the pack re-scored with each image's own view's maps.
+out=$("$bin" fit btf --view all --model per-view:heinrich --holdout-views 2 --out perview --quiet \
+  2>&1) || bad "fit per-view:heinrich: $out"
+[ "$(find perview/views -mindepth 1 -maxdepth 1 -type d | wc -l)" = 9 ] && ok ||
+  bad "per-view pack: 9 view packs expected"
+python3 - perview <<'PY' && ok || bad "per-view pack layout or report"
+import json, os, sys
+d = sys.argv[1]
+m = json.load(open(d + "/material.json"))
+assert m["model"]["method"] == "per-view:heinrich", m["model"]
+assert len(m["views"]) == 9, m["views"]
+for v in m["views"]:
+    sub = json.load(open(os.path.join(d, v["pack"], "material.json")))
+    assert sub["model"]["name"] == "heinrich" and sub["views"] is None
+    assert os.path.isfile(os.path.join(d, v["pack"], "maps", "normal.exr"))
+r = json.load(open(d + "/report.json"))
+assert r["heldout_views"]["train_views"] == 7, r["heldout_views"]
+assert r["bytes_per_texel"] == 9 * 17, r["bytes_per_texel"]  # heinrich's 17 per view
+assert r["parameters"]["views"] == 9
+PY
+out=$("$bin" render perview --camera 70,240 --size 16 --backend cpu --out pv.png 2>&1) ||
+  bad "render per-view: $out"
+expect_contains "render draws the nearest view" "$out" "drawing the maps of view 68,243"
+"$bin" fit btf --view all --report-only perview --out rescore.json --quiet || bad "report-only per-view"
+python3 - perview/report.json rescore.json <<'PY' && ok || bad "re-scored per-view pack differs"
+import json, sys
+a, b = (json.load(open(f)) for f in sys.argv[1:3])
+assert abs(a["rmse"] - b["rmse"]) <= 1e-6 * a["rmse"], (a["rmse"], b["rmse"])
+PY
+out=$("$bin" fit btf --view all --model per-view:svbrdf --out nope --quiet 2>&1) &&
+  bad "per-view:svbrdf accepted"
+expect_contains "per-view of svbrdf refused" "$out" "is not a method"
+
 out=$("$bin" fit btf --view all --model auto --out auto --quiet 2>&1) || bad "fit auto: $out"
 expect_contains "auto picks the view-dependent model" "$(tr -d ' \n' <auto/report.json)" '"method":"svbrdf"'
 

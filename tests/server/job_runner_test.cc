@@ -89,6 +89,18 @@ TEST(JobRunner, AMultiViewUploadIsFittedOverEveryView) {
       high = std::max(high, calls[i].second);
     }
   EXPECT_NE(r->find("svbrdf"), std::string::npos) << *r;
+  // per-view:<model>: one pack per view under the job's pack.
+  auto per_view = ParseJobSpecFields({{"view", "all"}, {"model", "per-view:lambert"}});
+  ASSERT_TRUE(per_view.ok()) << per_view.status().ToString();
+  auto pv = RunJob(*per_view, (root / "btf").string(), (root / "pv").string(),
+                   [](double, const std::string&) { return true; });
+  ASSERT_TRUE(pv.ok()) << pv.status().ToString();
+  for (const char* v : {"v000", "v003"})
+    EXPECT_TRUE(fs::exists(root / "pv" / "views" / v / "material.json")) << v;
+  auto unknown = ParseJobSpecFields({{"view", "all"}, {"model", "per-view:svbrdf"}});
+  ASSERT_FALSE(unknown.ok());
+  EXPECT_NE(unknown.status().message().find("per-view:<one of"), std::string::npos)
+      << unknown.status().message();
   fs::remove_all(root);
 }
 
