@@ -64,6 +64,8 @@ constexpr std::array kWarnings = {
                 "the scene's footprint asks for a mip level the dataset does not reach"},
     WarningSpec{W::kBudgetNotMet, "budget-not-met", "fit",
                 "no candidate met the error budget; the most accurate is used"},
+    WarningSpec{W::kViewsOutsideScene, "views-outside-scene", "fit",
+                "--model auto fitted only the BTF views the scene shows (view_theta_max_deg)"},
     WarningSpec{W::kTruthUnusable, "truth-unusable", "fit",
                 "the dataset's truth/ folder could not be compared"},
     WarningSpec{W::kNoScale, "no-scale", "leaf",

@@ -36,6 +36,7 @@ enum class WarningCode {
   kPackAtMip,
   kMipFootprint,
   kBudgetNotMet,
+  kViewsOutsideScene,
   kTruthUnusable,
   // Leaf.
   kNoScale,

@@ -38,7 +38,8 @@ struct MultiViewPoint {
   std::optional<double> normal_mae_deg;  // the fit's (most frontal) maps vs truth
 };
 
-// The suite's multi-view cases: quick one 24² BTF of 25 views; full a 48² one of 81 views.
+// The suite's multi-view cases: quick one 24² BTF of 25 views; full 48² and 128² ones of 81
+// views (Bonn's view set), 8 views held out.
 std::vector<MultiViewCase> MultiViewSuite(bool quick);
 
 // The models over views benchmarked by default (the per-view and frontal bases are a few of the

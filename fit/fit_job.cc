@@ -3,7 +3,9 @@
 #include <algorithm>
 #include <atomic>
 #include <chrono>
+#include <cstdio>
 #include <fstream>
+#include <nlohmann/json.hpp>
 #include <sstream>
 #include "core/atomic_file.h"
 #include "core/comm.h"
@@ -24,6 +26,7 @@
 #include "fit/report.h"
 #include "fit/score.h"
 #include "fit/stream_fit.h"
+#include "fit/stream_per_view.h"
 
 namespace matfit::fit {
 namespace {
@@ -96,6 +99,50 @@ std::optional<FitReportInputs::Region> CropRegion(const LightStack& s) {
   if (s.crop_w <= 0) return std::nullopt;
   return FitReportInputs::Region{s.crop_x, s.crop_y,       s.crop_w,
                                  s.crop_h, s.source_width, s.source_height};
+}
+
+// --components: the per-view PCA at the largest k as the pack's pca/ folder (docs/pack.md
+// "Per-view PCA"): per view its weights and basis (float EXR), and pca/pca.json.
+void AddPcaFiles(const LightStack& stack, std::vector<ViewPcaModel>* models, PackInfo* info) {
+  nlohmann::json views = nlohmann::json::array();
+  int k = 0;
+  for (size_t v = 0; v < models->size(); ++v) {
+    ViewPcaModel& m = (*models)[v];
+    char name[32];
+    std::snprintf(name, sizeof name, "pca/v%03u", unsigned(v));
+    nlohmann::json lights = nlohmann::json::array();
+    for (int i : m.images) {
+      const LightSample& l = stack.lights()[size_t(i)];
+      lights.push_back({{"direction", {l.direction.x, l.direction.y, l.direction.z}},
+                        {"intensity", {l.intensity.x, l.intensity.y, l.intensity.z}}});
+    }
+    k = m.weights.channels();
+    views.push_back({{"theta_deg", m.theta_deg},
+                     {"phi_deg", m.phi_deg},
+                     {"weights", std::string(name) + "_weights.exr"},
+                     {"basis", std::string(name) + "_basis.exr"},
+                     {"lights", lights}});
+    info->extra_files.push_back({std::string(name) + "_weights.exr",
+                                 "per-view PCA weights (k channels per texel)",
+                                 std::move(m.weights),
+                                 {}});
+    info->extra_files.push_back({std::string(name) + "_basis.exr",
+                                 "per-view PCA mean (row 0) and components (rows 1..k)",
+                                 std::move(m.basis),
+                                 {}});
+  }
+  const nlohmann::json j = {
+      {"schema", "matfit.pca/1"},
+      {"k", k},
+      {"channels", stack.channels()},
+      {"sample",
+       "I[a][c] * (basis[0][a*C + c] + sum_j weights[j](x) * basis[j][a*C + c]) for image a of the "
+       "view (its lights, in order), channel c, texel x; linear"},
+      {"views", views}};
+  info->extra_files.push_back({"pca/pca.json",
+                               "per-view PCA reference (Sattler 2003): views, lights, files",
+                               {},
+                               j.dump(2) + "\n"});
 }
 
 // The steps after scoring, on the whole stack's maps (rank 0 of a distributed fit): truth,
@@ -189,7 +236,8 @@ Status FinishJob(const FitJobOptions& o, const LightStack& stack, const FitMetho
                                std::move(dropped)});
   }
   for (const ViewFit& v : r.fit.views)
-    info.views.push_back({v.theta_deg, v.phi_deg, &v.maps, &v.status});
+    info.views.push_back({v.theta_deg, v.phi_deg, &v.maps, &v.status, &v.parameters});
+  if (!r.per_view_pca_models.empty()) AddPcaFiles(stack, &r.per_view_pca_models, &info);
   MATFIT_RETURN_IF_ERROR(
       WritePack(r.fit.maps, r.fit.status, info, {o.zip, o.overwrite, o.compact_maps}, o.out));
   stages->End();
@@ -203,43 +251,80 @@ StatusOr<FitJobResult> RunStreamedJob(const FitJobOptions& o, int64_t budget, St
                                       Stages* stages) {
   const std::string size =
       Megabytes(sf->FloatBytes()) + " as float > --memory " + Megabytes(budget);
-  if (o.model != "svbrdf")
+  const auto method = MakeMethod(o.model);
+  const bool per_view = method && PerViewBase(*method);
+  if (o.model != "svbrdf" && !per_view)
     return InvalidArgument("--model " + o.model + ": this stack (" + size +
-                           ") is fitted out of core, which --model svbrdf does; name it, or raise "
-                           "--memory to fit in memory");
+                           ") is fitted out of core, which --model svbrdf and per-view:MODEL do; "
+                           "name one, or raise --memory to fit in memory");
   if (sf->shape().has_light_positions())
-    return InvalidArgument(
-        "svbrdf: near lights (light_positions.txt) over several views are not "
-        "supported; use --distant-lights");
-  if (o.holdout != 0 || o.holdout_views != 0 || !o.pca_components.empty())
-    return InvalidArgument("--holdout/--holdout-views/--components: this stack (" + size +
-                           ") is fitted out of core, where held-out folds and the PCA reference "
-                           "are not run yet; raise --memory or drop them");
+    return InvalidArgument(o.model +
+                           ": near lights (light_positions.txt) over several views are not "
+                           "supported; use --distant-lights");
+  if (o.holdout != 0 || !o.pca_components.empty())
+    return InvalidArgument("--holdout/--components: this stack (" + size +
+                           ") is fitted out of core, where held-out light folds and the PCA "
+                           "reference are not run yet (--holdout-views is); raise --memory or "
+                           "drop them");
+  // Held-out views: each band is refined a second time without them (fit/stream_fit.h).
+  std::vector<int> held;
+  if (o.holdout_views > 0) {
+    const auto groups = ViewGroups(sf->shape());
+    const int v = int(groups.size());
+    if (o.holdout_views > v - 1)
+      return InvalidArgument("--holdout-views must be in [1, " + std::to_string(v - 1) +
+                             "] for this stack of " + std::to_string(v) +
+                             " views (the most frontal view is always fitted), got " +
+                             std::to_string(o.holdout_views));
+    held = ChooseHeldOutViews(sf->shape(), groups, o.holdout_views);
+  }
   stages->End();  // read: the headers
   FitJobResult r;
   r.images = int(sf->shape().lights().size());
   r.width = sf->shape().width(), r.height = sf->shape().height();
   r.channels = sf->shape().channels();
+  if (per_view) {  // one view at a time (fit/stream_per_view.h): no cache
+    if (!stages->Begin("fit", int64_t(ViewGroups(sf->shape()).size() + held.size())))
+      return Cancelled();
+    auto pv =
+        FitPerViewOutOfCore(o.input, o.read, sf->shape(), *method, o.fit, held, stages->Callback());
+    if (!pv.ok()) return pv.status();
+    stages->End();
+    r.reconstruction = pv->reconstruction;
+    r.reconstruction_common = pv->reconstruction_common;
+    r.deviation_by_view_theta = pv->deviation_by_view_theta;
+    r.heldout_views = pv->heldout_views;
+    r.tone = pv->tone;
+    r.assessment = std::move(pv->assessment);
+    r.read_encoding = pv->read_encoding;
+    pv->fit.parameters["streamed_views"] = double(ViewGroups(sf->shape()).size());
+    const std::vector<uint8_t> fitted_status = pv->fit.views[size_t(pv->fit.frontal_view)].status;
+    MATFIT_RETURN_IF_ERROR(FinishJob(o, sf->shape(), *method, std::nullopt, SceneSpec{},
+                                     fitted_status, std::move(pv->fit), stages, &r));
+    r.timings = stages->Snapshot();
+    return r;
+  }
   if (!stages->Begin("cache", r.images)) return Cancelled();
   StreamFitOptions so;
   so.memory_bytes = budget, so.cache_dir = o.cache_dir;
+  so.holdout_views = !held.empty();
   MATFIT_RETURN_IF_ERROR(sf->BuildCache(so, stages->Callback()));
   stages->End();
   if (!stages->Begin("start")) return Cancelled();
   MATFIT_RETURN_IF_ERROR(sf->FitStart(o.fit));
   stages->End();
   if (!stages->Begin("fit", sf->bands())) return Cancelled();
-  MATFIT_RETURN_IF_ERROR(sf->FitBands(o.fit, stages->Callback()));
+  MATFIT_RETURN_IF_ERROR(sf->FitBands(o.fit, stages->Callback(), held));
   stages->End();
   r.reconstruction = sf->reconstruction();
   r.reconstruction_common = sf->reconstruction_common();
   r.tone = sf->tone();
   r.deviation_by_view_theta = sf->DeviationByViewTheta();
+  r.heldout_views = sf->heldout_views();
   r.streamed_bands = sf->bands();
   r.read_encoding = DescribeReadEncoding(sf->decoded());
   FitResult fit = std::move(sf->result());
   fit.parameters["streamed_cache_mb"] = double(sf->cache_bytes()) / (1 << 20);
-  const auto method = MakeMethod("svbrdf");
   const std::vector<uint8_t> fitted_status = fit.status;
   MATFIT_RETURN_IF_ERROR(FinishJob(o, sf->shape(), *method, std::nullopt, SceneSpec{},
                                    fitted_status, std::move(fit), stages, &r));
@@ -299,6 +384,8 @@ bool FitJobOptions::Check(std::string* why) const {
     return fail("--holdout-views leaves whole views out: read every view with --view all");
   if (holdout_views > 0 && (!report_only.empty() || (comm && comm->size() > 1)))
     return fail("--holdout-views runs in a fit of one process (no --report-only or mpirun)");
+  if (!pca_components.empty() && (!report_only.empty() || (comm && comm->size() > 1)))
+    return fail("--components runs in a fit of one process (no --report-only or mpirun)");
   if (holdout == 1 || (holdout < 0 && holdout != kLeaveOneOut))
     return fail("--holdout must be 0 (off), ≥ 2 folds or loo (leave-one-out), got " +
                 std::to_string(holdout));
@@ -442,11 +529,27 @@ StatusOr<FitJobResult> RunFitJob(const FitJobOptions& o, const StageProgress& pr
   std::string model = o.model;
   if (model == "auto") {
     if (!stages.Begin("select")) return Cancelled();
+    // A multi-view stack: only the views the scene shows (scene.json view_theta_max_deg).
+    const int views_in_data = int(ViewGroups(*stack).size());
+    if (stack->is_multi_view() && scene.view_theta_max_deg < 90) {
+      *stack = ScenesViews(*stack, scene);
+      diagnosis.reset();
+    }
     SelectOptions so;
     so.fit.progress = stages.Callback();
     auto sel = SelectModel(*stack, scene, so);
     if (!sel.ok()) return sel.status();
     selection = std::move(*sel);
+    selection->views_in_data = views_in_data;
+    selection->views = int(ViewGroups(*stack).size());
+    if (selection->views < views_in_data) {
+      char note[200];
+      std::snprintf(note, sizeof note,
+                    "the scene shows views up to θv %g° (view_theta_max_deg): %d of the data's %d "
+                    "views fitted",
+                    scene.view_theta_max_deg, selection->views, views_in_data);
+      selection->warnings.push_back(Warning(WarningCode::kViewsOutsideScene, note));
+    }
     model = selection->method;
     // The same two steps as the selection scored: to the scene's level, then to the maps'.
     for (int f : {1 << selection->scene_level, 1 << (selection->level - selection->scene_level)}) {
@@ -531,13 +634,21 @@ StatusOr<FitJobResult> RunFitJob(const FitJobOptions& o, const StageProgress& pr
     r.heldout_views = std::move(*h);
     stages.End();
   }
-  if (stack->is_multi_view() && !comm)
+  // Collective under MPI (ScoreStack reduces over the bands, every rank in the same order).
+  if (stack->is_multi_view())
     r.deviation_by_view_theta = per_view ? DeviationByViewTheta(*stack, *fit)
                                          : DeviationByViewTheta(*stack, fit->maps, fitted_status);
   if (!o.pca_components.empty() && stack->is_multi_view() && !comm) {
     if (!stages.Begin("pca")) return Cancelled();
     r.per_view_pca = PerViewPcaCurve(*stack, o.pca_components, fitted_status, stages.Callback());
     stages.End();
+    if (!o.out.empty()) {  // the largest k, stored in the pack
+      if (!stages.Begin("pca-store")) return Cancelled();
+      r.per_view_pca_models = PerViewPcaModels(
+          *stack, *std::max_element(o.pca_components.begin(), o.pca_components.end()),
+          fitted_status, stages.Callback());
+      stages.End();
+    }
   }
   if (comm) {
     // Every figure so far is the whole stack's (each step reduced over the bands); the per-texel

@@ -71,6 +71,8 @@ struct FitJobResult {
   std::map<int, std::map<int, double>> deviation_by_view_theta;
   int streamed_bands = 0;  // > 0: fitted out of core in that many bands (fit/stream_fit.h)
   std::vector<PcaPoint> per_view_pca;  // --components
+  // --components: the per-view PCA at the largest k, stored in the pack's pca/ (moved there).
+  std::vector<ViewPcaModel> per_view_pca_models;
   std::optional<TruthMetrics> truth;
   FitAssessment assessment;  // diagnostics + per-texel error bound (not report_only)
   std::optional<BoundRatio> bound_ratio_heldout, bound_ratio_truth;  // the bound's tightness
@@ -88,9 +90,10 @@ struct FitJobResult {
 // With report_only: reads the pack, scores it against the dataset (reconstruction, truth when
 // present), fills report_json and writes it to `out` when `out` is set.
 // stage, in order: "read", "select" (auto), "fit", "reconstruction", "confidence", "heldout",
-// "gather" (distributed: rank 0 collects the bands' maps), "truth", "write" (report_only: "read",
-// "reconstruction", "truth"). Each stage is announced with done = 0 and ends with done = total;
-// return false to cancel.
+// "heldout-views", "pca" and "pca-store" (--components), "gather" (distributed: rank 0 collects
+// the bands' maps), "truth", "write" (report_only: "read", "reconstruction", "truth"; out of
+// core: "read", "cache", "start", "fit", "truth", "write"). Each stage is announced with done = 0
+// and ends with done = total; return false to cancel.
 using StageProgress = std::function<bool(const std::string& stage, int64_t done, int64_t total)>;
 
 StatusOr<FitJobResult> RunFitJob(const FitJobOptions& options, const StageProgress& progress = {});

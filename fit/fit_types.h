@@ -61,6 +61,7 @@ struct ViewFit {
   Vec3 view{0, 0, 1};                 // unit, toward the camera, tangent frame
   MaterialMaps maps;
   std::vector<uint8_t> status;
+  std::map<std::string, double> parameters;  // the view's model-wide values (e.g. its exponent)
 };
 
 struct FitResult {

@@ -189,6 +189,34 @@ TruthMetrics CompareToTruth(const MaterialMaps& f, const MaterialMaps& t,
   return m;
 }
 
+void ReconstructionSums::Add(const ReconstructionMetrics& m, int theta_group) {
+  const double n = double(m.samples);
+  sse_ += m.rmse * m.rmse * n, samples_ += n;
+  if (std::isfinite(m.rmse_srgb8))
+    sse8_ += m.rmse_srgb8 * m.rmse_srgb8 * n;
+  else if (n > 0)
+    srgb8_ = false;
+  by_theta_[theta_group].first += m.deviation_percent * n;
+  by_theta_[theta_group].second += n;
+}
+
+ReconstructionMetrics ReconstructionSums::Metrics() const {
+  ReconstructionMetrics m;
+  m.samples = int64_t(samples_);
+  const double mse = samples_ > 0 ? sse_ / samples_ : 0;
+  m.rmse = std::sqrt(mse);
+  m.deviation_percent = 100 * mse;
+  m.psnr_db = mse > 0 ? 10 * std::log10(1 / mse) : INFINITY;
+  if (srgb8_ && samples_ > 0) {
+    const double mse8 = sse8_ / samples_;
+    m.rmse_srgb8 = std::sqrt(mse8);
+    m.psnr_srgb8_db = mse8 > 0 ? 10 * std::log10(255.0 * 255.0 / mse8) : INFINITY;
+  }
+  for (const auto& [tl, sn] : by_theta_)
+    if (sn.second > 0) m.deviation_percent_by_theta[tl] = sn.first / sn.second;
+  return m;
+}
+
 std::vector<uint8_t> CommonTexelStatus(const std::vector<uint8_t>& status) {
   std::vector<uint8_t> out(status.size());
   for (size_t p = 0; p < status.size(); ++p)

@@ -50,6 +50,19 @@ bool AnyFlagged(const std::vector<uint8_t>& status);
 // must agree before some of them score the common set and others do not).
 bool AnyFlagged(const LightStack& s, const std::vector<uint8_t>& status);
 
+// Reconstruction figures added up over parts (views, bands of a streamed fit), each part the
+// scores of images of one θl group: Σ MSE·samples, the 8-bit figure's, per θl group.
+class ReconstructionSums {
+ public:
+  void Add(const ReconstructionMetrics& part, int theta_group);
+  ReconstructionMetrics Metrics() const;  // srgb8 figures when every part had them
+
+ private:
+  double sse_ = 0, sse8_ = 0, samples_ = 0;
+  bool srgb8_ = true;
+  std::map<int, std::pair<double, double>> by_theta_;  // θl → (Σ dev%·n, Σ n)
+};
+
 struct TruthMetrics {
   // A model without a fitted normal (mean, ptm, hsh) or whose albedo map is not a diffuse albedo
   // (mean, heinrich's mean texture, ptm/hsh frontal value) is not scored on it.

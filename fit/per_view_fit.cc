@@ -63,9 +63,6 @@ class PerViewMethod : public FitMethod {
       if (!fit.ok())
         return Status(fit.status().code(),
                       name() + ": " + ViewLabel(vf) + ": " + fit.status().message());
-      // The view's model-wide values (a lobe shape per material, per view) under its index.
-      for (const auto& [k, v] : fit->parameters)
-        if (g != r.frontal_view) r.parameters["view" + std::to_string(g) + "_" + k] = v;
       for (const std::string& w : fit->warnings)  // each distinct warning once
         if (std::find(r.warnings.begin(), r.warnings.end(), w) == r.warnings.end())
           r.warnings.push_back(w);
@@ -77,6 +74,7 @@ class PerViewMethod : public FitMethod {
         r.refit_texels = fit->refit_texels, r.dropped_samples = fit->dropped_samples;
       }
       vf.maps = std::move(fit->maps), vf.status = std::move(fit->status);
+      vf.parameters = std::move(fit->parameters);  // its own (a lobe shape per view)
       r.views.push_back(std::move(vf));
     }
     r.parameters["views"] = V;
@@ -127,8 +125,7 @@ StackScore ScoreFit(const LightStack& s, const std::vector<int>& images, const F
     r.rss.assign(T, 0.0), r.level.assign(T, 0.0), r.samples.assign(T, 0),
         r.used_lights.assign(T, 0);
   }
-  double sse = 0, sse8 = 0, samples = 0;
-  std::map<int, std::pair<double, double>> by_theta;  // θl → (Σ dev%·n, Σ n)
+  ReconstructionSums sums;
   int64_t done = 0;
   for (const auto& [key, part] : split) {
     if (progress && !progress(done++, int64_t(split.size()))) break;
@@ -141,14 +138,7 @@ StackScore ScoreFit(const LightStack& s, const std::vector<int>& images, const F
       status = &it->second;
     }
     const StackScore sc = ScoreStack(s, part, v.maps, *status, {}, parts);
-    if (parts.reconstruction) {
-      const ReconstructionMetrics& m = sc.reconstruction;
-      const double n = double(m.samples);
-      sse += m.rmse * m.rmse * n, samples += n;
-      if (std::isfinite(m.rmse_srgb8)) sse8 += m.rmse_srgb8 * m.rmse_srgb8 * n;
-      by_theta[key.second].first += m.deviation_percent * n;
-      by_theta[key.second].second += n;
-    }
+    if (parts.reconstruction) sums.Add(sc.reconstruction, key.second);
     if (parts.residuals) {
       TexelResiduals& r = out.residuals;
       const TexelResiduals& p = sc.residuals;
@@ -162,21 +152,7 @@ StackScore ScoreFit(const LightStack& s, const std::vector<int>& images, const F
   if (parts.residuals)
     for (size_t t = 0; t < T; ++t)
       if (out.residuals.samples[t] > 0) out.residuals.level[t] /= out.residuals.samples[t];
-  if (parts.reconstruction) {
-    ReconstructionMetrics& m = out.reconstruction;
-    m.samples = int64_t(samples);
-    const double mse = samples > 0 ? sse / samples : 0;
-    m.rmse = std::sqrt(mse);
-    m.deviation_percent = 100 * mse;
-    m.psnr_db = mse > 0 ? 10 * std::log10(1 / mse) : INFINITY;
-    if (parts.srgb8 && samples > 0) {
-      const double mse8 = sse8 / samples;
-      m.rmse_srgb8 = std::sqrt(mse8);
-      m.psnr_srgb8_db = mse8 > 0 ? 10 * std::log10(255.0 * 255.0 / mse8) : INFINITY;
-    }
-    for (const auto& [tl, sn] : by_theta)
-      if (sn.second > 0) m.deviation_percent_by_theta[tl] = sn.first / sn.second;
-  }
+  if (parts.reconstruction) out.reconstruction = sums.Metrics();
   return out;
 }
 

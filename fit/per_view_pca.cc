@@ -127,6 +127,54 @@ std::vector<PcaPoint> PerViewPcaCurve(const LightStack& s, const std::vector<int
   return out;
 }
 
+std::vector<ViewPcaModel> PerViewPcaModels(const LightStack& s, int k_asked,
+                                           const std::vector<uint8_t>& status,
+                                           const ProgressFn& progress) {
+  const auto groups = ViewGroups(s);
+  const int C = s.channels(), W = s.width(), H = s.height();
+  const int64_t T = s.plane_size();
+  const std::vector<float> inv = InverseIntensities(s);
+  std::vector<ViewPcaModel> out;
+  int done = 0;
+  for (const std::vector<int>& g : groups) {
+    if (progress) progress(done++, int64_t(groups.size()));
+    const int D = int(g.size()) * C, k = std::clamp(k_asked, 1, D);
+    ViewPcaModel m;
+    const LightSample& l = s.lights()[size_t(g[0])];
+    m.theta_deg = l.has_view ? l.view_theta_deg : s.view_theta_deg;
+    m.phi_deg = l.has_view ? l.view_phi_deg : s.view_phi_deg;
+    m.images = g;
+    m.weights = Image(W, H, k);
+    m.basis = Image(D, k + 1, 1);
+    const ViewPca pca = FitViewPca(s, g, inv, status, true);
+    if (pca.n >= 2) {
+      const auto b = pca.basis.rightCols(k);  // ascending: the k largest are the last
+      for (int r = 0; r < D; ++r) {
+        m.basis.Plane(0)[r] = float(pca.mean[r]);
+        for (int j = 0; j < k; ++j)
+          m.basis.Plane(0)[int64_t(j + 1) * D + r] = float(b(r, k - 1 - j));
+      }
+      ParallelFor(0, (T + kRun - 1) / kRun, [&](int64_t r0, int64_t r1) {
+        Eigen::MatrixXd x(D, kRun);
+        std::vector<float> scratch(kRun);
+        for (int64_t r = r0; r < r1; ++r) {
+          const int64_t p0 = r * kRun;
+          const int len = int(std::min<int64_t>(kRun, T - p0));
+          LoadViewRun(s, g, inv, p0, len, &x, &scratch);
+          for (int t = 0; t < len; ++t) {
+            if (!status.empty() && status[size_t(p0 + t)] != 0) continue;
+            if (!x.col(t).allFinite()) continue;
+            const Eigen::VectorXd w = b.transpose() * (x.col(t) - pca.mean);
+            for (int j = 0; j < k; ++j) m.weights.Plane(j)[p0 + t] = float(w[k - 1 - j]);
+          }
+        }
+      });
+    }
+    out.push_back(std::move(m));
+  }
+  return out;
+}
+
 std::vector<PcaPoint> PerViewPcaHeldOutViews(const LightStack& s, const std::vector<int>& held,
                                              const std::vector<int>& ks,
                                              const std::vector<uint8_t>& status,

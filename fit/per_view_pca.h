@@ -9,6 +9,7 @@
 #include <cstdint>
 #include <vector>
 
+#include "core/image.h"
 #include "core/light_stack.h"
 #include "core/progress_fn.h"
 
@@ -28,6 +29,23 @@ struct PcaPoint {
 std::vector<PcaPoint> PerViewPcaCurve(const LightStack& stack, const std::vector<int>& ks,
                                       const std::vector<uint8_t>& status = {},
                                       const ProgressFn& progress = {});
+
+// The stored form of one view's PCA with k components (a pack's pca/ folder, docs/pack.md): the
+// sample of image a (of the view's L, in stack order), channel c, at texel x is
+//   I_{a,c} · (basis(a·C + c, 0) + Σ_{j=1..k} weights_j(x) · basis(a·C + c, j))
+// with basis one channel of width L·C and height k + 1 (row 0 the mean, row j the j-th component,
+// largest first) and weights a texel-sized image of k channels (0 where a texel was left out).
+struct ViewPcaModel {
+  double theta_deg = 0, phi_deg = 0;
+  std::vector<int> images;  // the view's images in the stack
+  Image weights, basis;
+};
+
+// Every view's model at k components (k ≥ 1, capped at L·C), texels as PerViewPcaCurve uses
+// them; its reconstruction RMSE is PerViewPcaCurve's at k. `progress` counts views.
+std::vector<ViewPcaModel> PerViewPcaModels(const LightStack& stack, int k,
+                                           const std::vector<uint8_t>& status = {},
+                                           const ProgressFn& progress = {});
 
 // Per-view PCA as a predictor of views it was not made from: each view of `held` (indices into
 // ViewGroups) predicted by the k-component reconstruction of the nearest other view (largest

@@ -225,6 +225,9 @@ bool SceneSpec::Check(std::string* why) const {
                 std::to_string(error_budget));
   if (memory_budget_bytes < 0 || !std::isfinite(memory_budget_bytes))
     return fail("memory_budget_bytes must be ≥ 0 (0 = unlimited)");
+  if (!(view_theta_max_deg >= 0 && view_theta_max_deg <= 90))
+    return fail("view_theta_max_deg must be in [0, 90] (the most oblique camera), got " +
+                std::to_string(view_theta_max_deg));
   if (static_light && !environment && !(sun_theta_deg >= 0 && sun_theta_deg < 90))
     return fail("sun_theta_deg must be in [0, 90), got " + std::to_string(sun_theta_deg));
   return true;
@@ -248,14 +251,16 @@ StatusOr<SceneSpec> ParseScene(const std::string& text, const std::string& sourc
     return Status::Ok();
   };
   static const char* kKeys[] = {
-      "schema",      "texel_footprint_px",  "lighting",     "light",        "sun_theta_deg",
-      "sun_phi_deg", "memory_budget_bytes", "error_budget", "error_metric", "description"};
+      "schema",      "texel_footprint_px",  "lighting",           "light",        "sun_theta_deg",
+      "sun_phi_deg", "memory_budget_bytes", "view_theta_max_deg", "error_budget", "error_metric",
+      "description"};
   for (const auto& item : j.items()) {
     const std::string& k = item.key();  // lambdas cannot capture structured bindings (clang)
     if (std::none_of(std::begin(kKeys), std::end(kKeys), [&](const char* x) { return k == x; }))
       return InvalidArgument(source + ": unknown field '" + k +
                              "' (known: texel_footprint_px, lighting, light, sun_theta_deg, "
-                             "sun_phi_deg, memory_budget_bytes, error_budget, error_metric)");
+                             "sun_phi_deg, memory_budget_bytes, view_theta_max_deg, error_budget, "
+                             "error_metric)");
   }
   if (j.contains("schema") && j["schema"] != "matfit.scene/1")
     return InvalidArgument(source + ": field 'schema' must be \"matfit.scene/1\"");
@@ -264,6 +269,7 @@ StatusOr<SceneSpec> ParseScene(const std::string& text, const std::string& sourc
   MATFIT_RETURN_IF_ERROR(number("sun_phi_deg", &s.sun_phi_deg));
   MATFIT_RETURN_IF_ERROR(number("memory_budget_bytes", &s.memory_budget_bytes));
   MATFIT_RETURN_IF_ERROR(number("error_budget", &s.error_budget));
+  MATFIT_RETURN_IF_ERROR(number("view_theta_max_deg", &s.view_theta_max_deg));
   if (j.contains("lighting")) {
     const auto& v = j["lighting"];
     if (v != "dynamic" && v != "static")
@@ -472,6 +478,25 @@ StatusOr<Selection> SelectModel(const LightStack& stack, const SceneSpec& scene,
   return sel;
 }
 
+LightStack ScenesViews(const LightStack& s, const SceneSpec& scene) {
+  if (!s.is_multi_view()) return s;
+  const auto groups = ViewGroups(s);
+  const int frontal = MostFrontalView(s, groups);
+  std::vector<int> kept_groups;
+  for (int g = 0; g < int(groups.size()); ++g) {
+    double theta = 0, phi = 0;
+    AnglesDegFromDirection(s.ViewOf(groups[size_t(g)][0]), &theta, &phi);
+    if (g == frontal || theta <= scene.view_theta_max_deg + 0.5) kept_groups.push_back(g);
+  }
+  if (kept_groups.size() == 1) return SelectView(s, groups[size_t(frontal)]);
+  std::vector<int> images;
+  for (int g : kept_groups)
+    images.insert(images.end(), groups[size_t(g)].begin(), groups[size_t(g)].end());
+  std::sort(images.begin(), images.end());
+  LightStack out = SelectImages(s, images);
+  return out;
+}
+
 std::string SelectionJson(const Selection& s, const SceneSpec& scene) {
   auto num = [](double v) { return std::isfinite(v) ? json(v) : json(); };
   json cands = json::array();
@@ -497,6 +522,7 @@ std::string SelectionJson(const Selection& s, const SceneSpec& scene) {
             {"budget_met", s.budget_met},
             {"reason", s.reason},
             {"warnings", s.warnings},
+            {"views", {{"fitted", s.views}, {"in_data", s.views_in_data}}},
             {"scene",
              {{"texel_footprint_px", scene.texel_footprint_px},
               {"lighting", scene.static_light ? "static" : "dynamic"},
@@ -504,6 +530,7 @@ std::string SelectionJson(const Selection& s, const SceneSpec& scene) {
               {"sun_theta_deg", scene.sun_theta_deg},
               {"sun_phi_deg", scene.sun_phi_deg},
               {"memory_budget_bytes", scene.memory_budget_bytes},
+              {"view_theta_max_deg", scene.view_theta_max_deg},
               {"error_budget", scene.error_budget},
               {"error_metric", scene.srgb8 ? "srgb8" : "linear"},
               {"source", scene.source}}},

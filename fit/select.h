@@ -9,6 +9,11 @@
 //   sun_theta_deg, sun_phi_deg   static directional: the sun's direction
 //   memory_budget_bytes          0 = unlimited
 //   error_budget                 held-out RMSE allowed, > 0, in the error metric's unit
+//   view_theta_max_deg           the most oblique camera the renderer shows (θv, degrees, [0, 90];
+//                                default 90): of a multi-view BTF (--view all) only the views
+//                                up to it are fitted (always the most frontal); one view left
+//                                is fitted by the single-view ladder, several by the methods over
+//                                views
 //   error_metric                 "linear" (RMSE of linear radiance, the default) or "srgb8":
 //                                RMS difference of the 8-bit sRGB codes of measurement and
 //                                prediction / 255 (what RTI users read as PSNR: 20 log10(1 / e))
@@ -40,6 +45,7 @@ struct SceneSpec {
   bool environment = false;
   double sun_theta_deg = 0, sun_phi_deg = 0;
   double memory_budget_bytes = 0;
+  double view_theta_max_deg = 90;
   double error_budget = 0.02;
   bool srgb8 = false;  // error_metric "srgb8" (else linear)
   std::string source;  // file it came from (for messages)
@@ -78,7 +84,13 @@ struct Selection {
   std::string reason;
   std::vector<std::string> warnings;
   bool budget_met = true;  // false: nothing met the budget; the lowest-error candidate is used
+  int views = 1, views_in_data = 1;  // views fitted (ScenesViews) of those the stack held
 };
+
+// The images of a multi-view stack that the scene shows: the views with θv ≤
+// scene.view_theta_max_deg (+0.5° for angles rounded in file names), always the most frontal
+// one; a single view as a single-view stack (SelectView). A single-view stack is returned as is.
+LightStack ScenesViews(const LightStack& stack, const SceneSpec& scene);
 
 // The mip level the scene shows an image of width × height at (≥ 4 texels per side kept).
 int SceneLevel(const SceneSpec& scene, int width, int height);

@@ -10,6 +10,7 @@
 #include "core/parallel.h"
 #include "fit/fit_common.h"
 #include "fit/methods.h"
+#include "fit/score.h"
 
 namespace matfit::fit {
 
@@ -54,7 +55,7 @@ Status StreamedFit::BuildCache(const StreamFitOptions& o, const ProgressFn& prog
   const int64_t reserve = ResidentBytes() + int64_t(NumThreads()) * 16 * n * C * 8 +
                           2 * 64 * shape_.plane_size() + o.memory_bytes / 8;  // + the unforeseen
   BandCacheOptions co;
-  co.band_bytes = std::max<int64_t>(1, (o.memory_bytes - reserve) / 2);
+  co.band_bytes = std::max<int64_t>(1, (o.memory_bytes - reserve) / (o.holdout_views ? 3 : 2));
   co.dir = o.cache_dir;
   co.progress = progress;
   band_bytes_ = co.band_bytes;
@@ -89,7 +90,8 @@ Status StreamedFit::FitStart(const FitOptions& o) {
   return Status::Ok();
 }
 
-Status StreamedFit::FitBands(const FitOptions& o, const ProgressFn& progress) {
+Status StreamedFit::FitBands(const FitOptions& o, const ProgressFn& progress,
+                             const std::vector<int>& held) {
   if (!cache_ || !start_)
     return InvalidArgument("StreamedFit: build the cache and the start first");
   const int W = shape_.width(), H = shape_.height();
@@ -102,13 +104,32 @@ Status StreamedFit::FitBands(const FitOptions& o, const ProgressFn& progress) {
   double sse = 0, samples = 0, sse_common = 0, samples_common = 0;
   double iterations = 0, used = 0, fitted = 0;
   const int bands = cache_->bands();
+  // Held-out views: the training images, and each held-out view's images by θl group.
+  const auto groups = ViewGroups(shape_);
+  std::vector<int> train;
+  std::vector<std::map<int, std::vector<int>>> tests(held.size());
+  {
+    std::vector<char> out(groups.size(), 0);
+    for (size_t h = 0; h < held.size(); ++h) {
+      out[size_t(held[h])] = 1;
+      for (int i : groups[size_t(held[h])])
+        tests[h][int(std::lround(shape_.lights()[size_t(i)].theta_deg / 15.0)) * 15].push_back(i);
+    }
+    for (size_t g = 0; g < groups.size(); ++g)
+      if (!out[g]) train.insert(train.end(), groups[g].begin(), groups[g].end());
+    std::sort(train.begin(), train.end());
+  }
+  std::vector<ReconstructionSums> held_sums(held.size());
+  ReconstructionSums held_all;
+  const int passes = held.empty() ? 1 : 2;
   for (int b = 0; b < bands; ++b) {
     auto band = cache_->Load(b);
     if (!band.ok()) return band.status();
     if (tone_ && tone_->corrected) band->Relinearise(tone_->to, tone_reason_);
-    FitOptions bo = o;  // the band's runs as its share of every band's
+    FitOptions bo = o;  // the band's runs as its share of every band's (and pass's)
     bo.progress = [&](int64_t d, int64_t t) {
-      return !progress || t <= 0 || progress(int64_t(b) * t + d, int64_t(bands) * t);
+      return !progress || t <= 0 ||
+             progress(int64_t(b * passes) * t + d, int64_t(bands) * passes * t);
     };
     auto fit = RefineSvbrdf(*band, *start_, cache_->band_row0(b), bo);
     if (!fit.ok()) return fit.status();
@@ -130,6 +151,23 @@ Status StreamedFit::FitBands(const FitOptions& o, const ProgressFn& progress) {
     put(fit->maps.specular, &r.maps.specular);
     put(fit->maps.roughness, &r.maps.roughness);
     std::copy(fit->status.begin(), fit->status.end(), r.status.begin() + off);
+    if (!held.empty()) {  // the band's texels fitted without the held-out views, then scored
+      FitOptions ho = o;
+      ho.progress = [&](int64_t d, int64_t t) {
+        return !progress || t <= 0 ||
+               progress(int64_t(b * passes + 1) * t + d, int64_t(bands) * passes * t);
+      };
+      auto hf = RefineSvbrdf(SelectImages(*band, train), *start_, cache_->band_row0(b), ho);
+      if (!hf.ok()) return hf.status();
+      for (size_t h = 0; h < held.size(); ++h)
+        for (const auto& [tl, images] : tests[h]) {
+          const ReconstructionMetrics hm =
+              ScoreStack(*band, images, hf->maps, hf->status, {},
+                         {.reconstruction = true, .residuals = false, .srgb8 = true})
+                  .reconstruction;
+          held_sums[h].Add(hm, tl), held_all.Add(hm, tl);
+        }
+    }
     r.fit_seconds += fit->fit_seconds;
     int64_t ok = 0;
     for (int64_t p = 0; p < T; ++p) ok += fit->status[size_t(p)] == kTexelOk;
@@ -141,6 +179,20 @@ Status StreamedFit::FitBands(const FitOptions& o, const ProgressFn& progress) {
   r.parameters["mean_lm_iterations"] = fitted > 0 ? iterations / fitted : 0;
   r.parameters["mean_samples_used"] = fitted > 0 ? used / fitted : 0;
   r.parameters["streamed_bands"] = cache_->bands();
+  heldout_views_.reset();
+  if (!held.empty()) {
+    HeldOutViewMetrics hv;
+    hv.train_views = int(groups.size() - held.size());
+    hv.all = held_all.Metrics();
+    for (size_t h = 0; h < held.size(); ++h) {
+      const LightSample& l = shape_.lights()[size_t(groups[size_t(held[h])][0])];
+      hv.views.push_back({l.view_theta_deg, l.view_phi_deg, held_sums[h].Metrics()});
+    }
+    std::sort(hv.views.begin(), hv.views.end(), [](const HeldOutView& a, const HeldOutView& b) {
+      return std::pair(a.theta_deg, a.phi_deg) < std::pair(b.theta_deg, b.phi_deg);
+    });
+    heldout_views_ = std::move(hv);
+  }
   SummariseStatus(&r);
   // The whole stack's figures from the bands' sums (dev% = 100 · mean squared difference).
   auto from_sums = [](double e, double count) {

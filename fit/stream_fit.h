@@ -26,6 +26,9 @@ inline constexpr int64_t kDefaultMemoryBudget = int64_t(2) << 30;
 struct StreamFitOptions {
   int64_t memory_bytes = kDefaultMemoryBudget;  // peak RSS the fit aims under
   std::string cache_dir;                        // empty: the system temp folder
+  // Held-out views will be fitted too (FitBands): a band's training images are copied beside it,
+  // so bands are sized to a third of what the budget leaves instead of a half.
+  bool holdout_views = false;
 };
 
 class StreamedFit {
@@ -44,8 +47,13 @@ class StreamedFit {
   // of the multi-view stack does (fit/diagnostics.h), and a correction applies to every band.
   Status FitStart(const FitOptions& options);
   // Loads, refines and scores each band; progress counts bands. The whole stack's maps, status
-  // and figures after the last.
-  Status FitBands(const FitOptions& options, const ProgressFn& progress);
+  // and figures after the last. With held_views (indices into ViewGroups(shape()), as
+  // ChooseHeldOutViews gives them), each band is also refined over the other views' images and
+  // scores the held-out ones: heldout_views() after the last band, equal to an in-memory
+  // HeldOutViews (the same start, the same per-texel refinement).
+  Status FitBands(const FitOptions& options, const ProgressFn& progress,
+                  const std::vector<int>& held_views = {});
+  const std::optional<HeldOutViewMetrics>& heldout_views() const { return heldout_views_; }
 
   FitResult& result() { return result_; }
   const ReconstructionMetrics& reconstruction() const { return reconstruction_; }
@@ -69,6 +77,7 @@ class StreamedFit {
   FitResult result_;
   ReconstructionMetrics reconstruction_, reconstruction_common_;
   ViewThetaSums view_theta_;
+  std::optional<HeldOutViewMetrics> heldout_views_;
   std::optional<ToneResolution> tone_;  // --color-space auto: the estimate on the frontal view
   std::string tone_reason_;
 };

@@ -272,9 +272,11 @@ StatusOr<LightStack> ReadLayout(const std::string& path, const ReadOptions& opti
     if (!detected.ok()) return detected.status();
     layout = *detected;
   }
-  if (options.all_views && layout != Layout::kBonn && layout != Layout::kUtia)
+  if (options.all_views && layout != Layout::kBonn && layout != Layout::kUtia &&
+      layout != Layout::kLp)
     return InvalidArgument(std::string("--view all reads every view of a BTF (the bonn and utia "
-                                       "layouts); this dataset is ") +
+                                       "layouts, or an .lp with a view per image); this dataset "
+                                       "is ") +
                            LayoutName(layout) + ", one view: drop --view all");
   std::error_code ec;
   switch (layout) {

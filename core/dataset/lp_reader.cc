@@ -3,6 +3,8 @@
 // An optional mask.png beside the .lp file is read as the sample mask.
 #include <algorithm>
 #include <cctype>
+#include <cmath>
+#include <cstdio>
 #include <filesystem>
 
 #include "core/dataset/dataset.h"
@@ -84,11 +86,18 @@ StatusOr<LightStack> ReadLp(const std::string& path, const ReadOptions& o) {
   if (lines->empty()) return DataError("'" + path + "' is empty; expected a light count on line 1");
   const TextLine& header = lines->front();
   int count = 0;
-  if (header.tokens.size() != 1 || !ParseInt(header.tokens[0], &count) || count <= 0)
+  // "N views": every line also gives its image's camera direction (a multi-view set).
+  const bool with_views = header.tokens.size() == 2 && header.tokens[1] == "views";
+  if ((header.tokens.size() != 1 && !with_views) || !ParseInt(header.tokens[0], &count) ||
+      count <= 0)
     return DataError(AtLine(path, header.number,
-                            "expected the number of lights (a positive "
-                            "integer) alone on the first line, found '" +
+                            "expected the number of lights (a positive integer) on the first "
+                            "line, alone or followed by 'views', found '" +
                                 header.text + "'"));
+  if (!with_views && o.all_views)
+    return InvalidArgument("--view all: '" + DatasetRelative(path, o.confine_to) +
+                           "' gives no view per image (its first line is not 'N views'); drop "
+                           "--view all");
   const int entries = int(lines->size()) - 1;
   if (entries != count)
     return DataError("'" + path + "': the first line says " + std::to_string(count) +
@@ -101,9 +110,13 @@ StatusOr<LightStack> ReadLp(const std::string& path, const ReadOptions& o) {
   std::string first_fallback;
   for (size_t i = 1; i < lines->size(); ++i) {
     const TextLine& l = (*lines)[i];
-    if (l.tokens.size() < 4)
-      return DataError(AtLine(path, l.number, "expected 'file lx ly lz', found '" + l.text + "'"));
-    const size_t k = l.tokens.size();
+    const size_t numbers = with_views ? 6 : 3;
+    if (l.tokens.size() < numbers + 1)
+      return DataError(AtLine(path, l.number,
+                              std::string("expected 'file lx ly lz") +
+                                  (with_views ? " vx vy vz'" : "'") + ", found '" + l.text + "'"));
+    // The light's three numbers end the line, or precede the view's three.
+    const size_t k = l.tokens.size() - (with_views ? 3 : 0);
     Vec3 d;
     if (!ParseFiniteDouble(l.tokens[k - 3], &d.x) || !ParseFiniteDouble(l.tokens[k - 2], &d.y) ||
         !ParseFiniteDouble(l.tokens[k - 1], &d.z))
@@ -112,6 +125,20 @@ StatusOr<LightStack> ReadLp(const std::string& path, const ReadOptions& o) {
                                   l.tokens[k - 1] + "' is not three finite numbers"));
     auto light = MakeLight(d, path + ":" + std::to_string(l.number));
     if (!light.ok()) return light.status();
+    if (with_views) {
+      const size_t e = l.tokens.size();
+      Vec3 v;
+      if (!ParseFiniteDouble(l.tokens[e - 3], &v.x) || !ParseFiniteDouble(l.tokens[e - 2], &v.y) ||
+          !ParseFiniteDouble(l.tokens[e - 1], &v.z) || !(v.z > 1e-6) || !(Length(v) > 1e-6))
+        return DataError(AtLine(path, l.number,
+                                "view direction '" + l.tokens[e - 3] + " " + l.tokens[e - 2] + " " +
+                                    l.tokens[e - 1] +
+                                    "' is not three finite numbers with z > 0 (the camera above "
+                                    "the surface, z toward it)"));
+      light->has_view = true;
+      light->view = Normalize(v);
+      AnglesDegFromDirection(light->view, &light->view_theta_deg, &light->view_phi_deg);
+    }
     // File name: everything before the direction (may contain spaces).
     std::string name = l.tokens[0];
     for (size_t t = 1; t + 3 < k; ++t) name += " " + l.tokens[t];
@@ -132,6 +159,50 @@ StatusOr<LightStack> ReadLp(const std::string& path, const ReadOptions& o) {
     files.push_back(file);
     lights.push_back(*light);
   }
+  // A multi-view set: every view (--view all), the one asked for, or the most frontal.
+  Vec3 reference(0, 0, 1);
+  if (with_views) {
+    std::vector<Vec3> views;  // distinct, in order of first appearance
+    for (const LightSample& l : lights)
+      if (std::none_of(views.begin(), views.end(),
+                       [&](const Vec3& v) { return Length(v - l.view) <= 1e-9; }))
+        views.push_back(l.view);
+    reference = views[0];
+    for (const Vec3& v : views)
+      if (v.z > reference.z) reference = v;
+    if (o.view) {
+      const Vec3 want = DirectionFromAnglesDeg(o.view->theta_deg, o.view->phi_deg);
+      auto it = std::find_if(views.begin(), views.end(), [&](const Vec3& v) {
+        return Dot(v, want) >= std::cos(0.5 * M_PI / 180);
+      });
+      if (it == views.end()) {
+        std::string avail;
+        for (size_t v = 0; v < views.size() && v < 12; ++v) {
+          double t = 0, p = 0;
+          AnglesDegFromDirection(views[v], &t, &p);
+          char s[40];
+          std::snprintf(s, sizeof s, "%s%.4g,%.4g", v ? ", " : "", t, p);
+          avail += s;
+        }
+        return InvalidArgument(
+            "view " + std::to_string(o.view->theta_deg) + "," + std::to_string(o.view->phi_deg) +
+            " is not within 0.5° of a view of '" + DatasetRelative(path, o.confine_to) +
+            "'; its views (θ,φ): " + avail + (views.size() > 12 ? ", ..." : ""));
+      }
+      reference = *it;
+    }
+    if (!o.all_views) {  // one view: its images, as a single-view stack seen from it
+      std::vector<std::string> kept_files;
+      std::vector<LightSample> kept;
+      for (size_t i = 0; i < lights.size(); ++i)
+        if (Length(lights[i].view - reference) <= 1e-9) {
+          LightSample l = lights[i];
+          l.has_view = false;
+          kept.push_back(l), kept_files.push_back(files[i]);
+        }
+      files = std::move(kept_files), lights = std::move(kept);
+    }
+  }
   ImageReadOptions io;
   io.color_space = o.color_space;
   io.confine_to = o.confine_to;
@@ -149,6 +220,10 @@ StatusOr<LightStack> ReadLp(const std::string& path, const ReadOptions& o) {
   std::error_code ec;
   if (fs::is_regular_file(mask, ec)) {
     MATFIT_RETURN_IF_ERROR(ApplyMaskFile(mask.string(), o, &*stack));
+  }
+  if (with_views) {
+    stack->view_direction = reference;
+    AnglesDegFromDirection(reference, &stack->view_theta_deg, &stack->view_phi_deg);
   }
   stack->layout = LayoutName(Layout::kLp);
   stack->source = path;

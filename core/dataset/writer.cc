@@ -113,9 +113,10 @@ Status WriteDataset(const LightStack& s, const DatasetWriteOptions& o, const std
   std::string why;
   if (!o.Check(&why)) return InvalidArgument(why);
   const fs::path d(dir);
-  if (s.is_multi_view() && o.layout != Layout::kBonn && o.layout != Layout::kUtia)
-    return InvalidArgument(std::string("a multi-view stack is written in the bonn or utia layout "
-                                       "(they name each image's view), not ") +
+  if (s.is_multi_view() && o.layout != Layout::kBonn && o.layout != Layout::kUtia &&
+      o.layout != Layout::kLp)
+    return InvalidArgument(std::string("a multi-view stack is written in the bonn, utia or lp "
+                                       "layout (they give each image's view), not ") +
                            LayoutName(o.layout));
   if (s.has_light_positions()) {
     std::vector<Vec3> positions;
@@ -169,12 +170,19 @@ Status WriteDataset(const LightStack& s, const DatasetWriteOptions& o, const std
           progress);
     }
     case Layout::kLp: {
-      std::string lp = std::to_string(n) + "\n";
+      // A multi-view stack: "N views", each line ending in its image's view direction.
+      const bool views = s.is_multi_view();
+      std::string lp = std::to_string(n) + (views ? " views\n" : "\n");
       for (int i = 0; i < n; ++i) {
         const Vec3& l = s.lights()[i].direction;
         char name[32];
         std::snprintf(name, sizeof name, "img_%03d%s", i, ext.c_str());
-        lp += std::string(name) + " " + Num(l.x) + " " + Num(l.y) + " " + Num(l.z) + "\n";
+        lp += std::string(name) + " " + Num(l.x) + " " + Num(l.y) + " " + Num(l.z);
+        if (views) {
+          const Vec3 v = s.ViewOf(i);
+          lp += " " + Num(v.x) + " " + Num(v.y) + " " + Num(v.z);
+        }
+        lp += "\n";
       }
       MATFIT_RETURN_IF_ERROR(WriteImages(
           s, o.bits,

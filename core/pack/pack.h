@@ -20,12 +20,22 @@ struct PackExtraMap {
   Image image;
 };
 
+// A file beyond the maps at a path of its own (e.g. pca/v000_weights.exr): an image (written as
+// float EXR) or text; listed in material.json "extras" with its role.
+struct PackExtraFile {
+  std::string path;  // relative to the pack, no ".."
+  std::string role;
+  Image image;       // written when not empty
+  std::string text;  // else this
+};
+
 // One view of a per-view pack (per-view:<model>, docs/pack.md "Per-view packs"): its maps are
 // written as a pack of their own under views/.
 struct PackView {
   double theta_deg = 0, phi_deg = 0;
   const MaterialMaps* maps = nullptr;
   const std::vector<uint8_t>* status = nullptr;
+  const std::map<std::string, double>* parameters = nullptr;  // the view's (null: the pack's)
 };
 
 struct PackInfo {
@@ -44,6 +54,7 @@ struct PackInfo {
   // A per-view fit: every view's maps (the pack's own maps are the most frontal view's), each
   // written as a complete pack views/vNNN/ and listed in material.json "views".
   std::vector<PackView> views;
+  std::vector<PackExtraFile> extra_files;
 };
 
 struct PackWriteOptions {

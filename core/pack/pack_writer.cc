@@ -281,6 +281,22 @@ Status WritePack(const MaterialMaps& m, const std::vector<uint8_t>& status, cons
       MATFIT_RETURN_IF_ERROR(put("gltf_specular", "gltf_specular.png", keep(baked_f0.share), srgb8,
                                  "glTF specular colour: that surface's F0 over the IOR's"));
   }
+  json extras = json::array();
+  for (const PackExtraFile& e : info.extra_files) {
+    const fs::path rel(e.path);
+    if (rel.empty() || rel.is_absolute() || std::find(rel.begin(), rel.end(), "..") != rel.end())
+      return InvalidArgument("pack: extra file '" + e.path + "' must be a path inside the pack");
+    fs::create_directories((root / rel).parent_path(), ec);
+    if (ec)
+      return IoError("cannot create '" + (root / rel).parent_path().string() +
+                     "': " + ec.message());
+    if (!e.image.empty())
+      tasks.push_back(
+          [path = (root / rel).string(), &e, &exr] { return WriteImage(path, e.image, exr); });
+    else
+      tasks.push_back([path = (root / rel).string(), &e] { return WriteFileAtomic(path, e.text); });
+    extras.push_back({{"file", e.path}, {"role", e.role}});
+  }
   tasks.push_back(
       [&] { return WriteImage((root / "preview.png").string(), Preview(m, status), srgb8); });
   json previews = json::array({"preview.png"});
@@ -410,7 +426,7 @@ Status WritePack(const MaterialMaps& m, const std::vector<uint8_t>& status, cons
     PackInfo vi;
     vi.method = info.method;
     vi.source = info.source;
-    vi.model_parameters = info.model_parameters;
+    vi.model_parameters = pv.parameters ? *pv.parameters : info.model_parameters;
     vi.mm_per_texel = info.mm_per_texel;
     MATFIT_RETURN_IF_ERROR(WritePack(*pv.maps, *pv.status, vi, {false, false, options.compact},
                                      (root / "views" / name).string()));
@@ -456,6 +472,7 @@ Status WritePack(const MaterialMaps& m, const std::vector<uint8_t>& status, cons
       {"report_summary", report_summary},
       {"warnings", info.warnings},
       {"views", info.views.empty() ? json() : views},
+      {"extras", extras},
       {"provenance",
        {{"input", info.source},
         {"method", info.method},

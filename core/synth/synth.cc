@@ -177,8 +177,9 @@ bool SynthOptions::Check(std::string* why) const {
     *why = "--layout must be one of bonn, utia, lp, diligent, lights-txt";
     return false;
   }
-  if (!views.empty() && layout != Layout::kBonn && layout != Layout::kUtia) {
-    *why = "--views needs --layout bonn or utia (the layouts that name each image's view)";
+  if (!views.empty() && layout != Layout::kBonn && layout != Layout::kUtia &&
+      layout != Layout::kLp) {
+    *why = "--views needs --layout bonn, utia or lp (the layouts that give each image's view)";
     return false;
   }
   if (!views.empty() && near_lights > 0) {

@@ -7,7 +7,8 @@
 # sRGB), lights-txt (32-bit EXR, a width whose bands cannot start on a run boundary) and diligent
 # (JPEG, mask); a synthetic leaf under a dome; `matfit leaf` with its leaves split over the ranks
 # (the synthetic scan, and the real 23-leaf sheet when ../shared/data is present). Also: the
-# model selection (--model auto with a scene at mip 1) and rbf; the refusals (--report-only, more
+# model selection (--model auto with a scene at mip 1) and rbf; every view of a BTF (svbrdf,
+# per-view:lambert); the refusals (--report-only, more
 # ranks than rows) and a truncated image in one rank's rows.
 # Usage: mpi_fit_test.sh MATFIT_BINARY PACK_DIFF_BINARY SOURCE_DIR
 set -u
@@ -46,6 +47,12 @@ same() { # name, dataset, ranks, fit options...
     bad "$name: summaries differ"; diff <(echo "$one") <(echo "$out" | grep -v "^timings\|^pack\|^fit time\|^ranks") | head; }
   if "$diff_bin" "$name.1" "$name.$n" > "$name.diff" 2>&1; then ok; else bad "$name: packs differ"; cat "$name.diff"; fi
 }
+
+# Every view of a BTF (issue 17): the joint svbrdf and a per-view model over row bands.
+"$bin" synth --material lacquer --lights bonn81 --views dome:4 --layout bonn --bits 16 --size 24 \
+  --out views --quiet || bad "synth views"
+same mv_svbrdf views 2 --view all --model svbrdf
+same mv_per_view views 3 --view all --model per-view:lambert --holdout 3
 
 lp=$(ls plastic/*.lp)
 same bp "$lp" 3 --model blinn-phong --holdout 4

@@ -121,8 +121,10 @@ TEST(MultiView, FresnelAndMaskingShowAcrossViewsOnly) {
   EXPECT_GT(mean[3], mean[0]);
 }
 
-TEST(MultiView, WritesAndReadsEveryViewInBothLayouts) {
-  for (Layout layout : {Layout::kBonn, Layout::kUtia}) {
+TEST(MultiView, WritesAndReadsEveryViewInEveryLayoutThatGivesViews) {
+  for (Layout layout : {Layout::kBonn, Layout::kUtia, Layout::kLp}) {
+    // The .lp gives directions as written decimals (9 significant digits), the BTFs as angles.
+    const double tol = layout == Layout::kLp ? 1e-7 : 1e-9;
     TempDir tmp;
     synth::SynthOptions o;
     o.material = "lacquer";
@@ -157,7 +159,7 @@ TEST(MultiView, WritesAndReadsEveryViewInBothLayouts) {
       int found = -1;
       for (int k = 0; k < back->num_images() && found < 0; ++k) {
         const LightSample& b = back->lights()[size_t(k)];
-        if (Length(b.direction - w.direction) < 1e-9 && Length(b.view - w.view) < 1e-9) found = k;
+        if (Length(b.direction - w.direction) < tol && Length(b.view - w.view) < tol) found = k;
       }
       ASSERT_GE(found, 0) << "image " << i << " not read back";
       EXPECT_EQ(back->Sample(found, 1, 37), r->stack.Plane(i, 1)[37]);
@@ -169,6 +171,15 @@ TEST(MultiView, WritesAndReadsEveryViewInBothLayouts) {
     ASSERT_TRUE(one.ok());
     EXPECT_EQ(one->num_images(), 81);
     EXPECT_FALSE(one->is_multi_view());
+    EXPECT_NEAR(Length(one->view_direction - back->view_direction), 0, tol);
+    // --view θ,φ: that view's images, seen from it.
+    const LightSample& last = back->lights().back();
+    ReadOptions pick;
+    pick.view = ViewAngles{last.view_theta_deg, last.view_phi_deg};
+    auto picked = ReadDataset(dir, pick);
+    ASSERT_TRUE(picked.ok()) << picked.status().ToString();
+    EXPECT_EQ(picked->num_images(), 81);
+    EXPECT_NEAR(Length(picked->view_direction - last.view), 0, 1e-6);
   }
 }
 
@@ -228,10 +239,10 @@ TEST(MultiView, RefusesWhatCannotHoldSeveralViews) {
   o.material = "lacquer";
   o.views = "dome:4";
   o.size = 8;
-  o.layout = Layout::kLp;
+  o.layout = Layout::kDiligent;
   std::string why;
   EXPECT_FALSE(o.Check(&why));
-  EXPECT_NE(why.find("--views needs --layout bonn or utia"), std::string::npos) << why;
+  EXPECT_NE(why.find("--views needs --layout bonn, utia or lp"), std::string::npos) << why;
   o.layout = Layout::kBonn;
   o.material = "micro-stone";
   EXPECT_FALSE(o.Check(&why));
@@ -245,10 +256,10 @@ TEST(MultiView, RefusesWhatCannotHoldSeveralViews) {
   ASSERT_TRUE(r.ok());
   TempDir tmp;
   DatasetWriteOptions wo;
-  wo.layout = Layout::kLp;
+  wo.layout = Layout::kDiligent;
   const Status st = WriteDataset(r->stack, wo, tmp.path());
   EXPECT_FALSE(st.ok());
-  EXPECT_NE(st.message().find("bonn or utia"), std::string::npos) << st.message();
+  EXPECT_NE(st.message().find("bonn, utia or lp"), std::string::npos) << st.message();
   // --view all and one view at once.
   ReadOptions ro;
   ro.all_views = true;
@@ -259,6 +270,11 @@ TEST(MultiView, RefusesWhatCannotHoldSeveralViews) {
   ReadOptions all;
   all.all_views = true;
   auto read = WriteAndRead(o, tmp / "lp", all);
+  ASSERT_FALSE(read.ok());
+  EXPECT_NE(read.status().message().find("gives no view per image"), std::string::npos)
+      << read.status().message();
+  o.layout = Layout::kDiligent;
+  read = WriteAndRead(o, tmp / "diligent", all);
   ASSERT_FALSE(read.ok());
   EXPECT_NE(read.status().message().find("--view all reads every view of a BTF"), std::string::npos)
       << read.status().message();

@@ -8,15 +8,20 @@
 #include <filesystem>
 #include <fstream>
 #include <iterator>
+#include <nlohmann/json.hpp>
 
+#include "core/dataset/dataset.h"
+#include "core/image_io.h"
 #include "core/pack/pack.h"
 #include "core/pack/pack_reader.h"
 #include "core/synth/synth.h"
+#include "fit/fit_job.h"
 #include "fit/holdout_views.h"
 #include "fit/method.h"
 #include "fit/methods.h"
 #include "fit/metrics.h"
 #include "fit/per_view_fit.h"
+#include "fit/select.h"
 
 namespace matfit::fit {
 namespace {
@@ -191,6 +196,98 @@ TEST(PerView, OnlyTheLaddersModelsHaveAPerViewForm) {
   ASSERT_FALSE(r.ok());
   EXPECT_NE(r.status().message().find("per-view:heinrich"), std::string::npos)
       << r.status().message();
+}
+
+// --components: the per-view PCA at the largest k stored in the pack (pca/: per view its
+// weights and basis as float EXR, pca.json) reconstructs every sample of every view at the error
+// the report gives for that k (the discarded eigenvalues), read back from the files alone.
+TEST(PerViewPca, ThePackHoldsAModelThatReconstructsAtTheReportedError) {
+  const fs::path tmp = fs::temp_directory_path() / "matfit_pca_pack";
+  fs::remove_all(tmp);
+  synth::SynthOptions so;
+  so.material = "lacquer", so.lights = "bonn81", so.views = "dome:4", so.size = 12, so.bits = 32;
+  auto d = synth::Synthesize(so);
+  ASSERT_TRUE(d.ok());
+  ASSERT_TRUE(synth::WriteSynthDataset(*d, so, (tmp / "btf").string(), false).ok());
+  FitJobOptions o;
+  o.input = (tmp / "btf").string();
+  o.read.all_views = true;
+  o.model = "per-view:lambert";
+  o.pca_components = {1, 3};
+  o.out = (tmp / "pack").string();
+  auto r = RunFitJob(o);
+  ASSERT_TRUE(r.ok()) << r.status().ToString();
+  ASSERT_EQ(r->per_view_pca.size(), 2u);
+  const double reported = r->per_view_pca[1].rmse;
+  std::ifstream in(tmp / "pack" / "pca" / "pca.json");
+  const nlohmann::json j = nlohmann::json::parse(in);
+  ASSERT_EQ(j["k"], 3);
+  ASSERT_EQ(j["views"].size(), 4u);
+  ReadOptions ro;
+  ro.all_views = true;
+  auto stack = ReadDataset(o.input, ro);
+  ASSERT_TRUE(stack.ok());
+  const auto groups = ViewGroups(*stack);
+  const int C = stack->channels();
+  double sse = 0, n = 0;
+  for (size_t v = 0; v < groups.size(); ++v) {
+    const nlohmann::json& jv = j["views"][v];
+    ASSERT_EQ(jv["lights"].size(), groups[v].size());
+    ImageReadOptions linear;
+    linear.color_space = ColorSpaceChoice::kLinear, linear.all_channels = true;
+    auto w = ReadImage((tmp / "pack" / jv["weights"].get<std::string>()).string(), linear);
+    auto b = ReadImage((tmp / "pack" / jv["basis"].get<std::string>()).string(), linear);
+    ASSERT_TRUE(w.ok() && b.ok());
+    ASSERT_EQ(w->channels(), 3);
+    const int D = int(groups[v].size()) * C;
+    ASSERT_EQ(b->width(), D);
+    ASSERT_EQ(b->height(), 4);
+    for (size_t a = 0; a < groups[v].size(); ++a)
+      for (int c = 0; c < C; ++c) {
+        const int i = groups[v][a];
+        const double I = jv["lights"][a]["intensity"][c].get<double>();
+        for (int64_t p = 0; p < stack->plane_size(); ++p) {
+          double pred = b->Plane(0)[int(a) * C + c];
+          for (int k = 0; k < 3; ++k)
+            pred += w->Plane(k)[p] * b->Plane(0)[int64_t(k + 1) * D + int(a) * C + c];
+          const double e = stack->Sample(i, c, p) / I - pred;
+          sse += e * e, n += 1;
+        }
+      }
+  }
+  const double rmse = std::sqrt(sse / n);
+  EXPECT_NEAR(rmse, reported, 1e-4 * reported)
+      << "from the files " << rmse << ", reported " << reported;
+  EXPECT_LT(reported, r->per_view_pca[0].rmse);  // 3 components hold more than 1
+  fs::remove_all(tmp);
+}
+
+// --model auto on a BTF: only the views the scene shows are fitted (scene.json
+// view_theta_max_deg), always the most frontal; one view left is a single-view stack.
+TEST(SceneViews, KeepsTheViewsTheSceneShowsAndAlwaysTheFrontalOne) {
+  const LightStack& s = Lacquer().stack;
+  const auto groups = ViewGroups(s);
+  SceneSpec scene;
+  EXPECT_EQ(ScenesViews(s, scene).num_images(), s.num_images());  // default 90°: every view
+  scene.view_theta_max_deg = 0;  // head-on only: dome:9's most frontal view is at 16°
+  const LightStack front = ScenesViews(s, scene);
+  EXPECT_FALSE(front.is_multi_view());
+  EXPECT_EQ(front.num_images(), int(groups[size_t(MostFrontalView(s, groups))].size()));
+  EXPECT_NEAR(front.view_theta_deg, 16, 0.5);
+  scene.view_theta_max_deg = 40;
+  const LightStack some = ScenesViews(s, scene);
+  ASSERT_TRUE(some.is_multi_view());
+  int expected = 0;
+  for (const auto& g : groups) {
+    double theta = 0, phi = 0;
+    AnglesDegFromDirection(s.ViewOf(g[0]), &theta, &phi);
+    expected += theta <= 40.5;
+  }
+  EXPECT_EQ(int(ViewGroups(some).size()), expected);
+  EXPECT_LT(expected, 9);
+  auto bad = ParseScene(R"({"view_theta_max_deg": 95})", "scene.json");
+  ASSERT_FALSE(bad.ok());
+  EXPECT_NE(bad.status().message().find("view_theta_max_deg"), std::string::npos);
 }
 
 }  // namespace
