@@ -96,18 +96,27 @@ void PrintBench(const eval::BenchResult& r) {
                 p.normal_mae_deg ? std::to_string(*p.normal_mae_deg).substr(0, 6).c_str() : "-");
   }
   if (!r.multi_view.empty())
-    std::printf("\n%-17s %-23s %-9s %9s %10s %9s %9s %8s\n", "multi-view case", "method", "family",
-                "B/texel", "held-out", "fit s", "texels/s", "normal°");
+    std::printf("\n%-17s %-23s %-9s %9s %10s %10s %9s %9s %8s\n", "multi-view case", "method",
+                "family", "B/texel", "held-out", "texel RMS", "fit s", "texels/s", "normal°");
   for (const auto& p : r.multi_view) {
     if (!p.ok) {
       std::printf("%-17s %-23s refused: %s\n", p.dataset.c_str(), p.method.c_str(),
                   p.error.c_str());
       continue;
     }
-    std::printf("%-17s %-23s %-9s %9.1f %10.4f %9s %9s %8s\n", p.dataset.c_str(), p.method.c_str(),
-                p.family.c_str(), p.bytes_per_texel, p.heldout_view_rmse,
-                opt(p.fit_seconds, "%.3f").c_str(), opt(p.texels_per_second, "%.0f").c_str(),
+    std::printf("%-17s %-23s %-9s %9.1f %10.4f %10.4f %9s %9s %8s\n", p.dataset.c_str(),
+                p.method.c_str(), p.family.c_str(), p.bytes_per_texel, p.heldout_view_rmse,
+                p.heldout_view_texel_rms, opt(p.fit_seconds, "%.3f").c_str(),
+                opt(p.texels_per_second, "%.0f").c_str(),
                 p.normal_mae_deg ? opt(*p.normal_mae_deg, "%.3f").c_str() : "-");
+  }
+  for (const auto& p : r.multi_view) {  // the held-out views by elevation
+    if (!p.ok || p.heldout_view_rmse_by_theta.empty()) continue;
+    std::string by;
+    for (const auto& [tv, e] : p.heldout_view_rmse_by_theta)
+      by += " " + std::to_string(tv) + "°:" + opt(e, "%.4f");
+    std::printf("%-17s %-23s held-out RMSE by θv:%s\n", p.dataset.c_str(), p.method.c_str(),
+                by.c_str());
   }
   for (const auto& s : r.skipped) std::printf("skipped: %s\n", s.c_str());
   for (const auto& h : r.hl2)

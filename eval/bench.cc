@@ -378,7 +378,9 @@ std::string BenchJson(const BenchResult& r) {
                       {"bound_median", num(p.bound_median)}});
   }
   json views = json::array();
-  for (const auto& p : r.multi_view)
+  for (const auto& p : r.multi_view) {
+    json by_view = json::object();
+    for (const auto& [tv, e] : p.heldout_view_rmse_by_theta) by_view[std::to_string(tv)] = num(e);
     views.push_back({{"dataset", p.dataset},
                      {"method", p.method},
                      {"family", p.family},
@@ -387,9 +389,12 @@ std::string BenchJson(const BenchResult& r) {
                      {"error", p.ok ? json() : json(p.error)},
                      {"bytes_per_texel", num(p.bytes_per_texel)},
                      {"heldout_view_rmse", num(p.heldout_view_rmse)},
+                     {"heldout_view_texel_rms", num(p.heldout_view_texel_rms)},
+                     {"heldout_view_rmse_by_theta", by_view},
                      {"fit_seconds", num(p.fit_seconds)},
                      {"texels_per_second", num(p.texels_per_second)},
                      {"normal_mae_deg", opt(p.normal_mae_deg)}});
+  }
   for (const auto& h : r.hl2)
     hl2.push_back({{"directions", h.directions},
                    {"mean_error_percent", h.mean_error_percent},

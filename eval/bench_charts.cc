@@ -74,33 +74,37 @@ std::map<std::string, std::string> BenchCharts(const BenchResult& r) {
   // Multi-view cases: storage vs held-out-view error, one series per family.
   std::set<std::string> view_cases;
   for (const MultiViewPoint& p : r.multi_view) view_cases.insert(p.dataset);
-  for (const std::string& name : view_cases) {
-    XYChart v;
-    v.title = name + ": storage vs held-out-view error (whole views left out)";
-    v.x_label = "bytes per texel (log; per-view models and PCA: every training view)";
-    v.y_label = "held-out-view RMSE (linear, per unit light)";
-    v.log_x = v.log_y = true;
-    std::vector<double> xs, ys;
-    for (const char* family : {"joint", "per-view", "frontal", "pca"}) {
-      Series s;
-      s.label = std::string(family) == "joint"      ? "joint over views (svbrdf)"
-                : std::string(family) == "per-view" ? "per view, nearest view predicts"
-                : std::string(family) == "frontal"  ? "frontal view's fit, every view"
-                                                    : "per-view PCA, k components";
-      s.line = std::string(family) == "pca";
-      for (const MultiViewPoint& p : r.multi_view) {
-        if (p.dataset != name || p.family != family || !p.ok) continue;
-        s.x.push_back(p.bytes_per_texel);
-        s.y.push_back(p.heldout_view_rmse);
-        s.point_labels.push_back(p.method);
-        xs.push_back(p.bytes_per_texel);
-        ys.push_back(std::isfinite(p.heldout_view_rmse) ? p.heldout_view_rmse : INFINITY);
+  for (const std::string& name : view_cases)
+    for (const bool per_texel : {false, true}) {
+      XYChart v;
+      v.title = name + ": storage vs held-out-view error (whole views left out" +
+                (per_texel ? ", texel mean)" : ", pooled)");
+      v.x_label = "bytes per texel (log; per-view models and PCA: every training view)";
+      v.y_label = per_texel ? "mean over texels of the held-out RMS (linear, per unit light)"
+                            : "held-out-view RMSE over every sample (linear, per unit light)";
+      v.log_x = v.log_y = true;
+      std::vector<double> xs, ys;
+      for (const char* family : {"joint", "per-view", "frontal", "pca"}) {
+        Series s;
+        s.label = std::string(family) == "joint"      ? "joint over views (svbrdf)"
+                  : std::string(family) == "per-view" ? "per view, nearest view predicts"
+                  : std::string(family) == "frontal"  ? "frontal view's fit, every view"
+                                                      : "per-view PCA, k components";
+        s.line = std::string(family) == "pca";
+        for (const MultiViewPoint& p : r.multi_view) {
+          if (p.dataset != name || p.family != family || !p.ok) continue;
+          const double e = per_texel ? p.heldout_view_texel_rms : p.heldout_view_rmse;
+          s.x.push_back(p.bytes_per_texel);
+          s.y.push_back(e);
+          s.point_labels.push_back(p.method);
+          xs.push_back(p.bytes_per_texel);
+          ys.push_back(std::isfinite(e) ? e : INFINITY);
+        }
+        if (!s.x.empty()) v.series.push_back(s);
       }
-      if (!s.x.empty()) v.series.push_back(s);
+      v.pareto = ParetoFront(xs, ys);
+      out[std::string(per_texel ? "views_texel_" : "views_") + name + ".svg"] = XYChartSvg(v);
     }
-    v.pareto = ParetoFront(xs, ys);
-    out["views_" + name + ".svg"] = XYChartSvg(v);
-  }
   if (!r.hl2.empty()) {
     XYChart h;
     h.title = "Leaf HL2 precompute: error vs N_L (" + r.hl2_leaf + ")";

@@ -90,9 +90,25 @@ StatusOr<std::vector<MultiViewPoint>> RunMultiViewCase(const MultiViewCase& c,
     const int views = family == "per-view" ? train_views : 1;
     p.bytes_per_texel = double(method->bytes_per_texel()) * views;
     // Each held-out image at its own view: a per-view fit through its nearest fitted view.
-    p.heldout_view_rmse =
-        fit::ScoreFit(s, test, *fit, false, {}, {.reconstruction = true, .residuals = false})
-            .reconstruction.rmse;
+    const fit::StackScore score =
+        fit::ScoreFit(s, test, *fit, false, {}, {.reconstruction = true, .residuals = true});
+    p.heldout_view_rmse = score.reconstruction.rmse;
+    double sum = 0, scored = 0;
+    for (size_t t = 0; t < score.residuals.rss.size(); ++t)
+      if (score.residuals.samples[t] > 0)
+        sum += std::sqrt(score.residuals.rss[t] / score.residuals.samples[t]), ++scored;
+    p.heldout_view_texel_rms = scored > 0 ? sum / scored : NAN;
+    std::map<int, fit::ReconstructionSums> by_view;
+    for (int g : held) {
+      double theta = 0, phi = 0;
+      AnglesDegFromDirection(s.ViewOf(groups[size_t(g)][0]), &theta, &phi);
+      by_view[int(std::lround(theta / 15)) * 15].Add(
+          fit::ScoreFit(s, groups[size_t(g)], *fit, false, {},
+                        {.reconstruction = true, .residuals = false})
+              .reconstruction,
+          0);
+    }
+    for (const auto& [tv, sums] : by_view) p.heldout_view_rmse_by_theta[tv] = sums.Metrics().rmse;
     p.normal_mae_deg = fit::CompareToTruth(fit->maps, data->truth, fit->status).normal_mae_deg;
     return p;
   };
@@ -116,6 +132,8 @@ StatusOr<std::vector<MultiViewPoint>> RunMultiViewCase(const MultiViewCase& c,
       p.method = "pca-k" + std::to_string(pt.k);
       p.bytes_per_texel = pt.bytes_per_texel;
       p.heldout_view_rmse = pt.rmse;
+      p.heldout_view_texel_rms = pt.texel_rms_mean;
+      p.heldout_view_rmse_by_theta = pt.rmse_by_view_theta;
       points.push_back(p);
     }
     if (!step()) return Status(StatusCode::kCancelled, "cancelled");

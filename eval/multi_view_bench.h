@@ -5,6 +5,7 @@
 #pragma once
 
 #include <cmath>
+#include <map>
 #include <optional>
 #include <string>
 #include <vector>
@@ -30,9 +31,13 @@ struct MultiViewPoint {
   std::string dataset, method, family;
   int k = 0;  // pca: components
   bool ok = true;
-  std::string error;           // when the method refused the case
-  double bytes_per_texel = 0;  // as stored for the training views
-  double heldout_view_rmse = NAN;
+  std::string error;               // when the method refused the case
+  double bytes_per_texel = 0;      // as stored for the training views
+  double heldout_view_rmse = NAN;  // pooled over every held-out sample
+  // The mean over texels of each texel's RMS over its held-out samples: every texel weighs the
+  // same (the pooled figure is led by the brightest, near-mirror samples of grazing views).
+  double heldout_view_texel_rms = NAN;
+  std::map<int, double> heldout_view_rmse_by_theta;  // pooled, per held-out θv (15° groups)
   double fit_seconds = NAN;  // the fit on the training views (median of the repeats); pca: none
   double texels_per_second = NAN;
   std::optional<double> normal_mae_deg;  // the fit's (most frontal) maps vs truth

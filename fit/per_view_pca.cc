@@ -195,6 +195,12 @@ std::vector<PcaPoint> PerViewPcaHeldOutViews(const LightStack& s, const std::vec
       }
   std::vector<double> sse(ks.size(), 0.0);
   double samples = 0;
+  // Per k and texel: Σ e² and the sample count over the held-out views (each texel is one
+  // thread's in a view's pass).
+  std::vector<std::vector<double>> texel_sse(ks.size(), std::vector<double>(size_t(T), 0.0));
+  std::vector<double> texel_n(size_t(T), 0.0);
+  // Per k and θv group (15°): Σ e² and samples.
+  std::vector<std::map<int, std::pair<double, double>>> by_view(ks.size());
   std::map<int, ViewPca> pcas;  // training view → its PCA (with vectors), made when first needed
   int done = 0;
   for (int h : held) {
@@ -252,12 +258,20 @@ std::vector<PcaPoint> PerViewPcaHeldOutViews(const LightStack& s, const std::vec
                 e += d * d, n += 1;
               }
             part[q] += e;
-            if (q == 0) part_n += n;
+            texel_sse[q][size_t(p0 + tx)] += e;
+            if (q == 0) part_n += n, texel_n[size_t(p0 + tx)] += n;
           }
         }
       }
       std::lock_guard<std::mutex> lock(merge);
-      for (size_t q = 0; q < ks.size(); ++q) sse[q] += part[q];
+      for (size_t q = 0; q < ks.size(); ++q) {
+        sse[q] += part[q];
+        auto& [e, n] =
+            by_view[q]
+                   [int(std::lround(std::acos(std::clamp(vh.z, -1.0, 1.0)) * 180 / M_PI / 15.0)) *
+                    15];
+        e += part[q], n += part_n;
+      }
       samples += part_n;
     });
   }
@@ -267,6 +281,13 @@ std::vector<PcaPoint> PerViewPcaHeldOutViews(const LightStack& s, const std::vec
     pt.k = ks[q];
     pt.bytes_per_texel = PcaBytesPerTexel(weights[q], shared[q], T);
     pt.rmse = samples > 0 ? std::sqrt(sse[q] / samples) : NAN;
+    double sum = 0, texels = 0;
+    for (int64_t p = 0; p < T; ++p)
+      if (texel_n[size_t(p)] > 0)
+        sum += std::sqrt(texel_sse[q][size_t(p)] / texel_n[size_t(p)]), ++texels;
+    pt.texel_rms_mean = texels > 0 ? sum / texels : NAN;
+    for (const auto& [tv, en] : by_view[q])
+      if (en.second > 0) pt.rmse_by_view_theta[tv] = std::sqrt(en.first / en.second);
     out.push_back(pt);
   }
   return out;

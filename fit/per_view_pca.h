@@ -6,7 +6,9 @@
 // miss at a given storage, not a model that predicts other views or lights.
 #pragma once
 
+#include <cmath>
 #include <cstdint>
+#include <map>
 #include <vector>
 
 #include "core/image.h"
@@ -21,6 +23,11 @@ struct PcaPoint {
   // vectors as floats shared by the texels.
   double bytes_per_texel = 0;
   double rmse = 0;  // over every sample of every view (texels with a non-finite sample skipped)
+  // PerViewPcaHeldOutViews: the mean over texels of each texel's RMS over its held-out samples
+  // (every texel weighs the same; the pooled rmse is led by the few brightest samples).
+  double texel_rms_mean = NAN;
+  // PerViewPcaHeldOutViews: the pooled RMSE of the held-out views per θv (rounded to 15°).
+  std::map<int, double> rmse_by_view_theta;
 };
 
 // One point per k in `ks` (k ≥ 1, capped at L·C of each view); texels where `status` is non-zero

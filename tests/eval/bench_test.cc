@@ -233,8 +233,9 @@ TEST(Bench, MultiViewCaseChartsStorageAgainstHeldOutViewError) {
   ASSERT_EQ(j["multi_view"].size(), r->multi_view.size());
   EXPECT_EQ(Keys(j["multi_view"][0]),
             (std::set<std::string>{"dataset", "method", "family", "k", "ok", "error",
-                                   "bytes_per_texel", "heldout_view_rmse", "fit_seconds",
-                                   "texels_per_second", "normal_mae_deg"}));
+                                   "bytes_per_texel", "heldout_view_rmse", "heldout_view_texel_rms",
+                                   "heldout_view_rmse_by_theta", "fit_seconds", "texels_per_second",
+                                   "normal_mae_deg"}));
 }
 
 }  // namespace
