@@ -50,12 +50,8 @@ StatusOr<std::vector<MultiViewPoint>> RunMultiViewCase(const MultiViewCase& c,
     return InvalidArgument("multi-view case " + c.name + ": " + std::to_string(groups.size()) +
                            " views cannot leave " + std::to_string(c.holdout_views) + " out");
   const std::vector<int> held = fit::ChooseHeldOutViews(s, groups, c.holdout_views);
-  std::vector<char> out(groups.size(), 0);
-  for (int g : held) out[size_t(g)] = 1;
   std::vector<int> train, test;
-  for (size_t g = 0; g < groups.size(); ++g)
-    for (int i : groups[g]) (out[g] ? test : train).push_back(i);
-  std::sort(train.begin(), train.end());
+  fit::SplitByViews(groups, held, &train, &test);
   const LightStack train_stack = SelectImages(s, train);
   const LightStack front = SelectView(s, groups[size_t(MostFrontalView(s, groups))]);
   const int train_views = int(groups.size()) - c.holdout_views;

@@ -33,6 +33,17 @@ std::vector<int> ChooseHeldOutViews(const LightStack& s,
   return out;
 }
 
+void SplitByViews(const std::vector<std::vector<int>>& groups, const std::vector<int>& held,
+                  std::vector<int>* train, std::vector<int>* test) {
+  std::vector<char> out(groups.size(), 0);
+  for (int g : held) out[size_t(g)] = 1;
+  train->clear(), test->clear();
+  for (size_t g = 0; g < groups.size(); ++g)
+    for (int i : groups[g]) (out[g] ? test : train)->push_back(i);
+  std::sort(train->begin(), train->end());
+  std::sort(test->begin(), test->end());
+}
+
 StatusOr<HeldOutViewMetrics> HeldOutViews(const FitMethod& method, const LightStack& s, int count,
                                           const FitOptions& options) {
   const auto groups = ViewGroups(s);
@@ -47,12 +58,8 @@ StatusOr<HeldOutViewMetrics> HeldOutViews(const FitMethod& method, const LightSt
                            " views (the most frontal view is always fitted), got " +
                            std::to_string(count));
   const std::vector<int> held = ChooseHeldOutViews(s, groups, count);
-  std::vector<char> out(groups.size(), 0);
-  for (int g : held) out[size_t(g)] = 1;
   std::vector<int> train, test;
-  for (size_t g = 0; g < groups.size(); ++g)
-    for (int i : groups[g]) (out[g] ? test : train).push_back(i);
-  std::sort(train.begin(), train.end());
+  SplitByViews(groups, held, &train, &test);
   const LightStack train_stack = SelectImages(s, train);
   auto fit = method.Fit(train_stack, options);
   if (!fit.ok())

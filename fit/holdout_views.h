@@ -31,6 +31,10 @@ struct HeldOutViewMetrics {
 std::vector<int> ChooseHeldOutViews(const LightStack& stack,
                                     const std::vector<std::vector<int>>& groups, int count);
 
+// The images of the views `held` (indices into `groups`) and of the others, each in stack order.
+void SplitByViews(const std::vector<std::vector<int>>& groups, const std::vector<int>& held,
+                  std::vector<int>* train, std::vector<int>* test);
+
 // Fits `method` on the images of the other views and scores the held-out views' images with it
 // (reconstruction metrics, each image at its own view). options.progress sees the fit.
 StatusOr<HeldOutViewMetrics> HeldOutViews(const FitMethod& method, const LightStack& stack,

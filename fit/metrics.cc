@@ -200,13 +200,18 @@ void ReconstructionSums::Add(const ReconstructionMetrics& m, int theta_group) {
   by_theta_[theta_group].second += n;
 }
 
-ReconstructionMetrics ReconstructionSums::Metrics() const {
+ReconstructionMetrics MetricsFromSums(double sse, double samples) {
   ReconstructionMetrics m;
-  m.samples = int64_t(samples_);
-  const double mse = samples_ > 0 ? sse_ / samples_ : 0;
+  m.samples = int64_t(samples);
+  const double mse = samples > 0 ? sse / samples : 0;
   m.rmse = std::sqrt(mse);
   m.deviation_percent = 100 * mse;
   m.psnr_db = mse > 0 ? 10 * std::log10(1 / mse) : INFINITY;
+  return m;
+}
+
+ReconstructionMetrics ReconstructionSums::Metrics() const {
+  ReconstructionMetrics m = MetricsFromSums(sse_, samples_);
   if (srgb8_ && samples_ > 0) {
     const double mse8 = sse8_ / samples_;
     m.rmse_srgb8 = std::sqrt(mse8);

@@ -50,6 +50,9 @@ bool AnyFlagged(const std::vector<uint8_t>& status);
 // must agree before some of them score the common set and others do not).
 bool AnyFlagged(const LightStack& s, const std::vector<uint8_t>& status);
 
+// The figures of Σ (p − p*)² = sse over `samples` samples: rmse, dev% = 100 · MSE, PSNR.
+ReconstructionMetrics MetricsFromSums(double sse, double samples);
+
 // Reconstruction figures added up over parts (views, bands of a streamed fit), each part the
 // scores of images of one θl group: Σ MSE·samples, the 8-bit figure's, per θl group.
 class ReconstructionSums {

@@ -194,18 +194,9 @@ Status StreamedFit::FitBands(const FitOptions& o, const ProgressFn& progress,
     heldout_views_ = std::move(hv);
   }
   SummariseStatus(&r);
-  // The whole stack's figures from the bands' sums (dev% = 100 · mean squared difference).
-  auto from_sums = [](double e, double count) {
-    ReconstructionMetrics m;
-    m.samples = int64_t(count);
-    const double mse = count > 0 ? e / count : 0;
-    m.rmse = std::sqrt(mse);
-    m.deviation_percent = 100 * mse;
-    m.psnr_db = mse > 0 ? 10 * std::log10(1 / mse) : INFINITY;
-    return m;
-  };
-  reconstruction_ = from_sums(sse, samples);
-  reconstruction_common_ = from_sums(sse_common, samples_common);
+  // The whole stack's figures from the bands' sums.
+  reconstruction_ = MetricsFromSums(sse, samples);
+  reconstruction_common_ = MetricsFromSums(sse_common, samples_common);
   std::map<int, std::pair<double, double>> by_light;
   for (const auto& [tv, m] : view_theta_)
     for (const auto& [tl, sn] : m) by_light[tl].first += sn.first, by_light[tl].second += sn.second;
