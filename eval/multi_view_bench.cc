@@ -85,9 +85,10 @@ StatusOr<std::vector<MultiViewPoint>> RunMultiViewCase(const MultiViewCase& c,
     p.texels_per_second = double(texels) / p.fit_seconds;
     const int views = family == "per-view" ? train_views : 1;
     p.bytes_per_texel = double(method->bytes_per_texel()) * views;
-    // Each held-out image at its own view: a per-view fit through its nearest fitted view.
-    const fit::StackScore score =
-        fit::ScoreFit(s, test, *fit, false, {}, {.reconstruction = true, .residuals = true});
+    // Each held-out image at its own view (a per-view fit through its nearest fitted view), over
+    // the common texel set (every unmasked texel, as bench scores single-view cases).
+    const fit::StackScore score = fit::ScoreFit(s, test, *fit, /*common=*/true, {},
+                                                {.reconstruction = true, .residuals = true});
     p.heldout_view_rmse = score.reconstruction.rmse;
     double sum = 0, scored = 0;
     for (size_t t = 0; t < score.residuals.rss.size(); ++t)
@@ -99,7 +100,7 @@ StatusOr<std::vector<MultiViewPoint>> RunMultiViewCase(const MultiViewCase& c,
       double theta = 0, phi = 0;
       AnglesDegFromDirection(s.ViewOf(groups[size_t(g)][0]), &theta, &phi);
       by_view[int(std::lround(theta / 15)) * 15].Add(
-          fit::ScoreFit(s, groups[size_t(g)], *fit, false, {},
+          fit::ScoreFit(s, groups[size_t(g)], *fit, /*common=*/true, {},
                         {.reconstruction = true, .residuals = false})
               .reconstruction,
           0);
@@ -122,7 +123,13 @@ StatusOr<std::vector<MultiViewPoint>> RunMultiViewCase(const MultiViewCase& c,
     if (!step()) return Status(StatusCode::kCancelled, "cancelled");
   }
   if (!methods.pca_ks.empty()) {
-    for (const fit::PcaPoint& pt : fit::PerViewPcaHeldOutViews(s, held, methods.pca_ks)) {
+    // Over the unmasked texels, as the fits are scored (status: the mask only).
+    std::vector<uint8_t> masked;
+    if (s.has_mask()) {
+      masked.assign(size_t(s.plane_size()), 0);
+      for (size_t p = 0; p < masked.size(); ++p) masked[p] = s.mask[p] ? 0 : fit::kTexelMasked;
+    }
+    for (const fit::PcaPoint& pt : fit::PerViewPcaHeldOutViews(s, held, methods.pca_ks, masked)) {
       MultiViewPoint p;
       p.dataset = c.name, p.family = "pca", p.k = pt.k;
       p.method = "pca-k" + std::to_string(pt.k);

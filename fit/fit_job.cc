@@ -116,9 +116,10 @@ void AddPcaFiles(const LightStack& stack, std::vector<ViewPcaModel>* models, Pac
       lights.push_back({{"direction", {l.direction.x, l.direction.y, l.direction.z}},
                         {"intensity", {l.intensity.x, l.intensity.y, l.intensity.z}}});
     }
-    k = m.weights.channels();
+    k = std::max(k, m.weights.channels());
     views.push_back({{"theta_deg", m.theta_deg},
                      {"phi_deg", m.phi_deg},
+                     {"k", m.weights.channels()},
                      {"weights", std::string(name) + "_weights.exr"},
                      {"basis", std::string(name) + "_basis.exr"},
                      {"lights", lights}});
@@ -133,7 +134,7 @@ void AddPcaFiles(const LightStack& stack, std::vector<ViewPcaModel>* models, Pac
   }
   const nlohmann::json j = {
       {"schema", "matfit.pca/1"},
-      {"k", k},
+      {"k", k},  // the largest; a view with fewer samples holds min(k, L·C) (its own "k")
       {"channels", stack.channels()},
       {"sample",
        "I[a][c] * (basis[0][a*C + c] + sum_j weights[j](x) * basis[j][a*C + c]) for image a of the "
@@ -357,6 +358,8 @@ bool FitJobOptions::Check(std::string* why) const {
     std::string list;
     for (const auto& n : MethodNames()) list += (list.empty() ? "" : ", ") + n;
     for (const auto& n : MultiViewMethodNames()) list += ", " + n + " (every view of a BTF)";
+    list += ", per-view:MODEL (MODEL one of the first " + std::to_string(MethodNames().size()) +
+            ", fitted to each view of a BTF)";
     return fail("--model '" + model + "' is not a method; choose one of: " + list + " (or auto)");
   }
   if (comm && comm->size() > 1) {

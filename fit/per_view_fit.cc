@@ -128,7 +128,8 @@ StackScore ScoreFit(const LightStack& s, const std::vector<int>& images, const F
   ReconstructionSums sums;
   int64_t done = 0;
   for (const auto& [key, part] : split) {
-    if (progress && !progress(done++, int64_t(split.size()))) break;
+    // Display only under MPI (each part is collective: every rank scores every part).
+    if (progress && !progress(done++, int64_t(split.size())) && !s.is_band()) break;
     const ViewFit& v = fit.views[size_t(key.first)];
     const std::vector<uint8_t>* status = &v.status;
     if (common) {

@@ -106,6 +106,11 @@ Status StreamedFit::FitBands(const FitOptions& o, const ProgressFn& progress,
   const int bands = cache_->bands();
   // Held-out views: the training images, and each held-out view's images by θl group.
   const auto groups = ViewGroups(shape_);
+  for (int h : held)
+    if (h < 0 || h >= int(groups.size()) || h == MostFrontalView(shape_, groups))
+      return InvalidArgument("held-out view " + std::to_string(h) + " is not one of the " +
+                             std::to_string(groups.size()) +
+                             " views other than the most frontal (svbrdf starts from it)");
   std::vector<int> train;
   std::vector<std::map<int, std::vector<int>>> tests(held.size());
   {

@@ -41,20 +41,54 @@ StatusOr<StreamedPerView> FitPerViewOutOfCore(const std::string& input, const Re
   const auto groups = ViewGroups(shape);
   const int V = int(groups.size());
   const int frontal = MostFrontalView(shape, groups);
+  for (int h : held)
+    if (h < 0 || h >= V || h == frontal)
+      return InvalidArgument("held-out view " + std::to_string(h) + " is not one of the " +
+                             std::to_string(V) + " views other than the most frontal");
+  if (int(held.size()) >= V) return InvalidArgument("every view held out: nothing to fit");
   const int64_t steps = V + int64_t(held.size());
   // The most frontal view first: the tone curve estimated on it applies to every view, as an
   // in-memory read of every view does (fit/diagnostics.h).
   std::vector<int> order{frontal};
   for (int g = 0; g < V; ++g)
     if (g != frontal) order.push_back(g);
+  // One view read alone: the images of group g, checked (by light) against the headers, with
+  // the mask of every view when the images' alpha gives it (an in-memory read of every view ANDs
+  // every image's alpha).
+  std::vector<uint8_t> all_mask;
   auto read_view = [&](int g) -> StatusOr<LightStack> {
     const LightSample& l = shape.lights()[size_t(groups[size_t(g)][0])];
     ReadOptions one = read;
     one.all_views = false;
     one.progress = {};
     one.view = ViewAngles{l.view_theta_deg, l.view_phi_deg};
-    return ReadDataset(input, one);
+    auto v = ReadDataset(input, one);
+    if (!v.ok()) return v;
+    if (v->num_images() != int(groups[size_t(g)].size()) ||
+        Length(v->view_direction - shape.ViewOf(groups[size_t(g)][0])) > 1e-6)
+      return DataError("view " + std::to_string(l.view_theta_deg) + "," +
+                       std::to_string(l.view_phi_deg) +
+                       " read alone is not the view of the whole dataset (two cameras within "
+                       "0.5°?); fit in memory (raise --memory)");
+    if (!all_mask.empty()) v->mask = all_mask;
+    return v;
   };
+  {  // Alpha masks: the AND over every view first (one more read of each view).
+    auto front = read_view(frontal);
+    if (!front.ok()) return front.status();
+    if (front->mask_source.rfind("alpha", 0) == 0 ||
+        front->mask_source.rfind("none: the alpha", 0) == 0) {
+      std::vector<uint8_t> mask(size_t(shape.plane_size()), 1);
+      for (int g = 0; g < V; ++g) {
+        auto v = read_view(g);
+        if (!v.ok()) return v.status();
+        if (v->has_mask())
+          for (size_t p = 0; p < mask.size(); ++p) mask[p] &= v->mask[p];
+      }
+      if (std::count(mask.begin(), mask.end(), uint8_t(1)) < int64_t(mask.size()))
+        all_mask = std::move(mask);
+    }
+  }
   StreamedPerView out;
   FitResult& r = out.fit;
   r.method = method.name();
@@ -125,11 +159,18 @@ StatusOr<StreamedPerView> FitPerViewOutOfCore(const std::string& input, const Re
   // Held-out views: read again and predicted by the nearest other view's maps — the per-view fit
   // without them is the one above restricted to the other views.
   if (!held.empty()) {
+    // The training views' directions (the maps stay in r.views: no copy).
     FitResult train;
+    std::vector<int> train_index;
     std::vector<char> out_view(size_t(V), 0);
     for (int h : held) out_view[size_t(h)] = 1;
     for (int g = 0; g < V; ++g)
-      if (!out_view[size_t(g)]) train.views.push_back(r.views[size_t(g)]);
+      if (!out_view[size_t(g)]) {
+        ViewFit direction;
+        direction.view = r.views[size_t(g)].view;
+        train.views.push_back(std::move(direction));
+        train_index.push_back(g);
+      }
     HeldOutViewMetrics hv;
     hv.train_views = V - int(held.size());
     ReconstructionSums all;
@@ -138,7 +179,8 @@ StatusOr<StreamedPerView> FitPerViewOutOfCore(const std::string& input, const Re
       auto view = read_view(h);
       if (!view.ok()) return view.status();
       if (out.tone && out.tone->corrected) view->Relinearise(out.tone->to, tone_reason);
-      const ViewFit& near = train.views[size_t(NearestViewFit(train, view->view_direction))];
+      const ViewFit& near =
+          r.views[size_t(train_index[size_t(NearestViewFit(train, view->view_direction))])];
       ReconstructionSums one;
       AddScores(*view, near.maps, near.status, true, &one, &all);
       hv.views.push_back({view->view_theta_deg, view->view_phi_deg, one.Metrics()});

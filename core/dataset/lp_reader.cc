@@ -172,10 +172,11 @@ StatusOr<LightStack> ReadLp(const std::string& path, const ReadOptions& o) {
       if (v.z > reference.z) reference = v;
     if (o.view) {
       const Vec3 want = DirectionFromAnglesDeg(o.view->theta_deg, o.view->phi_deg);
-      auto it = std::find_if(views.begin(), views.end(), [&](const Vec3& v) {
-        return Dot(v, want) >= std::cos(0.5 * M_PI / 180);
+      // The nearest view (two cameras may lie within 0.5° of each other), if within 0.5°.
+      auto it = std::max_element(views.begin(), views.end(), [&](const Vec3& a, const Vec3& b) {
+        return Dot(a, want) < Dot(b, want);
       });
-      if (it == views.end()) {
+      if (Dot(*it, want) < std::cos(0.5 * M_PI / 180)) {
         std::string avail;
         for (size_t v = 0; v < views.size() && v < 12; ++v) {
           double t = 0, p = 0;

@@ -11,6 +11,7 @@
 
 #include "core/image_io.h"
 #include "core/model/model.h"
+#include "core/path_util.h"
 #include "core/vec3.h"
 
 namespace matfit {
@@ -30,7 +31,9 @@ std::optional<std::string> StringField(const json& o, const char* key) {
 
 constexpr size_t kMaxPackViews = 65536;  // 151 × 151 Bonn views and more
 
-StatusOr<PackContents> ReadPackFolder(const std::string& dir, bool views_allowed);
+// `confine`: the folder every file must resolve inside (the top-level pack's).
+StatusOr<PackContents> ReadPackFolder(const std::string& dir, bool views_allowed,
+                                      const std::string& confine);
 
 // material.json "views": each entry's pack, read and checked against the pack's own size.
 Status ReadPackViews(const std::string& dir, const std::string& mj, const json& jv,
@@ -53,7 +56,11 @@ Status ReadPackViews(const std::string& dir, const std::string& mj, const json& 
     if (f.is_absolute() || std::find(f.begin(), f.end(), "..") != f.end())
       return DataError(at + " points outside the pack ('" + *pack +
                        "'); give a folder relative to the pack");
-    auto sub = ReadPackFolder((fs::path(dir) / f).string(), /*views_allowed=*/false);
+    // A view's folder, and every file it names, must lie inside this pack (no symlink out).
+    const std::string folder = (fs::path(dir) / f).string();
+    if (!PathWithin(folder, dir))
+      return DataError(at + ": '" + *pack + "' resolves outside the pack folder");
+    auto sub = ReadPackFolder(folder, /*views_allowed=*/false, dir);
     if (!sub.ok()) return Status(sub.status().code(), at + ": " + sub.status().message());
     if (sub->maps.width != pc->maps.width || sub->maps.height != pc->maps.height)
       return DataError(at + ": its maps are " + std::to_string(sub->maps.width) + " x " +
@@ -77,12 +84,15 @@ int NearestPackView(const PackContents& pack, double theta_deg, double phi_deg) 
   return best;
 }
 
-StatusOr<PackContents> ReadPack(const std::string& dir) { return ReadPackFolder(dir, true); }
+StatusOr<PackContents> ReadPack(const std::string& dir) { return ReadPackFolder(dir, true, dir); }
 
 namespace {
 
-StatusOr<PackContents> ReadPackFolder(const std::string& dir, bool views_allowed) {
+StatusOr<PackContents> ReadPackFolder(const std::string& dir, bool views_allowed,
+                                      const std::string& confine) {
   const std::string mj = (fs::path(dir) / "material.json").string();
+  if (confine != dir && !PathWithin(mj, confine))  // a view's material.json linked out
+    return DataError("'" + mj + "' resolves outside the pack folder");
   std::ifstream in(mj);
   if (!in) return NotFound("'" + mj + "' not found: is '" + dir + "' a material pack folder?");
   const json j = json::parse(in, nullptr, false);
@@ -123,7 +133,7 @@ StatusOr<PackContents> ReadPackFolder(const std::string& dir, bool views_allowed
     if (it == files.end()) return Status::Ok();
     ImageReadOptions o;
     if (as_stored) o = linear;  // data maps; colour maps go through the file's sRGB tag
-    o.confine_to = dir;         // a symlink out of the pack is refused, never opened
+    o.confine_to = confine;     // a symlink out of the pack is refused, never opened
     auto img = ReadImage((fs::path(dir) / it->second).string(), o);
     if (!img.ok())  // say which entry of material.json named the file
       return Status(img.status().code(),

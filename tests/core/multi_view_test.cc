@@ -2,6 +2,9 @@
 // them in the Bonn and UTIA layouts and reading every view back (`--view all`).
 #include <gtest/gtest.h>
 
+#include <cstdio>
+#include <fstream>
+
 #include <cmath>
 #include <filesystem>
 
@@ -232,6 +235,43 @@ TEST(MultiView, TheBandCacheHoldsEveryImagesRowsAsReadInMemory) {
     *cache = std::move(*second);  // the first cache's files are removed with it
     EXPECT_FALSE(fs::exists(dir));
   }
+}
+
+// Two cameras 0.3° apart in an .lp: --view picks the nearest, so each reads as itself.
+TEST(MultiView, AnLpViewIsTheNearestOneToTheAnglesAsked) {
+  TempDir tmp;
+  const fs::path dir = fs::path(tmp.path()) / "lp";
+  fs::create_directories(dir);
+  std::string lp = "8 views\n";
+  const double thetas[2] = {22.0, 22.3};
+  for (int v = 0; v < 2; ++v)
+    for (int l = 0; l < 4; ++l) {
+      const std::string name = "v" + std::to_string(v) + "_l" + std::to_string(l) + ".exr";
+      ASSERT_TRUE(WriteImage((dir / name).string(), Image(4, 4, 3, 0.1f + 0.1f * v),
+                             {PixelFormat::kFloat, TransferFunction::kLinear})
+                      .ok());
+      const Vec3 d = DirectionFromAnglesDeg(30, 90.0 * l);
+      const Vec3 c = DirectionFromAnglesDeg(thetas[v], 0);
+      char line[200];
+      std::snprintf(line, sizeof line, "%s %.9f %.9f %.9f %.9f %.9f %.9f\n", name.c_str(), d.x, d.y,
+                    d.z, c.x, c.y, c.z);
+      lp += line;
+    }
+  std::ofstream(dir / "lights.lp") << lp;
+  for (int v = 0; v < 2; ++v) {
+    ReadOptions ro;
+    ro.view = ViewAngles{thetas[v], 0};
+    auto s = ReadDataset(dir.string(), ro);
+    ASSERT_TRUE(s.ok()) << s.status().ToString();
+    ASSERT_EQ(s->num_images(), 4);
+    EXPECT_NEAR(s->view_theta_deg, thetas[v], 1e-6);
+    EXPECT_NEAR(s->Sample(0, 0, 0), 0.1f + 0.1f * v, 1e-6) << "view " << v;
+  }
+  ReadOptions all;
+  all.all_views = true;
+  auto both = ReadDataset(dir.string(), all);
+  ASSERT_TRUE(both.ok());
+  EXPECT_EQ(ViewGroups(*both).size(), 2u);
 }
 
 TEST(MultiView, RefusesWhatCannotHoldSeveralViews) {

@@ -177,7 +177,18 @@ TEST(PerView, PackHoldsEveryViewAndReadsBack) {
   auto bad = ReadPack(dir.string());
   ASSERT_FALSE(bad.ok());
   EXPECT_NE(bad.status().message().find("views[1]"), std::string::npos) << bad.status().message();
+  // A view folder that is a symlink out of the pack is refused, never read.
+  const fs::path outside = fs::temp_directory_path() / "matfit_per_view_outside";
+  fs::remove_all(outside);
+  fs::rename(dir / "views" / "v000", outside);
+  fs::create_directory_symlink(outside, dir / "views" / "v000");
+  bad = ReadPack(dir.string());
+  ASSERT_FALSE(bad.ok());
+  EXPECT_NE(bad.status().message().find("views[0]"), std::string::npos) << bad.status().message();
+  EXPECT_NE(bad.status().message().find("outside the pack"), std::string::npos)
+      << bad.status().message();
   fs::remove_all(dir);
+  fs::remove_all(outside);
 }
 
 TEST(PerView, OnlyTheLaddersModelsHaveAPerViewForm) {
