@@ -116,7 +116,7 @@ Status PutHeightMaps(const MaterialMaps& m, const std::vector<uint8_t>& status, 
                      Keep& keep, const ImageWriteOptions& exr, const ImageWriteOptions& lin16,
                      json* maps) {
   const int64_t n = int64_t(m.width) * m.height;
-  // The solve holds about 90 bytes per texel: beyond 4096² (1.5 GB) the pack has no height map.
+  // The solve holds about 70 bytes per texel: beyond 4096² (1.2 GB) the pack has no height map.
   if (n > kMaxHeightTexels) return Status::Ok();
   std::vector<uint8_t> trusted(size_t(n), 1);
   for (int64_t p = 0; p < n; ++p) {

@@ -1,0 +1,98 @@
+// Pack write costs that are not image encoding: the height map integrated from the normals
+// (core/height_from_normals.h), against encoding the same normal map as a 16-bit PNG (a cost the
+// pack pays anyway: the ratio is what the height map adds to the write stage). The normal map is
+// a fitted-looking surface: a dome, ripples and texel-scale relief noise, inside a disc mask with
+// a flagged hole. Run: build/bench/pack_bench --benchmark_repetitions=5
+// --benchmark_report_aggregates_only=true
+#include <benchmark/benchmark.h>
+
+#include <cmath>
+#include <cstdint>
+#include <map>
+#include <random>
+#include <vector>
+
+#include "core/height_from_normals.h"
+#include "core/image_io.h"
+#include "core/parallel.h"
+
+namespace {
+
+using namespace matfit;
+
+struct NormalCase {
+  Image normal;
+  std::vector<uint8_t> trusted;
+};
+
+// W × H normals of z = dome + ripples + 0.3-texel relief noise (slopes up to ~1), trusted inside
+// an ellipse less a flagged 5 % block.
+const NormalCase& Case(int w, int h) {
+  static std::map<std::pair<int, int>, NormalCase> cache;
+  NormalCase& c = cache[{w, h}];
+  if (!c.normal.empty()) return c;
+  std::mt19937 rng(7);
+  std::normal_distribution<double> noise(0, 0.3);
+  std::vector<double> z(size_t(w) * h);
+  for (int y = 0; y < h; ++y)
+    for (int x = 0; x < w; ++x) {
+      const double u = (x - 0.5 * w) / w, v = (y - 0.5 * h) / h;
+      z[size_t(y) * w + x] = 0.2 * w * std::exp(-8 * (u * u + v * v)) +
+                             3 * std::sin(x / 9.0) * std::cos(y / 13.0) + noise(rng);
+    }
+  c.normal = Image(w, h, 3);
+  c.trusted.assign(size_t(w) * h, 0);
+  for (int y = 0; y < h; ++y)
+    for (int x = 0; x < w; ++x) {
+      const size_t p = size_t(y) * w + x;
+      const double zx = x + 1 < w ? z[p + 1] - z[p] : z[p] - z[p - 1];
+      const double zd = y + 1 < h ? z[p + w] - z[p] : z[p] - z[p - w];  // rows down = −y_up
+      const double a = -zx, b = zd, len = std::sqrt(a * a + b * b + 1);
+      c.normal.Plane(0)[p] = float(a / len), c.normal.Plane(1)[p] = float(b / len),
+      c.normal.Plane(2)[p] = float(1 / len);
+      const double u = (x - 0.5 * w) / (0.48 * w), v = (y - 0.5 * h) / (0.48 * h);
+      const bool hole = std::abs(x - 0.3 * w) < 0.11 * w && std::abs(y - 0.4 * h) < 0.11 * h;
+      c.trusted[p] = u * u + v * v < 1 && !hole;
+    }
+  return c;
+}
+
+void BM_IntegrateNormals(benchmark::State& state) {
+  SetNumThreads(int(state.range(2)));
+  const NormalCase& c = Case(int(state.range(0)), int(state.range(1)));
+  HeightResult r;
+  for (auto _ : state) {
+    r = IntegrateNormals(c.normal, c.trusted);
+    benchmark::DoNotOptimize(r.height.Plane(0));
+  }
+  state.SetLabel("finest level " + std::to_string(r.iterations) + " iterations, residual " +
+                 std::to_string(r.residual));
+  SetNumThreads(0);
+}
+
+// Baseline: the normal map as a 16-bit PNG in memory (fast effort, as a pack writes it).
+void BM_EncodeNormalPng16(benchmark::State& state) {
+  SetNumThreads(int(state.range(2)));
+  const NormalCase& c = Case(int(state.range(0)), int(state.range(1)));
+  Image mapped = c.normal;  // [-1, 1] → [0, 1], as the pack stores normals
+  for (int k = 0; k < 3; ++k)
+    for (size_t p = 0; p < size_t(mapped.width()) * mapped.height(); ++p)
+      mapped.Plane(k)[p] = 0.5f * (mapped.Plane(k)[p] + 1);
+  for (auto _ : state) benchmark::DoNotOptimize(EncodeImage(mapped, "png", {}));
+  SetNumThreads(0);
+}
+
+// Args: width, height, threads.
+BENCHMARK(BM_EncodeNormalPng16)
+    ->Args({512, 344, 2})
+    ->Args({1024, 688, 2})
+    ->Unit(benchmark::kMillisecond);
+BENCHMARK(BM_IntegrateNormals)
+    ->Args({512, 344, 2})
+    ->Args({512, 344, 1})
+    ->Args({1024, 688, 2})
+    ->Unit(benchmark::kMillisecond);
+
+}  // namespace
+
+BENCHMARK_MAIN();
