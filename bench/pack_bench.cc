@@ -65,7 +65,7 @@ void BM_IntegrateNormals(benchmark::State& state) {
     r = IntegrateNormals(c.normal, c.trusted);
     benchmark::DoNotOptimize(r.height.Plane(0));
   }
-  state.SetLabel("finest level " + std::to_string(r.iterations) + " iterations, residual " +
+  state.SetLabel(std::to_string(r.iterations) + " iterations, residual " +
                  std::to_string(r.residual));
   SetNumThreads(0);
 }

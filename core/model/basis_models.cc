@@ -93,6 +93,7 @@ class BasisModel final : public ModelBase<BasisModel<kKind>> {
   }
   bool writes_normal_map() const override { return !kPtm; }
   bool gltf_baked() const override { return true; }
+  const char* rti_basis() const override { return kPtm ? "ptm" : kRbf ? nullptr : "hsh"; }
   bool has_truth_normal() const override { return false; }
   bool has_truth_albedo() const override { return false; }
   static void Basis(const MaterialMaps& m, const Vec3f& l, double* b) {

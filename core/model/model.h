@@ -125,6 +125,10 @@ class ModelDescriptor {
   // Whether the glTF shows the Lambert + GGX surface closest to the fit (core/pack/gltf_bake.h):
   // for relighting bases, whose light dependence no glTF material has.
   virtual bool gltf_baked() const { return false; }
+  // The RTI tools' name of the model's light basis when its coefficients are one ("ptm": the
+  // PTM polynomial; "hsh": hemispherical harmonics), else nullptr: which exports other tools can
+  // open (core/pack/pack_exports.h: PTM files, HSH .rti, the relight web layout).
+  virtual const char* rti_basis() const { return nullptr; }
   // The closest standard glTF PBR material: specular, roughness, IOR and their textures
   // (base colour and normal are set by the writer). `status` marks fitted texels (0 = ok).
   virtual void Gltf(const MaterialMaps& m, const std::vector<uint8_t>& status,
@@ -160,6 +164,8 @@ const ModelDescriptor* FindModel(std::string_view name);  // nullptr when unknow
 // The id of a model known to exist (a programming error otherwise: MATFIT_CHECK).
 ShadingModel ModelId(std::string_view name);
 const std::vector<const ModelDescriptor*>& AllModels();
+// Whether the model's coefficients are the RTI tools' `basis` ("ptm" or "hsh"; rti_basis()).
+bool HasRtiBasis(ShadingModel id, std::string_view basis);
 
 // Batched evaluation of a whole map set under a list of lights: the light constants prepared
 // once, then runs of texels. Thread-safe for concurrent Evaluate calls.

@@ -38,6 +38,11 @@ const ModelDescriptor& Model(ShadingModel id) {
   return *all[size_t(id)];
 }
 
+bool HasRtiBasis(ShadingModel id, std::string_view basis) {
+  const char* b = Model(id).rti_basis();
+  return b != nullptr && basis == b;
+}
+
 const ModelDescriptor* FindModel(std::string_view name) {
   for (const ModelDescriptor* m : AllModels())
     if (name == m->name()) return m;

@@ -9,6 +9,7 @@
 
 #include "core/atomic_file.h"
 #include "core/image_io.h"
+#include "core/model/model.h"
 #include "core/pack/ptm_export.h"
 #include "core/pack/relight_export.h"
 #include "core/pack/rti_export.h"
@@ -38,7 +39,7 @@ Status WritePackExports(const MaterialMaps& m, const std::string& root_path,
       return Status::Ok();
     });
   };
-  if (m.model == ShadingModel::kPtm) {
+  if (HasRtiBasis(m.model, "ptm")) {
     const char* values = m.basis_srgb ? "8-bit sRGB codes, as RTI tools fit them"
                                       : "linear radiance x 255 (a viewer shows it darker than "
                                         "an sRGB fit; fit ptm-srgb for RTI viewers)";
@@ -48,7 +49,7 @@ Status WritePackExports(const MaterialMaps& m, const std::string& root_path,
       file_task([&m, format = format] { return EncodePtm(m, format); }, file,
                 {{"file", file}, {"format", name}, {"values", values}});
   }
-  if (m.model == ShadingModel::kHsh)  // hsh2 / hsh3 (RTI tools stop at 9 terms)
+  if (HasRtiBasis(m.model, "hsh"))  // hsh2 / hsh3 (RTI tools stop at 9 terms)
     file_task([&m] { return EncodeRti(m); }, "material.rti",
               {{"file", "material.rti"},
                {"format", "HSH 1.2 (RTIBuilder / RTIViewer .rti)"},

@@ -6,6 +6,8 @@
 #include <cstdio>
 #include <vector>
 
+#include "core/model/model.h"
+
 namespace matfit {
 namespace {
 
@@ -61,7 +63,7 @@ std::string Header(const char* format, int w, int h, const Quantiser& q) {
 
 StatusOr<std::string> EncodePtm(const MaterialMaps& m, PtmFormat format) {
   const int ch = m.basis_terms == kTerms ? m.coefficients.channels() / kTerms : 0;
-  if (m.model != ShadingModel::kPtm || m.basis_terms != kTerms || (ch != 1 && ch != 3) ||
+  if (!HasRtiBasis(m.model, "ptm") || m.basis_terms != kTerms || (ch != 1 && ch != 3) ||
       m.coefficients.channels() != ch * kTerms || m.coefficients.width() != m.width ||
       m.coefficients.height() != m.height)
     return InvalidArgument("a .ptm file holds a 6-term ptm fit of 1 or 3 channels");

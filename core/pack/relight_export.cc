@@ -4,6 +4,7 @@
 #include <cmath>
 #include <nlohmann/json.hpp>
 
+#include "core/model/model.h"
 #include "core/pack/rti_export.h"
 #include "core/shading/relight_basis.h"
 
@@ -36,8 +37,8 @@ Status PtmTermMap(int* from, double* sign) {
 StatusOr<RelightWeb> EncodeRelightWeb(const MaterialMaps& m) {
   const int terms = m.basis_terms;
   const int ch = terms > 0 ? m.coefficients.channels() / terms : 0;
-  const bool ptm = m.model == ShadingModel::kPtm && terms == 6;
-  const bool hsh = m.model == ShadingModel::kHsh && (terms == 4 || terms == 9);
+  const bool ptm = HasRtiBasis(m.model, "ptm") && terms == 6;
+  const bool hsh = HasRtiBasis(m.model, "hsh") && (terms == 4 || terms == 9);
   if (!(ptm || hsh) || (ch != 1 && ch != 3) || m.coefficients.channels() != ch * terms ||
       m.coefficients.width() != m.width || m.coefficients.height() != m.height)
     return InvalidArgument(

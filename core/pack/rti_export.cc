@@ -6,6 +6,7 @@
 #include <numbers>
 #include <vector>
 
+#include "core/model/model.h"
 #include "core/shading/relight_basis.h"
 
 namespace matfit {
@@ -51,7 +52,7 @@ Status RtiHshTermMap(int terms, int* from, double* sign) {
 StatusOr<std::string> EncodeRti(const MaterialMaps& m) {
   const int terms = m.basis_terms;
   const int ch = terms > 0 ? m.coefficients.channels() / terms : 0;
-  if (m.model != ShadingModel::kHsh || (terms != 4 && terms != 9) || (ch != 1 && ch != 3) ||
+  if (!HasRtiBasis(m.model, "hsh") || (terms != 4 && terms != 9) || (ch != 1 && ch != 3) ||
       m.coefficients.channels() != ch * terms || m.coefficients.width() != m.width ||
       m.coefficients.height() != m.height)
     return InvalidArgument("an .rti file holds an hsh fit of 4 or 9 terms and 1 or 3 channels");
