@@ -239,8 +239,9 @@ Status FinishJob(const FitJobOptions& o, const LightStack& stack, const FitMetho
   for (const ViewFit& v : r.fit.views)
     info.views.push_back({v.theta_deg, v.phi_deg, &v.maps, &v.status, &v.parameters});
   if (!r.per_view_pca_models.empty()) AddPcaFiles(stack, &r.per_view_pca_models, &info);
-  MATFIT_RETURN_IF_ERROR(
-      WritePack(r.fit.maps, r.fit.status, info, {o.zip, o.overwrite, o.compact_maps}, o.out));
+  PackWriteOptions write{o.zip, o.overwrite, o.compact_maps};
+  write.progress = stages->Callback();
+  MATFIT_RETURN_IF_ERROR(WritePack(r.fit.maps, r.fit.status, info, write, o.out));
   stages->End();
   return Status::Ok();
 }

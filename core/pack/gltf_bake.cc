@@ -2,7 +2,9 @@
 
 #include <algorithm>
 #include <array>
+#include <atomic>
 #include <cmath>
+#include <mutex>
 #include <numbers>
 #include <vector>
 
@@ -354,7 +356,7 @@ struct TexelFit {
 
 }  // namespace
 
-GltfBake BakeBasisAsGgx(const MaterialMaps& m) {
+GltfBake BakeBasisAsGgx(const MaterialMaps& m, const ProgressFn& progress) {
   const std::vector<Vec3f> dirs = CapDirections();
   const CapLights lights(dirs);
   const int K = int(dirs.size()), ch = m.albedo.channels() == 3 ? 3 : 1;
@@ -418,7 +420,10 @@ GltfBake BakeBasisAsGgx(const MaterialMaps& m) {
   out.normal = Image(m.width, m.height, 3);
   out.f0 = Image(m.width, m.height, 1);
   out.roughness = Image(m.width, m.height, 1);
-  ParallelFor(0, (n + kRun - 1) / kRun, [&](int64_t r0, int64_t r1) {
+  const int64_t runs = (n + kRun - 1) / kRun;
+  std::atomic<int64_t> runs_done{0};
+  std::mutex progress_mutex;
+  ParallelFor(0, runs, [&](int64_t r0, int64_t r1) {
     Worker w = make_worker();
     for (int64_t r = r0; r < r1; ++r) {
       const int64_t p0 = r * kRun;
@@ -437,6 +442,11 @@ GltfBake BakeBasisAsGgx(const MaterialMaps& m) {
         for (int c = 0; c < 3; ++c) out.base.Plane(c)[p] = float(best.rho[std::min(c, ch - 1)]);
         out.f0.Plane(0)[p] = float(best.f0);
         out.roughness.Plane(0)[p] = float(best.r);
+      }
+      const int64_t d = ++runs_done;
+      if (progress) {
+        std::lock_guard<std::mutex> lock(progress_mutex);
+        (void)progress(d, runs);
       }
     }
   });

@@ -3,6 +3,7 @@
 
 #include "core/image.h"
 #include "core/material_maps.h"
+#include "core/progress_fn.h"
 
 namespace matfit {
 
@@ -31,7 +32,10 @@ struct GltfBake {
   Image f0;         // Fresnel reflectance at normal incidence, 1 plane
   Image roughness;  // GGX perceptual roughness r (α = r²), 1 plane
 };
-GltfBake BakeBasisAsGgx(const MaterialMaps& m);
+// `progress` (optional, called from worker threads one at a time) counts runs of texels done;
+// its return value is ignored (the bake is a part of the pack write, which is not cancelled
+// midway).
+GltfBake BakeBasisAsGgx(const MaterialMaps& m, const ProgressFn& progress = {});
 
 // E(r): the directional albedo of the Cook–Torrance lobe at F0 = 1 seen along the normal,
 // (1/π) ∫ R_s dω by quadrature, r clamped to [1/64, 1]; the multiple-scattering compensation of

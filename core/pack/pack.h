@@ -10,6 +10,7 @@
 #include <vector>
 
 #include "core/material_maps.h"
+#include "core/progress_fn.h"
 #include "core/status.h"
 
 namespace matfit {
@@ -61,6 +62,9 @@ struct PackWriteOptions {
   bool zip = false;        // write one .zip file instead of a folder
   bool overwrite = false;  // replace an existing output
   bool compact = false;    // smaller, slower-to-write map files (ImageWriteOptions::compact)
+  // Optional: the write's progress in thousandths (the glTF bake of a relighting basis, the
+  // files, the view packs), called one at a time; the return value is ignored.
+  ProgressFn progress;
 };
 
 // Writes the pack atomically to `out` (a folder; with zip, `out` is the .zip file path).

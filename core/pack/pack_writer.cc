@@ -1,6 +1,7 @@
 #include <zip.h>
 
 #include <algorithm>
+#include <atomic>
 #include <bit>
 #include <chrono>
 #include <cmath>
@@ -9,6 +10,7 @@
 #include <deque>
 #include <filesystem>
 #include <functional>
+#include <mutex>
 #include <nlohmann/json.hpp>
 
 #include "core/atomic_file.h"
@@ -184,6 +186,16 @@ Status WritePack(const MaterialMaps& m, const std::vector<uint8_t>& status, cons
   const ImageWriteOptions exr{PixelFormat::kFloat, TransferFunction::kLinear, compact};
   const ModelDescriptor& model = Model(m.model);
   const bool has_normal = model.writes_normal_map();
+  // Progress in thousandths: the glTF bake (most of a relighting basis's write), the files,
+  // the view packs; the rest (exports, glTF, material.json) is short.
+  std::mutex progress_mutex;
+  auto progress = [&](int64_t thousandths) {
+    if (!options.progress) return;
+    std::lock_guard<std::mutex> lock(progress_mutex);
+    (void)options.progress(thousandths, 1000);
+  };
+  const int64_t files_end = info.views.empty() ? 950 : 400;
+  const int64_t bake_end = model.gltf_baked() ? files_end * 7 / 10 : 0;
   MATFIT_RETURN_IF_ERROR(put("albedo", "albedo.png", m.albedo, srgb8, model.albedo_semantic()));
   MATFIT_RETURN_IF_ERROR(
       put("albedo_exact", "albedo.exr", m.albedo, exr, "the same, linear float"));
@@ -266,7 +278,10 @@ Status WritePack(const MaterialMaps& m, const std::vector<uint8_t>& status, cons
   const bool baked = model.gltf_baked();
   GltfF0 baked_f0;
   if (baked) {
-    GltfBake bake = BakeBasisAsGgx(m);
+    GltfBake bake = BakeBasisAsGgx(m, [&](int64_t done, int64_t total) {
+      progress(bake_end * done / std::max<int64_t>(1, total));
+      return true;
+    });
     MATFIT_RETURN_IF_ERROR(put("gltf_base_color", "gltf_base_color.png", keep(bake.base), srgb8,
                                "glTF base colour: the fitted Lambert + GGX surface's albedo"));
     MATFIT_RETURN_IF_ERROR(put("gltf_normal", "gltf_normal.png", keep(NormalColour(bake.normal)),
@@ -344,10 +359,14 @@ Status WritePack(const MaterialMaps& m, const std::vector<uint8_t>& status, cons
   });
   {
     std::vector<Status> written(tasks.size(), Status::Ok());
+    std::atomic<int64_t> finished{0};
     ParallelFor(
         0, int64_t(tasks.size()),
         [&](int64_t t0, int64_t t1) {
-          for (int64_t t = t0; t < t1; ++t) written[size_t(t)] = tasks[size_t(t)]();
+          for (int64_t t = t0; t < t1; ++t) {
+            written[size_t(t)] = tasks[size_t(t)]();
+            progress(bake_end + (files_end - bake_end) * ++finished / int64_t(tasks.size()));
+          }
         },
         1);
     for (const Status& st : written) MATFIT_RETURN_IF_ERROR(st);
@@ -433,6 +452,7 @@ Status WritePack(const MaterialMaps& m, const std::vector<uint8_t>& status, cons
     views.push_back({{"theta_deg", pv.theta_deg},
                      {"phi_deg", pv.phi_deg},
                      {"pack", std::string("views/") + name}});
+    progress(files_end + (990 - files_end) * int64_t(v + 1) / int64_t(info.views.size()));
   }
 
   json params = json::object();

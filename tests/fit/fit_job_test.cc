@@ -290,6 +290,40 @@ TEST(FitJob, AnnouncesAndTimesEveryStageThatRan) {
   }
 }
 
+// The write stage moves while it runs: a relighting basis's glTF bake, then the files, in
+// thousandths, never backwards (a 1024² ptm pack writes for seconds).
+TEST(FitJob, TheWriteStageReportsProgressThroughTheBakeAndTheFiles) {
+  PackDir tmp;
+  for (const char* model : {"ptm", "lambert"}) {
+    FitJobOptions o;
+    o.input = kFixture;
+    o.model = model;
+    o.out = tmp / model;
+    std::vector<int64_t> write;
+    auto r = RunFitJob(o, [&](const std::string& stage, int64_t done, int64_t total) {
+      if (stage == "write") {
+        EXPECT_EQ(total, write.empty() ? total : 1000) << model;
+        write.push_back(done);
+      }
+      return true;
+    });
+    ASSERT_TRUE(r.ok()) << r.status().ToString();
+    ASSERT_GE(write.size(), 2u);
+    EXPECT_EQ(write.front(), 0);
+    EXPECT_TRUE(std::is_sorted(write.begin(), write.end())) << model;
+    std::vector<int64_t> inside;
+    for (int64_t d : write)
+      if (d > 0 && d < 1000) inside.push_back(d);
+    inside.erase(std::unique(inside.begin(), inside.end()), inside.end());
+    // ptm: bake runs below 665, then one step per file; lambert: one step per file.
+    EXPECT_GE(inside.size(), 5u) << model;
+    if (std::string(model) == "ptm") {
+      EXPECT_TRUE(std::any_of(inside.begin(), inside.end(), [](int64_t d) { return d <= 665; }));
+    }
+    EXPECT_EQ(write.back(), 1000) << model;
+  }
+}
+
 TEST(FitJob, DecodeOnlyReadsTheDatasetAndWritesNothing) {
   PackDir tmp;
   FitJobOptions o;
