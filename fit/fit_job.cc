@@ -1,19 +1,18 @@
 #include "fit/fit_job.h"
 
+#include "fit/fit_job_finish.h"
+#include "fit/fit_job_stages.h"
+#include "fit/fit_job_streamed.h"
+
 #include <algorithm>
-#include <atomic>
-#include <chrono>
 #include <cstdio>
 #include <fstream>
 #include <nlohmann/json.hpp>
-#include <sstream>
 #include "core/atomic_file.h"
 #include "core/comm.h"
 #include "core/dataset/info.h"
 #include "core/output_marker.h"
-#include "core/pack/pack.h"
 #include "core/pack/pack_reader.h"
-#include "core/path_util.h"
 #include "core/stack_band.h"
 #include "core/stack_ops.h"
 #include "core/synth/truth_io.h"
@@ -23,318 +22,17 @@
 #include "fit/fit_common.h"
 #include "fit/method.h"
 #include "fit/per_view_fit.h"
-#include "fit/report.h"
 #include "fit/score.h"
 #include "fit/stream_fit.h"
-#include "fit/stream_per_view.h"
 
 namespace matfit::fit {
-namespace {
 
-using Clock = std::chrono::steady_clock;
-
-double Since(Clock::time_point t) {
-  return std::chrono::duration<double>(Clock::now() - t).count();
-}
-
-// The stages of one job: announces each to the progress callback (done = 0 at the start, done =
-// total at the end unless the stage's own callback got there) and times it.
-class Stages {
- public:
-  explicit Stages(const StageProgress& progress) : progress_(progress), start_(Clock::now()) {}
-
-  // Starts `name` (ending nothing: stages do not overlap); false = cancelled.
-  bool Begin(const char* name, int64_t total = 1) {
-    name_ = name, total_ = total, reached_ = false, begin_ = Clock::now();
-    return !progress_ || progress_(name_, 0, total_);
-  }
-  // The stage's own callback for the code it runs (empty without a progress callback).
-  ProgressFn Callback() {
-    if (!progress_) return {};
-    return [this, name = name_](int64_t d, int64_t t) {
-      if (t > 0) total_ = t;  // End() completes the stage in the callback's own units
-      if (t > 0 && d >= t) reached_ = true;
-      return progress_(name, d, t);
-    };
-  }
-  // Ends the running stage: records its time, reports it complete.
-  void End() {
-    timings_.stages.emplace_back(name_, Since(begin_));
-    if (progress_ && !reached_) progress_(name_, total_.load(), total_.load());
-  }
-  // Completed stages, and the running one so far when `running` is set; total so far.
-  StageTimings Snapshot(bool running = false) const {
-    StageTimings t = timings_;
-    if (running) t.stages.emplace_back(name_, Since(begin_));
-    t.total = Since(start_);
-    return t;
-  }
-
- private:
-  const StageProgress& progress_;
-  Clock::time_point start_, begin_;
-  std::string name_;
-  std::atomic<int64_t> total_{1};
-  std::atomic<bool> reached_{false};
-  StageTimings timings_;
-};
-
-Status Cancelled() { return Status(StatusCode::kCancelled, "cancelled"); }
-
-std::string Megabytes(int64_t bytes) { return std::to_string((bytes + (1 << 19)) >> 20) + " MB"; }
-
-// The truth maps of the stack's region: a dataset read with --crop is compared with the same
-// region of its truth (maps of the whole images' size are cut; a stack at a lower mip, or truth
-// of another size, is left to fail the size check).
-StatusOr<MaterialMaps> TruthOfRegion(StatusOr<MaterialMaps> truth, const LightStack& stack) {
-  if (!truth.ok() || !stack.is_read_crop() || truth->width != stack.source_width ||
-      truth->height != stack.source_height)
-    return truth;
-  return CropMaps(*truth, stack.crop_x, stack.crop_y, stack.crop_w, stack.crop_h);
-}
-
-// report.json's "crop": the region of the source images read with --crop (also when the pack
-// is at a lower mip of it).
-std::optional<FitReportInputs::Region> CropRegion(const LightStack& s) {
-  if (s.crop_w <= 0) return std::nullopt;
-  return FitReportInputs::Region{s.crop_x, s.crop_y,       s.crop_w,
-                                 s.crop_h, s.source_width, s.source_height};
-}
-
-// --components: the per-view PCA at the largest k as the pack's pca/ folder (docs/pack.md
-// "Per-view PCA"): per view its weights and basis (float EXR), and pca/pca.json.
-void AddPcaFiles(const LightStack& stack, std::vector<ViewPcaModel>* models, PackInfo* info) {
-  nlohmann::json views = nlohmann::json::array();
-  int k = 0;
-  for (size_t v = 0; v < models->size(); ++v) {
-    ViewPcaModel& m = (*models)[v];
-    char name[32];
-    std::snprintf(name, sizeof name, "pca/v%03u", unsigned(v));
-    nlohmann::json lights = nlohmann::json::array();
-    for (int i : m.images) {
-      const LightSample& l = stack.lights()[size_t(i)];
-      lights.push_back({{"direction", {l.direction.x, l.direction.y, l.direction.z}},
-                        {"intensity", {l.intensity.x, l.intensity.y, l.intensity.z}}});
-    }
-    k = std::max(k, m.weights.channels());
-    views.push_back({{"theta_deg", m.theta_deg},
-                     {"phi_deg", m.phi_deg},
-                     {"k", m.weights.channels()},
-                     {"weights", std::string(name) + "_weights.exr"},
-                     {"basis", std::string(name) + "_basis.exr"},
-                     {"lights", lights}});
-    info->extra_files.push_back({std::string(name) + "_weights.exr",
-                                 "per-view PCA weights (k channels per texel)",
-                                 std::move(m.weights),
-                                 {}});
-    info->extra_files.push_back({std::string(name) + "_basis.exr",
-                                 "per-view PCA mean (row 0) and components (rows 1..k)",
-                                 std::move(m.basis),
-                                 {}});
-  }
-  const nlohmann::json j = {
-      {"schema", "matfit.pca/1"},
-      {"k", k},  // the largest; a view with fewer samples holds min(k, L·C) (its own "k")
-      {"channels", stack.channels()},
-      {"sample",
-       "I[a][c] * (basis[0][a*C + c] + sum_j weights[j](x) * basis[j][a*C + c]) for image a of the "
-       "view (its lights, in order), channel c, texel x; linear"},
-      {"views", views}};
-  info->extra_files.push_back({"pca/pca.json",
-                               "per-view PCA reference (Sattler 2003): views, lights, files",
-                               {},
-                               j.dump(2) + "\n"});
-}
-
-// The steps after scoring, on the whole stack's maps (rank 0 of a distributed fit): truth,
-// report.json and the pack.
-Status FinishJob(const FitJobOptions& o, const LightStack& stack, const FitMethod& method,
-                 const std::optional<Selection>& selection, const SceneSpec& scene,
-                 const std::vector<uint8_t>& fitted_status, FitResult fit, Stages* stages,
-                 FitJobResult* out) {
-  FitJobResult& r = *out;
-  const std::string truth_dir = synth::FindTruthFolder(o.input);
-  if (!truth_dir.empty()) {
-    if (!stages->Begin("truth")) return Cancelled();
-    auto truth = TruthOfRegion(synth::ReadTruth(truth_dir, o.read.confine_to), stack);
-    if (truth.ok() && truth->width == stack.width() && truth->height == stack.full_height()) {
-      r.truth = CompareToTruth(fit.maps, *truth, fitted_status);
-      // The bound claims the supported cone: scored there, as the stability matrix does. Only
-      // where relighting the truth maps gives the true appearance (not micro-geometry truth).
-      const Confidence& c = r.assessment.confidence;
-      if (!c.bound.empty() && synth::TruthMapsAreTheAppearance(truth_dir, o.read.confine_to))
-        r.bound_ratio_truth = BoundToActualRatio(
-            c.bound,
-            RelightingError(fit.maps, *truth,
-                            DomeDirections(48, c.supported_theta_deg, c.supported_axis),
-                            stack.view_direction),
-            fit.status);
-    } else
-      fit.warnings.push_back(
-          Warning(WarningCode::kTruthUnusable,
-                  "truth folder '" + DatasetRelative(truth_dir, o.read.confine_to) +
-                      "' could not be used: " +
-                      (truth.ok() ? std::string("size differs") : truth.status().message())));
-    stages->End();
-  }
-  r.fit = std::move(fit);
-
-  if (!stages->Begin("write")) return Cancelled();
-  FitReportInputs ri;
-  ri.result = &r.fit;
-  ri.parameters_per_texel = method.parameters_per_texel();
-  // A per-view pack stores the base model's maps once per view.
-  ri.bytes_per_texel = method.bytes_per_texel() * std::max<int>(1, int(r.fit.views.size()));
-  ri.images = r.images;
-  ri.reconstruction = r.reconstruction;
-  ri.reconstruction_common = r.reconstruction_common;
-  ri.heldout = r.heldout;
-  ri.heldout_views = r.heldout_views;
-  ri.deviation_by_view_theta = r.deviation_by_view_theta;
-  ri.per_view_pca = r.per_view_pca;
-  ri.truth = r.truth;
-  // An out-of-core fit has no assessment (no bound, no diagnosis): report.json says null.
-  ri.assessment = r.assessment.confidence.bound.empty() ? nullptr : &r.assessment;
-  ri.tone = r.tone ? &*r.tone : nullptr;
-  ri.read_encoding = r.read_encoding;
-  ri.bound_ratio_heldout = r.bound_ratio_heldout;
-  ri.bound_ratio_truth = r.bound_ratio_truth;
-  if (selection) ri.selection_json = SelectionJson(*selection, scene);
-  ri.source = o.source_label.empty() ? o.input : o.source_label;
-  ri.crop = CropRegion(stack);
-  r.report_json = MakeReportJson(ri);  // for material.json's summary; timed again below
-
-  PackInfo info;
-  info.method = r.fit.method;
-  info.source = ri.source;
-  info.report_json = r.report_json;
-  // report.json is the pack's last file: its timings include the write up to that point.
-  info.final_report_json = [&] {
-    r.timings = stages->Snapshot(/*running=*/true);
-    ri.timings = &r.timings;
-    r.report_json = MakeReportJson(ri);
-    return r.report_json;
-  };
-  info.model_parameters = r.fit.parameters;
-  info.mm_per_texel = stack.mm_per_texel;
-  info.warnings = r.fit.warnings;
-  if (!r.assessment.confidence.bound.empty()) {  // none for an out-of-core fit
-    Image bound(stack.width(), stack.full_height(), 1);
-    std::copy(r.assessment.confidence.bound.begin(), r.assessment.confidence.bound.end(),
-              bound.Plane(0).begin());
-    info.extra_maps.push_back({"confidence", "confidence.exr",
-                               "per-texel bound on the RMS relighting error (linear, per unit "
-                               "light; +inf = flagged), docs/stability.md",
-                               std::move(bound)});
-  }
-  if (!r.fit.dropped_lights.empty()) {
-    Image dropped(stack.width(), stack.full_height(), 1);
-    for (size_t p = 0; p < r.fit.dropped_lights.size(); ++p)
-      dropped.data()[p] = float(std::min<int>(r.fit.dropped_lights[p], 255)) / 255.0f;
-    info.extra_maps.push_back({"dropped", "dropped.png",
-                               "per texel, the lights whose clipped or non-finite samples the "
-                               "fit dropped (8-bit count, 255 = 255 or more)",
-                               std::move(dropped)});
-  }
-  for (const ViewFit& v : r.fit.views)
-    info.views.push_back({v.theta_deg, v.phi_deg, &v.maps, &v.status, &v.parameters});
-  if (!r.per_view_pca_models.empty()) AddPcaFiles(stack, &r.per_view_pca_models, &info);
-  PackWriteOptions write{o.zip, o.overwrite, o.compact_maps};
-  write.progress = stages->Callback();
-  MATFIT_RETURN_IF_ERROR(WritePack(r.fit.maps, r.fit.status, info, write, o.out));
-  stages->End();
-  return Status::Ok();
-}
-
-// A multi-view stack over the memory budget: the band cache, svbrdf's start on the frontal view,
-// the bands, then truth and the pack as any fit (no confidence bound: it pools residual
-// statistics over the whole stack).
-StatusOr<FitJobResult> RunStreamedJob(const FitJobOptions& o, int64_t budget, StreamedFit* sf,
-                                      Stages* stages) {
-  const std::string size =
-      Megabytes(sf->FloatBytes()) + " as float > --memory " + Megabytes(budget);
-  const auto method = MakeMethod(o.model);
-  const bool per_view = method && PerViewBase(*method);
-  if (o.model != "svbrdf" && !per_view)
-    return InvalidArgument("--model " + o.model + ": this stack (" + size +
-                           ") is fitted out of core, which --model svbrdf and per-view:MODEL do; "
-                           "name one, or raise --memory to fit in memory");
-  if (sf->shape().has_light_positions())
-    return InvalidArgument(o.model +
-                           ": near lights (light_positions.txt) over several views are not "
-                           "supported; use --distant-lights");
-  if (o.holdout != 0 || !o.pca_components.empty())
-    return InvalidArgument("--holdout/--components: this stack (" + size +
-                           ") is fitted out of core, where held-out light folds and the PCA "
-                           "reference are not run yet (--holdout-views is); raise --memory or "
-                           "drop them");
-  // Held-out views: each band is refined a second time without them (fit/stream_fit.h).
-  std::vector<int> held;
-  if (o.holdout_views > 0) {
-    const auto groups = ViewGroups(sf->shape());
-    const int v = int(groups.size());
-    if (o.holdout_views > v - 1)
-      return InvalidArgument("--holdout-views must be in [1, " + std::to_string(v - 1) +
-                             "] for this stack of " + std::to_string(v) +
-                             " views (the most frontal view is always fitted), got " +
-                             std::to_string(o.holdout_views));
-    held = ChooseHeldOutViews(sf->shape(), groups, o.holdout_views);
-  }
-  stages->End();  // read: the headers
-  FitJobResult r;
-  r.images = int(sf->shape().lights().size());
-  r.width = sf->shape().width(), r.height = sf->shape().height();
-  r.channels = sf->shape().channels();
-  if (per_view) {  // one view at a time (fit/stream_per_view.h): no cache
-    if (!stages->Begin("fit", int64_t(ViewGroups(sf->shape()).size() + held.size())))
-      return Cancelled();
-    auto pv =
-        FitPerViewOutOfCore(o.input, o.read, sf->shape(), *method, o.fit, held, stages->Callback());
-    if (!pv.ok()) return pv.status();
-    stages->End();
-    r.reconstruction = pv->reconstruction;
-    r.reconstruction_common = pv->reconstruction_common;
-    r.deviation_by_view_theta = pv->deviation_by_view_theta;
-    r.heldout_views = pv->heldout_views;
-    r.tone = pv->tone;
-    r.assessment = std::move(pv->assessment);
-    r.read_encoding = pv->read_encoding;
-    pv->fit.parameters["streamed_views"] = double(ViewGroups(sf->shape()).size());
-    const std::vector<uint8_t> fitted_status = pv->fit.views[size_t(pv->fit.frontal_view)].status;
-    MATFIT_RETURN_IF_ERROR(FinishJob(o, sf->shape(), *method, std::nullopt, SceneSpec{},
-                                     fitted_status, std::move(pv->fit), stages, &r));
-    r.timings = stages->Snapshot();
-    return r;
-  }
-  if (!stages->Begin("cache", r.images)) return Cancelled();
-  StreamFitOptions so;
-  so.memory_bytes = budget, so.cache_dir = o.cache_dir;
-  so.holdout_views = !held.empty();
-  MATFIT_RETURN_IF_ERROR(sf->BuildCache(so, stages->Callback()));
-  stages->End();
-  if (!stages->Begin("start")) return Cancelled();
-  MATFIT_RETURN_IF_ERROR(sf->FitStart(o.fit));
-  stages->End();
-  if (!stages->Begin("fit", sf->bands())) return Cancelled();
-  MATFIT_RETURN_IF_ERROR(sf->FitBands(o.fit, stages->Callback(), held));
-  stages->End();
-  r.reconstruction = sf->reconstruction();
-  r.reconstruction_common = sf->reconstruction_common();
-  r.tone = sf->tone();
-  r.deviation_by_view_theta = sf->DeviationByViewTheta();
-  r.heldout_views = sf->heldout_views();
-  r.streamed_bands = sf->bands();
-  r.read_encoding = DescribeReadEncoding(sf->decoded());
-  FitResult fit = std::move(sf->result());
-  fit.parameters["streamed_cache_mb"] = double(sf->cache_bytes()) / (1 << 20);
-  const std::vector<uint8_t> fitted_status = fit.status;
-  MATFIT_RETURN_IF_ERROR(FinishJob(o, sf->shape(), *method, std::nullopt, SceneSpec{},
-                                   fitted_status, std::move(fit), stages, &r));
-  r.timings = stages->Snapshot();
-  return r;
-}
-
-}  // namespace
+using job::Cancelled;
+using job::CropRegion;
+using job::FinishJob;
+using job::RunStreamedJob;
+using job::Stages;
+using job::TruthOfRegion;
 
 bool FitJobOptions::Check(std::string* why) const {
   auto fail = [why](std::string message) {
