@@ -1,9 +1,5 @@
 #include "fit/fit_job.h"
 
-#include "fit/fit_job_finish.h"
-#include "fit/fit_job_stages.h"
-#include "fit/fit_job_streamed.h"
-
 #include <algorithm>
 #include <cstdio>
 #include <fstream>
@@ -20,6 +16,9 @@
 #include "fit/assess.h"
 #include "fit/bands.h"
 #include "fit/fit_common.h"
+#include "fit/fit_job_finish.h"
+#include "fit/fit_job_stages.h"
+#include "fit/fit_job_streamed.h"
 #include "fit/method.h"
 #include "fit/per_view_fit.h"
 #include "fit/score.h"

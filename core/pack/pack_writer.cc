@@ -188,10 +188,15 @@ Status WritePack(const MaterialMaps& m, const std::vector<uint8_t>& status, cons
   const bool has_normal = model.writes_normal_map();
   // Progress in thousandths: the glTF bake (most of a relighting basis's write), the files,
   // the view packs; the rest (exports, glTF, material.json) is short.
+  // Reported from worker threads: one at a time, and never backwards (two tasks may finish
+  // in one order and report in the other).
   std::mutex progress_mutex;
+  int64_t reported = 0;
   auto progress = [&](int64_t thousandths) {
     if (!options.progress) return;
     std::lock_guard<std::mutex> lock(progress_mutex);
+    if (thousandths <= reported) return;
+    reported = thousandths;
     (void)options.progress(thousandths, 1000);
   };
   const int64_t files_end = info.views.empty() ? 950 : 400;
