@@ -131,6 +131,14 @@ void LightStack::Relinearise(const ColorEncoding& enc, const std::string& reason
   encoding_reasons.assign(size_t(num_images_), reason);
 }
 
+void LightStack::ReleaseSamples() {
+  // swap: clear() keeps the capacity; the pages go back to the system here.
+  decltype(f32_)().swap(f32_);
+  decltype(u8_)().swap(u8_);
+  decltype(u16_)().swap(u16_);
+  released_ = true;
+}
+
 size_t LightStack::MemoryBytes() const {
   return f32_.size() * sizeof(float) + u8_.size() + u16_.size() * sizeof(uint16_t) +
          lut_.size() * sizeof(float) + mask.size();

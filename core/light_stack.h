@@ -216,14 +216,21 @@ class LightStack {
   int64_t MaskedTexels() const;  // texels inside the mask (all when no mask)
   // Bytes held by the samples (at their native size), the lookup table and the mask.
   size_t MemoryBytes() const;
+  // Frees the samples and keeps everything else (size, lights, mask, metadata): for a job whose
+  // remaining steps need only the stack's description (fit/fit_job.cc, before the pack is
+  // written). Reading a sample afterwards is a MATFIT_DCHECK failure.
+  void ReleaseSamples();
+  bool samples_released() const { return released_; }
 
  private:
   int64_t PlaneOffset(int image, int channel) const {
     MATFIT_DCHECK(image >= 0 && image < num_images_ && channel >= 0 && channel < channels_);
+    MATFIT_DCHECK(!released_, "LightStack: a sample read after ReleaseSamples()");
     return (int64_t(image) * channels_ + channel) * plane_size();
   }
 
   void CheckFloat() const {
+    MATFIT_CHECK(!released_, "LightStack: Plane()/data() after ReleaseSamples()");
     MATFIT_CHECK(type_ == SampleType::kFloat32,
                  "LightStack: Plane()/data() on a stack held at native depth "
                  "(uint8/uint16 codes); read it with Row/Texels/At/Sample, or convert it with "
@@ -234,6 +241,7 @@ class LightStack {
 
   int width_ = 0, height_ = 0, channels_ = 0, num_images_ = 0;
   SampleType type_ = SampleType::kFloat32;
+  bool released_ = false;
   // One of these holds the samples (the others are empty).
   std::vector<float, LargePageAllocator<float>> f32_;
   std::vector<uint8_t, LargePageAllocator<uint8_t>> u8_;

@@ -387,7 +387,10 @@ StatusOr<FitJobResult> RunFitJob(const FitJobOptions& o, const StageProgress& pr
       r.heldout->texel_rmse = {};
     }
   }
-  // Rank 0 (or the only process) finishes; the other ranks learn its outcome.
+  // Rank 0 (or the only process) finishes; the other ranks learn its outcome. What is left needs
+  // the maps and the stack's description, not its samples: their memory goes back before the
+  // pack's buffers are allocated (a lower peak, and pages the system has just had back).
+  stack->ReleaseSamples();
   const Status finished =
       FinishJob(o, *stack, *method, selection, scene, fitted_status, std::move(*fit), &stages, &r);
   if (comm) {
