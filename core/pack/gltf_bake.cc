@@ -101,7 +101,7 @@ struct LobeSums {
 // branch-free over the lights so that it vectorises) split into a = lobe (1 − w) and b = lobe w,
 // the diffuse shape d = (1 − w) max(0, n·l), and their sums with the samples y (channel c at
 // y + c · padded). View straight down: n·v = n_z > 0.
-MATFIT_CLONES_V3 void LobeRun(const CapLights& L, const float* y, float nx, float ny, float nz,
+MATFIT_CLONES_V4 void LobeRun(const CapLights& L, const float* y, float nx, float ny, float nz,
                               float alpha, float* __restrict a, float* __restrict b,
                               float* __restrict d, LobeSums* s) {
   const float g1v = shading::GgxG1(nz, alpha), scale = float(M_PI) * g1v / (4 * nz);
@@ -167,8 +167,7 @@ struct TexelFit {
   const MsTable& ms;
   int ch;
   std::vector<float> y;
-  double yy[3] = {};    // Σ_k y²
-  double f0_guess = 0;  // the last Solve's F0 (the multiple-scattering fixed point starts there)
+  double yy[3] = {};  // Σ_k y²
   // Scratch per light: the diffuse shape, the lobe's F0 part and rest of the last Solve.
   std::vector<float> d, a, b;
   std::vector<double> lobe;  // the fitted lobe per light (FitTexel's scratch)
@@ -179,7 +178,6 @@ struct TexelFit {
     d.resize(size_t(L.padded)), a.resize(size_t(L.padded)), b.resize(size_t(L.padded));
   }
   void SamplesSet() {
-    f0_guess = 0;
     for (int c = 0; c < ch; ++c) {
       yy[c] = 0;
       for (int k = 0; k < L.K; ++k)
@@ -218,29 +216,21 @@ struct TexelFit {
     LobeSums s;
     LobeRun(L, y.data(), n.x, n.y, std::max(n.z, 1e-3f), float(r * r), a.data(), b.data(), d.data(),
             &s);
-    // The lobe is κ (F0 a + b) with κ = 1 + F0 c (multiple scattering): F0 by fixed-point
-    // iteration, each step linear with κ held (the sums scale by κ and κ²).
+    // The lobe is κ (F0 a + b) with κ = 1 + F0 c (multiple scattering): F0 from what the
+    // diffuse shape leaves (a⊥ = a − (a·d / d·d) d, alike in every channel), self-consistent
+    // with κ (SelfConsistentF0).
     const double c = ms(r);
     Lobe out;
     out.r = r;
-    // Warm-started from the texel's last F0; stops when F0 moves less than 1e-6.
-    double f0 = f0_guess, kappa = 1, zd[3], za[3];
-    for (int iter = 0; iter < 8; ++iter) {
-      const double before = f0;
-      kappa = 1 + f0 * c;
-      const double ad = kappa * s.ad, aa = kappa * kappa * s.aa;
-      // F0 from what the diffuse shape leaves: a⊥ = a − (a·d / d·d) d, alike in every channel.
-      const double proj = s.dd > 0 ? ad / s.dd : 0, den = ch * (aa - proj * ad);
-      double num = 0;
-      for (int k = 0; k < ch; ++k) {
-        zd[k] = s.yd[k] - kappa * s.bd, za[k] = kappa * (s.ya[k] - kappa * s.ba);
-        num += za[k] - proj * zd[k];
-      }
-      f0 = den > 1e-12 ? std::clamp(num / den, 0.0, 0.81) : 0.0;
-      if (c == 0 || std::abs(f0 - before) < 1e-6) break;
-    }
-    out.f0 = f0_guess = f0;
-    kappa = 1 + f0 * c;
+    const double proj = s.dd > 0 ? s.ad / s.dd : 0, a_perp = s.aa - proj * s.ad;
+    double y_perp = 0;
+    for (int k = 0; k < ch; ++k) y_perp += s.ya[k] - proj * s.yd[k];
+    const double f0 = ch * a_perp > 1e-12 ? SelfConsistentF0(y_perp / (ch * a_perp),
+                                                             (s.ba - proj * s.bd) / a_perp, c)
+                                          : 0.0;
+    out.f0 = f0;
+    const double kappa = 1 + f0 * c;
+    double zd[3], za[3];
     const double ad = kappa * s.ad, aa = kappa * kappa * s.aa, bd = kappa * s.bd,
                  bb = kappa * kappa * s.bb, ba = kappa * kappa * s.ba;
     for (int k = 0; k < ch; ++k) {
@@ -466,6 +456,18 @@ double GgxAlbedoHeadOn(double roughness) {
          (std::numbers::pi * u / kSteps);
   }
   return 2 * e;
+}
+
+double SelfConsistentF0(double u, double v, double c) {
+  const double g0 = u - v;  // F0 at κ = 1
+  if (!(g0 > 0)) return 0;
+  if (c <= 0) return std::min(g0, 0.81);
+  // The positive root (the roots' product (v − u) / c is negative), without cancellation:
+  // 2 g0 / (lin + √disc) when lin ≥ 0. The same point the iteration F0 ← u / κ − v reaches when
+  // it converges (at |slope| ≥ 1 it oscillates instead).
+  const double lin = 1 + c * v, disc = lin * lin + 4 * c * g0;
+  const double f0 = lin >= 0 ? 2 * g0 / (lin + std::sqrt(disc)) : (std::sqrt(disc) - lin) / (2 * c);
+  return std::min(f0, 0.81);
 }
 
 GltfF0 SplitF0ForGltf(const Image& f0, const Image& mask) {

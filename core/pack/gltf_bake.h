@@ -42,6 +42,13 @@ GltfBake BakeBasisAsGgx(const MaterialMaps& m, const ProgressFn& progress = {});
 // shading::GltfDielectricHalf is 1 + F0 (1/E − 1).
 double GgxAlbedoHeadOn(double roughness);
 
+// The stand-in's F0 given what the diffuse shape leaves of its lobe, with the lobe scaled by
+// κ = 1 + c F0 (c = 1/E − 1 ≥ 0): the solution in [0, 0.81] of F0 = u / κ − v, i.e. the
+// positive root of c F0² + (1 + c v) F0 + (v − u) = 0 cut to 0.81, or 0 when u − v ≤ 0
+// (no lobe). u = Σ_c y_c·a⊥ / (channels a⊥·a⊥) and v = b·a⊥ / a⊥·a⊥ (a⊥: the lobe's F0 part
+// orthogonal to the diffuse shape, b its rest).
+double SelfConsistentF0(double u, double v, double c);
+
 // A per-texel F0 map in glTF terms: KHR_materials_ior carries the material's F0 (the 99th
 // percentile over the texels inside `mask` — every texel when the mask is empty or of another
 // size — at most 0.81: η = (1 + √F0) / (1 − √F0)) and the sRGB specularColorTexture each

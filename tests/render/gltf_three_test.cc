@@ -8,6 +8,7 @@
 #include <gtest/gtest.h>
 #include <httplib.h>
 
+#include <algorithm>
 #include <cmath>
 #include <filesystem>
 #include <fstream>
@@ -403,6 +404,39 @@ TEST(GltfBake, TheSurfaceDrawsAsTheBasisInMatfit) {
       EXPECT_LE(mad, b.levels) << b.c.material << "-" << b.c.model << " at θ " << theta;
     }
   }
+}
+
+// The lobe's F0 solves F0 = u / (1 + c F0) − v (its multiple-scattering factor held
+// self-consistent) in closed form: the same point a converging fixed-point iteration reaches,
+// 0 without a lobe, 0.81 at most; also where the iteration would oscillate (slope ≤ −1).
+TEST(GltfBake, TheLobeF0IsSelfConsistentWithItsCompensation) {
+  int roots = 0, oscillating = 0;
+  for (double c : {0.0, 0.02, 0.3, 1.5, 9.0})
+    for (double u = -0.5; u <= 3.0; u += 0.125)
+      for (double v = -0.6; v <= 0.6; v += 0.1) {
+        const double f = SelfConsistentF0(u, v, c);
+        const auto g = [&](double x) { return u / (1 + c * x) - v; };
+        ASSERT_GE(f, 0.0);
+        ASSERT_LE(f, 0.81);
+        if (u - v <= 0) {
+          EXPECT_EQ(f, 0.0) << "u " << u << " v " << v << " c " << c;
+        } else if (f < 0.81) {
+          ++roots;
+          EXPECT_NEAR(f, g(f), 1e-12) << "u " << u << " v " << v << " c " << c;
+          const double slope = -u * c / ((1 + c * f) * (1 + c * f));  // g′ at the root
+          if (slope > -0.5) {  // the iteration converges there: it gives the same F0
+            double x = 0;
+            for (int i = 0; i < 200; ++i) x = std::clamp(g(x), 0.0, 0.81);
+            EXPECT_NEAR(f, x, 1e-9) << "u " << u << " v " << v << " c " << c;
+          } else if (slope <= -1) {
+            ++oscillating;
+          }
+        } else {
+          EXPECT_GE(g(0.81), 0.81 - 1e-12) << "u " << u << " v " << v << " c " << c;
+        }
+      }
+  EXPECT_GT(roots, 100);
+  EXPECT_GT(oscillating, 0);  // the grid reaches the cases the iteration could not settle
 }
 
 // A Lambertian prediction bakes to itself: no lobe, the same normal and albedo.
