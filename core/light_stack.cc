@@ -4,6 +4,8 @@
 #include <cstring>
 #include <type_traits>
 
+#include "core/parallel.h"
+
 namespace matfit {
 namespace {
 
@@ -190,26 +192,29 @@ LightStack SelectView(const LightStack& s, const std::vector<int>& group) {
 }
 
 LightStack SelectImages(const LightStack& s, const std::vector<int>& idx) {
-  LightStack out(s.width(), s.height(), s.channels(), int(idx.size()), s.sample_type(), s.lut());
+  for (int i : idx) MATFIT_CHECK(i >= 0 && i < s.num_images());
+  // Every plane is copied below: no zeroing first, and the copies run in parallel (a held-out
+  // fold of 512×344×240 8-bit takes 91 MB; zeroed and copied by one thread it was a serial
+  // 0.03–0.06 s per fold).
+  LightStack out(s.width(), s.height(), s.channels(), int(idx.size()), s.sample_type(), s.lut(),
+                 LightStack::Uninitialised{});
   auto pick = [&](const auto& v, auto& dst) {
     if (v.size() == size_t(s.num_images()))
       for (int i : idx) dst.push_back(v[i]);
   };
-  for (size_t k = 0; k < idx.size(); ++k) {
-    const int i = idx[k];
-    MATFIT_CHECK(i >= 0 && i < s.num_images());
-    out.lights()[k] = s.lights()[i];
-    for (int c = 0; c < s.channels(); ++c) {
+  for (size_t k = 0; k < idx.size(); ++k) out.lights()[k] = s.lights()[size_t(idx[k])];
+  const int C = s.channels();
+  ParallelFor(0, int64_t(idx.size()) * C, [&](int64_t b, int64_t e) {
+    for (int64_t j = b; j < e; ++j) {
+      const int k = int(j / C), c = int(j % C), i = idx[size_t(k)];
       auto copy = [&](auto src, auto dst) { std::copy(src.begin(), src.end(), dst.begin()); };
       switch (s.sample_type()) {
-        case SampleType::kFloat32: copy(s.Plane(i, c), out.Plane(int(k), c)); break;
-        case SampleType::kUint8: copy(s.Codes<uint8_t>(i, c), out.Codes<uint8_t>(int(k), c)); break;
-        case SampleType::kUint16:
-          copy(s.Codes<uint16_t>(i, c), out.Codes<uint16_t>(int(k), c));
-          break;
+        case SampleType::kFloat32: copy(s.Plane(i, c), out.Plane(k, c)); break;
+        case SampleType::kUint8: copy(s.Codes<uint8_t>(i, c), out.Codes<uint8_t>(k, c)); break;
+        case SampleType::kUint16: copy(s.Codes<uint16_t>(i, c), out.Codes<uint16_t>(k, c)); break;
       }
     }
-  }
+  });
   out.view_direction = s.view_direction;
   out.view_theta_deg = s.view_theta_deg, out.view_phi_deg = s.view_phi_deg;
   out.mask = s.mask;

@@ -133,16 +133,37 @@ double ScoreLightParts(bool residuals, bool reconstruction, const LightChannels&
   return ScoreLight<C, false, true>(l, clip_level, ok, n, acc, sum, k, m);
 }
 
+// The 8-bit sRGB code of every stored code of an integer stack: LinearToSrgb8Batch of its
+// linear value, the same byte the float path computes from the decoded sample (for an 8-bit sRGB
+// stack, the code itself). Empty for float stacks.
+std::vector<uint8_t> Srgb8OfCodes(const LightStack& s) {
+  std::vector<uint8_t> out(s.lut().size());
+  if (!out.empty()) LinearToSrgb8Batch(s.lut().data(), 1.0f, int(out.size()), out.data());
+  return out;
+}
+
 // Σ over scored texels and channels of (code(raw) − code(I · pred))², codes by LinearToSrgb8Fast:
-// an integer, so the sum is exact in any order.
-int64_t Srgb8SquaredError(const LightChannels& l, int channels, const float* ok, int n) {
+// an integer, so the sum is exact in any order. Raw samples of an integer stack take their code
+// from `srgb8_of_code` (Srgb8OfCodes) by their stored code: no float conversion per sample.
+int64_t Srgb8SquaredError(const LightStack& s, int image, int64_t p0,
+                          const std::vector<uint8_t>& srgb8_of_code, const LightChannels& l,
+                          int channels, const float* ok, int n) {
   constexpr int kBlock = 256;
   uint8_t a[kBlock], b[kBlock];
   int64_t sum = 0;
-  for (int c = 0; c < channels; ++c)
+  for (int c = 0; c < channels; ++c) {
+    const uint8_t* u8 =
+        s.sample_type() == SampleType::kUint8 ? s.Codes<uint8_t>(image, c).data() + p0 : nullptr;
+    const uint16_t* u16 =
+        s.sample_type() == SampleType::kUint16 ? s.Codes<uint16_t>(image, c).data() + p0 : nullptr;
     for (int t0 = 0; t0 < n; t0 += kBlock) {
       const int m = std::min(kBlock, n - t0);
-      LinearToSrgb8Batch(l.raw[c] + t0, 1.0f, m, a);
+      if (u8)
+        for (int t = 0; t < m; ++t) a[t] = srgb8_of_code[u8[t0 + t]];
+      else if (u16)
+        for (int t = 0; t < m; ++t) a[t] = srgb8_of_code[u16[t0 + t]];
+      else
+        LinearToSrgb8Batch(l.raw[c] + t0, 1.0f, m, a);
       LinearToSrgb8Batch(l.pred[c] + t0, l.intensity[c], m, b);
       int32_t block = 0;  // ≤ 256 · 255² < 2^31
       for (int t = 0; t < m; ++t) {
@@ -151,6 +172,7 @@ int64_t Srgb8SquaredError(const LightChannels& l, int channels, const float* ok,
       }
       sum += block;
     }
+  }
   return sum;
 }
 
@@ -229,6 +251,7 @@ StackScore ScoreStack(const LightStack& s, const std::vector<int>& images, const
   std::vector<int64_t> run_count(reconstruction ? size_t(runs * n) : 0, 0);
   const bool srgb8 = reconstruction && parts.srgb8;
   std::vector<int64_t> run_srgb8(srgb8 ? size_t(runs * n) : 0, 0);
+  const std::vector<uint8_t> srgb8_of_code = srgb8 ? Srgb8OfCodes(s) : std::vector<uint8_t>{};
   std::atomic<int64_t> done{0};
   std::mutex progress_mutex;
   ParallelFor(
@@ -281,7 +304,9 @@ StackScore ScoreStack(const LightStack& s, const std::vector<int>& images, const
               run_sum[size_t(r * n + j)] = d2;
               run_count[size_t(r * n + j)] = int64_t(ok_count) * C;
             }
-            if (srgb8) run_srgb8[size_t(r * n + j)] = Srgb8SquaredError(l, C, ok, len);
+            if (srgb8)
+              run_srgb8[size_t(r * n + j)] =
+                  Srgb8SquaredError(s, i, p0, srgb8_of_code, l, C, ok, len);
           }
           for (int t = 0; t < len && residuals; ++t) {
             if (ok[t] == 0) continue;

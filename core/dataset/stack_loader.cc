@@ -199,8 +199,14 @@ StatusOr<LightStack> LoadStack(const std::vector<std::string>& files,
   const int source_w = first->width, source_h = first->height, ch = first->channels;
   const int n = int(files.size());
   auto shown = [&](const std::string& f) { return DatasetRelative(f, o.confine_to); };
+  // Read in parallel (a file's header costs three opens and a parse: ~40 µs each, 9 ms of one
+  // thread for 240 JPEGs), checked in file order: the first bad file is the one reported.
+  std::vector<StatusOr<ImageHeader>> headers(size_t(n), ImageHeader{});
+  ParallelFor(1, n, [&](int64_t b, int64_t e) {
+    for (int64_t i = b; i < e; ++i) headers[size_t(i)] = ReadImageHeader(files[size_t(i)], options);
+  });
   for (int i = 1; i < n; ++i) {
-    auto hd = ReadImageHeader(files[i], options);
+    const StatusOr<ImageHeader>& hd = headers[size_t(i)];
     if (!hd.ok()) return hd.status();
     if (hd->width != source_w || hd->height != source_h || hd->channels != ch)
       return DataError("image '" + shown(files[i]) + "' is " + std::to_string(hd->width) + "x" +

@@ -7,6 +7,7 @@
 
 #include "core/stack_ops.h"
 #include "fit/confidence.h"
+#include "fit/holdout.h"
 #include "fit/method.h"
 #include "fit/methods.h"
 #include "fit/metrics.h"
@@ -117,10 +118,41 @@ TEST(NativeDepth, ConfidenceEqualsFloat) {
 }
 
 TEST(NativeDepth, HeldOutFoldsKeepTheSampleType) {
-  const LightStack q = QuantiseStack(SynthData({"plaster", "dome:12", 8}).stack, 8);
-  const LightStack some = SelectImages(q, {3, 1, 7});
-  EXPECT_EQ(some.sample_type(), SampleType::kUint8);
-  for (int64_t p = 0; p < q.plane_size(); ++p) EXPECT_EQ(some.Sample(1, 2, p), q.Sample(1, 2, p));
+  const LightStack f = SynthData({"plaster", "dome:12", 8}).stack;
+  const std::vector<int> pick = {3, 1, 7, 11, 0};
+  for (const LightStack& s : {QuantiseStack(f, 8), QuantiseStack(f, 16), f}) {
+    const LightStack some = SelectImages(s, pick);  // planes copied in parallel
+    EXPECT_EQ(some.sample_type(), s.sample_type());
+    ASSERT_EQ(some.num_images(), int(pick.size()));
+    for (size_t k = 0; k < pick.size(); ++k) {
+      EXPECT_EQ(some.lights()[k].direction, s.lights()[size_t(pick[k])].direction);
+      for (int c = 0; c < s.channels(); ++c)
+        for (int64_t p = 0; p < s.plane_size(); ++p)
+          ASSERT_EQ(some.Sample(int(k), c, p), s.Sample(pick[k], c, p))
+              << k << " " << c << " " << p;
+    }
+  }
+}
+
+// Held-out figures on an integer stack equal those on the same stack as float32, the 8-bit sRGB
+// ones included (their raw codes come from a table of the stored codes, not from the floats).
+TEST(NativeDepth, HeldOutFiguresEqualFloat) {
+  const LightStack f = SynthData({"plastic", "dome:40", 24, 0.01}).stack;
+  for (int bits : {8, 16}) {
+    const LightStack q = QuantiseStack(f, bits);
+    const LightStack qf = q.ToFloat();
+    for (const char* name : {"lambert", "ptm"}) {
+      auto method = MakeMethod(name);
+      ASSERT_TRUE(method) << name;
+      auto a = HeldOut(*method, q, 4, {}), b = HeldOut(*method, qf, 4, {});
+      ASSERT_TRUE(a.ok() && b.ok()) << name;
+      EXPECT_EQ(a->samples, b->samples) << name;
+      EXPECT_EQ(a->rmse, b->rmse) << name << " " << bits;
+      EXPECT_EQ(a->rmse_srgb8, b->rmse_srgb8) << name << " " << bits;
+      EXPECT_EQ(a->rmse_srgb8_common, b->rmse_srgb8_common) << name << " " << bits;
+      EXPECT_GT(a->rmse_srgb8, 0.1) << name;  // a glossy material: the codes do differ
+    }
+  }
 }
 
 }  // namespace
