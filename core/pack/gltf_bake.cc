@@ -461,12 +461,17 @@ double GgxAlbedoHeadOn(double roughness) {
 double SelfConsistentF0(double u, double v, double c) {
   const double g0 = u - v;  // F0 at κ = 1
   if (!(g0 > 0)) return 0;
-  if (c <= 0) return std::min(g0, 0.81);
-  // The positive root (the roots' product (v − u) / c is negative), without cancellation:
-  // 2 g0 / (lin + √disc) when lin ≥ 0. The same point the iteration F0 ← u / κ − v reaches when
-  // it converges (at |slope| ≥ 1 it oscillates instead).
+  if (c == 0) return std::min(g0, 0.81);
+  // c > 0: the positive root (the roots' product (v − u) / c is negative), without cancellation
+  // as 2 g0 / (lin + √disc) when lin ≥ 0. c < 0 (a quadrature E(r) a hair above 1): the root that
+  // tends to g0 as c → 0, the same expression. The point the iteration F0 ← u / κ − v reaches
+  // when it converges (at |slope| ≥ 1 it oscillates instead).
   const double lin = 1 + c * v, disc = lin * lin + 4 * c * g0;
-  const double f0 = lin >= 0 ? 2 * g0 / (lin + std::sqrt(disc)) : (std::sqrt(disc) - lin) / (2 * c);
+  double f0;
+  if (c > 0)
+    f0 = lin >= 0 ? 2 * g0 / (lin + std::sqrt(disc)) : (std::sqrt(disc) - lin) / (2 * c);
+  else
+    f0 = disc >= 0 && lin > 0 ? 2 * g0 / (lin + std::sqrt(disc)) : g0;
   return std::min(f0, 0.81);
 }
 

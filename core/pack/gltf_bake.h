@@ -43,10 +43,10 @@ GltfBake BakeBasisAsGgx(const MaterialMaps& m, const ProgressFn& progress = {});
 double GgxAlbedoHeadOn(double roughness);
 
 // The stand-in's F0 given what the diffuse shape leaves of its lobe, with the lobe scaled by
-// κ = 1 + c F0 (c = 1/E − 1 ≥ 0): the solution in [0, 0.81] of F0 = u / κ − v, i.e. the
-// positive root of c F0² + (1 + c v) F0 + (v − u) = 0 cut to 0.81, or 0 when u − v ≤ 0
-// (no lobe). u = Σ_c y_c·a⊥ / (channels a⊥·a⊥) and v = b·a⊥ / a⊥·a⊥ (a⊥: the lobe's F0 part
-// orthogonal to the diffuse shape, b its rest).
+// κ = 1 + c F0 (c = 1/E − 1: ≥ 0 up to quadrature error): the solution in [0, 0.81] of
+// F0 = u / κ − v, i.e. the positive root of c F0² + (1 + c v) F0 + (v − u) = 0 cut to 0.81,
+// or 0 when u − v ≤ 0 (no lobe). u = Σ_c y_c·a⊥ / (channels a⊥·a⊥), v = b·a⊥ / a⊥·a⊥ (a⊥: the
+// lobe's F0 part orthogonal to the diffuse shape, b its rest).
 double SelfConsistentF0(double u, double v, double c);
 
 // A per-texel F0 map in glTF terms: KHR_materials_ior carries the material's F0 (the 99th
