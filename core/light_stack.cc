@@ -74,6 +74,7 @@ LightStack::LightStack(int width, int height, int channels, int num_images, Samp
 
 template <typename T>
 std::span<T> LightStack::Codes(int image, int channel) {
+  MATFIT_CHECK(!released_, "LightStack::Codes after ReleaseSamples()");
   if constexpr (std::is_same_v<T, uint8_t>) {
     MATFIT_CHECK(type_ == SampleType::kUint8, "Codes<uint8_t> on a stack that is not uint8");
     return {u8_.data() + PlaneOffset(image, channel), size_t(plane_size())};
@@ -102,6 +103,7 @@ void LightStack::Decode(int64_t k, int n, float* out) const {
 }
 
 LightStack LightStack::ToFloat() const {
+  MATFIT_CHECK(!released_, "LightStack::ToFloat after ReleaseSamples()");
   if (is_float()) return *this;
   LightStack out(width_, height_, channels_, num_images_);
   for (int i = 0; i < num_images_; ++i)

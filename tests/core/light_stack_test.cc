@@ -23,6 +23,31 @@ TEST(LightStack, PlaneMajorLayout) {
   EXPECT_EQ(s.MaskedTexels(), 1);
 }
 
+// ReleaseSamples gives the samples' memory back and keeps the description (size, lights, mask,
+// table); a converted copy or a plane of codes afterwards is refused (per-sample reads: in
+// debug builds).
+TEST(LightStack, ReleaseSamplesKeepsTheDescription) {
+  std::vector<float> lut(256);
+  for (int k = 0; k < 256; ++k) lut[size_t(k)] = float(k) / 255;
+  LightStack s(64, 48, 3, 10, SampleType::kUint8, lut);
+  s.lights()[3] = LightFromDirection(Vec3(0.3, 0.1, 1));
+  s.mask.assign(size_t(s.plane_size()), 1);
+  s.mm_per_texel = 0.25;
+  const size_t before = s.MemoryBytes();
+  EXPECT_EQ(before, size_t(64 * 48 * 3 * 10) + 256 * sizeof(float) + size_t(64 * 48));
+  s.ReleaseSamples();
+  EXPECT_TRUE(s.samples_released());
+  EXPECT_EQ(s.MemoryBytes(), before - size_t(64 * 48 * 3 * 10));
+  EXPECT_EQ(s.width(), 64);
+  EXPECT_EQ(s.height(), 48);
+  EXPECT_EQ(s.num_images(), 10);
+  EXPECT_EQ(s.lights()[3].direction, LightFromDirection(Vec3(0.3, 0.1, 1)).direction);
+  EXPECT_EQ(s.MaskedTexels(), 64 * 48);
+  EXPECT_EQ(s.mm_per_texel, 0.25);
+  EXPECT_DEATH((void)s.ToFloat(), "ReleaseSamples");
+  EXPECT_DEATH((void)s.Codes<uint8_t>(0, 0), "ReleaseSamples");
+}
+
 TEST(Tiles, CoverEveryTexelExactlyOnce) {
   for (int tile : {1, 7, 16, 100}) {
     const auto tiles = MakeTiles(37, 23, tile);
