@@ -13,6 +13,7 @@
 #include "core/parallel.h"
 #include "core/stack_ops.h"
 #include "core/synth/synth.h"
+#include "fit/diagnostics.h"
 #include "fit/methods.h"
 #include "fit/row_kernels.h"
 #include "fit/select_kth.h"
@@ -81,6 +82,24 @@ void BM_ReadStack(benchmark::State& state) {
   state.SetBytesProcessed(int64_t(state.iterations()) * floats * int64_t(sizeof(float)));
 }
 BENCHMARK(BM_ReadStack)->Name("read_stack")->Arg(256)->Unit(benchmark::kMillisecond)->UseRealTime();
+
+// The stack diagnosis every `matfit fit` runs (the tone-curve estimate on a grid of ~2048
+// texels, fit/diagnostics.h) on the 8-bit stack; compare with read_stack_u8 in the same run.
+void BM_Diagnose(benchmark::State& state) {
+  const LightStack& s = Stack8(int(state.range(0)));
+  SetNumThreads(int(state.range(1)));
+  for (auto _ : state) {
+    auto d = fit::DiagnoseStack(s);
+    benchmark::DoNotOptimize(d);
+  }
+  SetNumThreads(0);
+}
+BENCHMARK(BM_Diagnose)
+    ->Name("diagnose_u8")
+    ->Args({512, 1})
+    ->Args({512, 2})
+    ->Unit(benchmark::kMillisecond)
+    ->UseRealTime();
 
 // Memory bandwidth baseline: copy the same stack (N × C × W × H float32) once.
 void BM_Memcpy(benchmark::State& state) {

@@ -5,6 +5,7 @@
 #pragma once
 
 #include <cstdint>
+#include <functional>
 #include <string>
 #include <vector>
 
@@ -78,6 +79,22 @@ struct ImageHeader {
   int file_channels = 0;  // in the file
   SampleType type = SampleType::kFloat32;  // as ReadImageNative would hold the samples
 };
+
+// The planes one image of an integer stack decodes into (ReadImageInto).
+struct PlaneTarget {
+  int width = 0, height = 0, channels = 0;  // as ReadImageNative would return the image
+  SampleType type = SampleType::kUint8;     // kUint8 or kUint16
+  void* planes[4] = {};                     // channel c: width × height codes of `type`
+};
+
+// ReadImageNative into the caller's planes, without planes of its own: true when the file's
+// region, kept channels and sample type are the target's and `accept` (if set) takes its
+// ImageFileInfo as known before decoding (the transfer function); the planes and the info's
+// counts and mask are then ReadImageNative's. False leaves the planes untouched: *shape says
+// what the file holds. Errors as ReadImageNative's (the planes untouched too).
+StatusOr<bool> ReadImageInto(const std::string& path, const ImageReadOptions& options,
+                             const PlaneTarget& target, ImageFileInfo* info, ImageHeader* shape,
+                             const std::function<bool(const ImageFileInfo&)>& accept = {});
 
 // Reads only the header, with ReadImageNative's checks: options.confine_to, a size and layout
 // matfit reads, at most 2^30 samples, and for PNG a file long enough for the pixel data its

@@ -83,8 +83,7 @@ StatusOr<LightStack> Load(const std::vector<std::string>& files, std::vector<Lig
   std::atomic<bool> mixed{false};
   std::mutex progress_mutex, alpha_mutex;
   int alpha_images = 0;
-  auto store = [&](int i, const NativeImage& img, const ImageFileInfo& info) {
-    StorePlanes(img, i, &stack);
+  auto store = [&](int i, const ImageFileInfo& info) {
     if (!info.alpha_mask.empty()) {  // a texel is a sample where every image's alpha says so
       std::lock_guard<std::mutex> lock(alpha_mutex);
       if (alpha_images++ == 0)
@@ -97,33 +96,65 @@ StatusOr<LightStack> Load(const std::vector<std::string>& files, std::vector<Lig
     stack.saturated_pixels[i] = info.saturated_pixels;
     stack.nonfinite_samples[i] = info.nonfinite_samples;
   };
-  store(0, *first, first_info);
+  StorePlanes(*first, 0, &stack);
+  store(0, first_info);
   first = NativeImage();
-  // One image decoded per task at a time: the only copy besides the stack is that image's.
+  // Integer files decode straight into the stack's planes (ReadImageInto: nothing is written
+  // unless the file has the first one's size, channels, depth and transfer function); float
+  // files are decoded one per task, then copied.
+  auto mismatch = [&](int64_t i, int iw, int ih, int ic) {
+    return DataError("image '" + files[size_t(i)] + "' is " + std::to_string(iw) + "x" +
+                     std::to_string(ih) + " with " + std::to_string(ic) + " channel(s) but '" +
+                     files[0] + "' is " + std::to_string(w) + "x" + std::to_string(h) + " with " +
+                     std::to_string(ch) +
+                     ": all images of a stack must have the same size and channels");
+  };
+  auto same_encoding = [&](const ImageFileInfo& info) {
+    return SameEncoding(info.encoding, first_info.encoding);
+  };
   ParallelFor(1, n, [&](int64_t b, int64_t e) {
     for (int64_t i = b; i < e; ++i) {
       if (mixed) break;
       ImageFileInfo info;
-      auto img = read(files[i], &info);
-      if (!img.ok()) {
-        errors[i] = img.status();
-        continue;
+      if (type != SampleType::kFloat32 && ch <= 4) {
+        PlaneTarget target;
+        target.width = w, target.height = h, target.channels = ch, target.type = type;
+        for (int c = 0; c < ch; ++c)
+          target.planes[c] = type == SampleType::kUint8
+                                 ? static_cast<void*>(stack.Codes<uint8_t>(int(i), c).data())
+                                 : static_cast<void*>(stack.Codes<uint16_t>(int(i), c).data());
+        ImageHeader shape;
+        auto stored =
+            ReadImageInto(files[size_t(i)], options, target, &info, &shape, same_encoding);
+        if (!stored.ok()) {
+          errors[i] = stored.status();
+          continue;
+        }
+        if (!*stored) {
+          if (shape.width != w || shape.height != h || shape.channels != ch) {
+            errors[i] = mismatch(i, shape.width, shape.height, shape.channels);
+            continue;
+          }
+          mixed = true;  // another depth or transfer function: the caller reloads as float
+          break;
+        }
+      } else {
+        auto img = read(files[i], &info);
+        if (!img.ok()) {
+          errors[i] = img.status();
+          continue;
+        }
+        if (img->width != w || img->height != h || img->channels != ch) {
+          errors[i] = mismatch(i, img->width, img->height, img->channels);
+          continue;
+        }
+        if (img->type != type || (type != SampleType::kFloat32 && !same_encoding(info))) {
+          mixed = true;  // one table cannot serve both: the caller reloads as float
+          break;
+        }
+        StorePlanes(*img, int(i), &stack);
       }
-      if (img->width != w || img->height != h || img->channels != ch) {
-        errors[i] =
-            DataError("image '" + files[i] + "' is " + std::to_string(img->width) + "x" +
-                      std::to_string(img->height) + " with " + std::to_string(img->channels) +
-                      " channel(s) but '" + files[0] + "' is " + std::to_string(w) + "x" +
-                      std::to_string(h) + " with " + std::to_string(ch) +
-                      ": all images of a stack must have the same size and channels");
-        continue;
-      }
-      if (img->type != type ||
-          (type != SampleType::kFloat32 && !SameEncoding(info.encoding, first_info.encoding))) {
-        mixed = true;  // one table cannot serve both: the caller reloads as float
-        break;
-      }
-      store(int(i), *img, info);
+      store(int(i), info);
       const int64_t d = ++done;
       if (progress) {
         std::lock_guard<std::mutex> lock(progress_mutex);

@@ -1,9 +1,11 @@
 #include <gtest/gtest.h>
 #include <sys/resource.h>
 
+#include <algorithm>
 #include <cmath>
 #include <filesystem>
 #include <fstream>
+#include <limits>
 
 #include "core/image_io.h"
 #include "core/large_page_allocator.h"
@@ -170,6 +172,171 @@ TEST(ImageIo, DecodingDoesNotFaultInAStagingBufferPerImage) {
                                 4096;
     EXPECT_LT(per_read, image_pages / 4) << name << ": " << per_read << " faults per read";
   }
+}
+
+// Codes written as round(v · max) with a linear transfer, and the pixels with a kept channel at
+// the maximum: what ReadImageNative and ReadImageInto must give back, computed here.
+template <typename T>
+struct WrittenCodes {
+  std::vector<std::vector<T>> planes;  // kept channels
+  int64_t saturated = 0;
+  std::vector<uint8_t> alpha;  // alpha > half range (with a fourth / second channel)
+};
+template <typename T>
+WrittenCodes<T> CodesOf(const Image& img, int keep, int x0, int y0, int w, int h) {
+  const float top = float(std::numeric_limits<T>::max());
+  WrittenCodes<T> out;
+  out.planes.assign(size_t(keep), std::vector<T>(size_t(w) * h));
+  auto code = [&](int c, int y, int x) {
+    return T(std::lround(std::clamp(img.At(c, y, x), 0.0f, 1.0f) * top));
+  };
+  for (int y = 0; y < h; ++y)
+    for (int x = 0; x < w; ++x) {
+      bool clipped = false;
+      for (int c = 0; c < keep; ++c) {
+        const T v = code(c, y0 + y, x0 + x);
+        out.planes[size_t(c)][size_t(y) * w + x] = v;
+        clipped = clipped || v == T(top);
+      }
+      out.saturated += clipped;
+      if (img.channels() == keep + 1)
+        out.alpha.push_back(code(keep, y0 + y, x0 + x) > T(top) / 2 ? 1 : 0);
+    }
+  return out;
+}
+
+// An image whose codes cover the range, with saturated samples scattered over every channel
+// (a width that is not a multiple of the 256-pixel blocks the splitter works in).
+Image Scattered(int w, int h, int ch) {
+  Image img(w, h, ch);
+  uint32_t state = 12345;
+  for (float& v : img.data()) {
+    state = state * 1664525u + 1013904223u;
+    const uint32_t r = state >> 8;
+    v = r % 29 == 0 ? 1.0f : float(r % 65536) / 65535.0f;
+  }
+  return img;
+}
+
+// ReadImageInto gives exactly ReadImageNative's planes, counts and mask, and both the codes the
+// file holds (computed independently above): 8- and 16-bit, grey, grey+alpha, RGB, RGBA, whole
+// and cropped.
+TEST(ImageIo, ReadIntoGivesTheFilesCodesAsReadNativeDoes) {
+  TempDir tmp;
+  for (int ch : {1, 2, 3, 4})
+    for (PixelFormat f : {PixelFormat::kUint8, PixelFormat::kUint16})
+      for (bool crop : {false, true}) {
+        SCOPED_TRACE(::testing::Message()
+                     << ch << " channel(s), " << FormatName(f) << (crop ? ", cropped" : ""));
+        const int W = 613, H = 9;
+        const Image img = Scattered(W, H, ch);
+        const std::string path = tmp / ("s" + std::to_string(ch) + FormatName(f) + ".png");
+        ASSERT_TRUE(WriteImage(path, img, {f, TransferFunction::kLinear}).ok());
+        ImageReadOptions o;
+        o.alpha_mask = true;
+        const int x0 = crop ? 3 : 0, y0 = crop ? 2 : 0, w = crop ? 517 : W, h = crop ? 5 : H;
+        if (crop) o.col0 = x0, o.cols = w, o.row0 = y0, o.rows = h;
+        const int keep = ch >= 3 ? 3 : 1;
+        auto check = [&]<typename T>(T) {
+          const WrittenCodes<T> want = CodesOf<T>(img, keep, x0, y0, w, h);
+          ImageFileInfo ni, ii;
+          auto native = ReadImageNative(path, o, &ni);
+          ASSERT_TRUE(native.ok()) << native.status().message();
+          const std::vector<T>* nat_p = nullptr;
+          if constexpr (std::is_same_v<T, uint8_t>)
+            nat_p = &native->u8;
+          else
+            nat_p = &native->u16;
+          const std::vector<T>& nat = *nat_p;
+          std::vector<std::vector<T>> into(size_t(keep), std::vector<T>(size_t(w) * h, T(7)));
+          PlaneTarget t;
+          t.width = w, t.height = h, t.channels = keep;
+          t.type = std::is_same_v<T, uint8_t> ? SampleType::kUint8 : SampleType::kUint16;
+          for (int c = 0; c < keep; ++c) t.planes[c] = into[size_t(c)].data();
+          ImageHeader shape;
+          auto stored = ReadImageInto(path, o, t, &ii, &shape);
+          ASSERT_TRUE(stored.ok()) << stored.status().message();
+          ASSERT_TRUE(*stored);
+          for (int c = 0; c < keep; ++c) {
+            const std::vector<T> plane(nat.begin() + int64_t(c) * w * h,
+                                       nat.begin() + int64_t(c + 1) * w * h);
+            EXPECT_EQ(plane, want.planes[size_t(c)]) << "native, channel " << c;
+            EXPECT_EQ(into[size_t(c)], want.planes[size_t(c)]) << "into, channel " << c;
+          }
+          EXPECT_EQ(ni.saturated_pixels, want.saturated);
+          EXPECT_EQ(ii.saturated_pixels, want.saturated);
+          EXPECT_GT(want.saturated, 0);
+          EXPECT_EQ(ni.alpha_mask, want.alpha);
+          EXPECT_EQ(ii.alpha_mask, want.alpha);
+          EXPECT_EQ(shape.width, w);
+          EXPECT_EQ(shape.height, h);
+          EXPECT_EQ(shape.channels, keep);
+          EXPECT_EQ(shape.file_channels, ch);
+        };
+        if (f == PixelFormat::kUint8)
+          check(uint8_t{});
+        else
+          check(uint16_t{});
+      }
+}
+
+// Nothing is written into planes that do not match the file: another size, channel count or
+// depth, or a transfer function the caller refuses; *shape says what the file holds.
+TEST(ImageIo, ReadIntoLeavesMismatchedPlanesUntouched) {
+  TempDir tmp;
+  const std::string path = tmp / "a.png";
+  ASSERT_TRUE(
+      WriteImage(path, Ramp(40, 30, 3), {PixelFormat::kUint8, TransferFunction::kSrgb}).ok());
+  std::vector<uint8_t> planes(size_t(3) * 40 * 30, 0xAB);
+  const std::vector<uint8_t> before = planes;
+  auto target = [&](int w, int h, int ch, SampleType type) {
+    PlaneTarget t;
+    t.width = w, t.height = h, t.channels = ch, t.type = type;
+    for (int c = 0; c < ch; ++c) t.planes[c] = planes.data() + size_t(c) * 40 * 30;
+    return t;
+  };
+  ImageHeader shape;
+  ImageFileInfo info;
+  for (const PlaneTarget& t :
+       {target(40, 29, 3, SampleType::kUint8), target(39, 30, 3, SampleType::kUint8),
+        target(40, 30, 1, SampleType::kUint8), target(20, 30, 3, SampleType::kUint16)}) {
+    auto r = ReadImageInto(path, {}, t, &info, &shape);
+    ASSERT_TRUE(r.ok());
+    EXPECT_FALSE(*r);
+    EXPECT_EQ(planes, before);
+    EXPECT_EQ(shape.width, 40);
+    EXPECT_EQ(shape.height, 30);
+    EXPECT_EQ(shape.channels, 3);
+    EXPECT_EQ(shape.type, SampleType::kUint8);
+  }
+  bool asked = false;
+  auto refused = ReadImageInto(path, {}, target(40, 30, 3, SampleType::kUint8), &info, &shape,
+                               [&](const ImageFileInfo& i) {
+                                 asked = true;
+                                 return i.encoding.transfer == TransferFunction::kLinear;
+                               });
+  ASSERT_TRUE(refused.ok());
+  EXPECT_TRUE(asked);
+  EXPECT_FALSE(*refused);  // 8-bit sRGB metadata: not linear
+  EXPECT_EQ(planes, before);
+  auto taken = ReadImageInto(
+      path, {}, target(40, 30, 3, SampleType::kUint8), &info, &shape,
+      [](const ImageFileInfo& i) { return i.encoding.transfer == TransferFunction::kSrgb; });
+  ASSERT_TRUE(taken.ok());
+  EXPECT_TRUE(*taken);
+  EXPECT_NE(planes, before);
+  // A file that fails to decode leaves the planes as they were and names the file.
+  const std::string bad = tmp / "bad.png";
+  {
+    std::ifstream in(path, std::ios::binary);
+    std::string bytes((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+    std::ofstream(bad, std::ios::binary) << bytes.substr(0, bytes.size() / 2);
+  }
+  std::vector<uint8_t> kept = planes;
+  auto broken = ReadImageInto(bad, {}, target(40, 30, 3, SampleType::kUint8), &info, &shape);
+  EXPECT_FALSE(broken.ok());
+  EXPECT_NE(broken.status().message().find("bad.png"), std::string::npos);
+  EXPECT_EQ(planes, kept);
 }
 
 TEST(ImageIo, UserOverrideWinsOverMetadata) {
