@@ -253,6 +253,18 @@ StackDiagnostics DiagnoseStack(const LightStack& s, int max_texels) {
   const int X = int(xs.size());
   std::vector<SampledTexels> texels(ys.size());  // per sampled row
   static const CurveTable decode(&SrgbToLinear), encode(&LinearToSrgb);
+  auto Usable = [&](float raw) { return std::isfinite(raw) && !(clip && raw >= kClipLevel); };
+  // An integer stack's samples are its codes' values: the linear value, its sRGB decode and
+  // encode and whether it is usable, once per code (the same floats as per sample).
+  struct CodeValues {
+    float raw, decoded, encoded;
+    bool usable;
+  };
+  std::vector<CodeValues> codes(s.lut().size());
+  for (size_t k = 0; k < codes.size(); ++k) {
+    const float raw = s.lut()[k];
+    codes[k] = {raw, decode(raw), encode(raw), Usable(raw)};
+  }
   ParallelFor(0, int64_t(ys.size()), [&](int64_t r0, int64_t r1) {
     std::vector<double> y(size_t(X) * n), yd(size_t(X) * n), ye(size_t(X) * n);
     std::vector<char> good(size_t(X) * n);
@@ -277,14 +289,29 @@ StackDiagnostics DiagnoseStack(const LightStack& s, int max_texels) {
         }
         for (int c = 0; c < C; ++c) {
           const float w = (C == 3 ? kLuma[c] : 1.0f) * inv[size_t(i) * C + c];
-          for (int k = 0; k < X; ++k) {
-            const float raw = s.Sample(i, c, row + xs[size_t(k)]);
-            char& g = good[size_t(k) * n + i];
-            g = g && std::isfinite(raw) && !(clip && raw >= kClipLevel);
-            y[size_t(k) * n + i] += w * raw;
-            // The tone-curve candidates act on each channel's code value (in [0, 1]).
-            yd[size_t(k) * n + i] += w * decode(raw);
-            ye[size_t(k) * n + i] += w * encode(raw);
+          // Integer stacks: every per-sample value from the code's row of `codes`.
+          auto gather_codes = [&](const auto* plane) {
+            for (int k = 0; k < X; ++k) {
+              const CodeValues& v = codes[plane[row + xs[size_t(k)]]];
+              const size_t at = size_t(k) * n + i;
+              good[at] = good[at] && v.usable;
+              y[at] += w * v.raw, yd[at] += w * v.decoded, ye[at] += w * v.encoded;
+            }
+          };
+          if (s.sample_type() == SampleType::kUint8) {
+            gather_codes(s.Codes<uint8_t>(i, c).data());
+          } else if (s.sample_type() == SampleType::kUint16) {
+            gather_codes(s.Codes<uint16_t>(i, c).data());
+          } else {
+            for (int k = 0; k < X; ++k) {
+              const float raw = s.Sample(i, c, row + xs[size_t(k)]);
+              char& g = good[size_t(k) * n + i];
+              g = g && Usable(raw);
+              y[size_t(k) * n + i] += w * raw;
+              // The tone-curve candidates act on each channel's code value (in [0, 1]).
+              yd[size_t(k) * n + i] += w * decode(raw);
+              ye[size_t(k) * n + i] += w * encode(raw);
+            }
           }
         }
       }
