@@ -485,9 +485,16 @@ bool Encode(const Image& image, const std::string& format, const ImageWriteOptio
     auto quantise = [&]<typename T>(std::vector<T>& q) -> const void* {
       const float top = float(std::numeric_limits<T>::max());
       q.resize(size_t(n) * ch);
-      for (int c = 0; c < ch; ++c)
+      for (int c = 0; c < ch; ++c) {
+        const float* v = image.Plane(c).data() + p0;
+        if (sizeof(T) == 1 && srgb && !(ch == 4 && c == 3)) {
+          // LinearToSrgb8Fast is round(255 · LinearToSrgb(clamp(v))) exactly, without a pow.
+          for (int64_t p = 0; p < n; ++p) q[p * ch + c] = T(LinearToSrgb8Fast(v[p]));
+          continue;
+        }
         for (int64_t p = 0; p < n; ++p)
           q[p * ch + c] = T(std::lround(std::clamp(encoded(c, p0 + p), 0.0f, 1.0f) * top));
+      }
       return q.data();
     };
     if (options.format == PixelFormat::kUint8) return quantise(q8);

@@ -96,6 +96,53 @@ TEST(ImageIo, EightBitSrgbQuantisationIsExact) {
     EXPECT_EQ(back->data()[i], lut[LinearToSrgb8(img.data()[i])]);
 }
 
+// 8-bit sRGB files hold round(255 · LinearToSrgb(clamp(v))) (LinearToSrgb8, with its pow) for
+// every value: both sides of every code boundary, out-of-range, infinite and NaN values; the
+// alpha plane of RGBA stays linear.
+TEST(ImageIo, EightBitSrgbCodesAreExactAtEveryBoundary) {
+  std::vector<float> values = {0.0f,
+                               -0.0f,
+                               -1.0f,
+                               1.0f,
+                               1.5f,
+                               7e-5f,
+                               0.5f,
+                               std::numeric_limits<float>::infinity(),
+                               -std::numeric_limits<float>::infinity(),
+                               std::numeric_limits<float>::quiet_NaN()};
+  const float* lut = Srgb8ToLinearTable();
+  for (int k = 1; k < 256; ++k) {  // the codes' midpoints in linear, and their neighbours
+    const float mid = 0.5f * (lut[k - 1] + lut[k]);
+    for (float v = mid, step = 0; step < 3; ++step) {
+      values.push_back(v);
+      values.push_back(std::nextafter(mid, step == 0 ? 0.0f : 2.0f));
+      v = std::nextafter(v, 0.0f);
+    }
+  }
+  const int w = int(values.size());
+  TempDir tmp;
+  for (int ch : {3, 4}) {
+    Image img(w, 1, ch);
+    for (int c = 0; c < ch; ++c)
+      for (int x = 0; x < w; ++x) img.At(c, 0, x) = values[size_t((x + 7 * c) % w)];
+    const std::string path = tmp / ("b" + std::to_string(ch) + ".png");
+    ASSERT_TRUE(WriteImage(path, img, {PixelFormat::kUint8, TransferFunction::kSrgb}).ok());
+    ImageReadOptions o;
+    o.all_channels = true;
+    auto back = ReadImageNative(path, o);
+    ASSERT_TRUE(back.ok());
+    ASSERT_EQ(back->channels, ch);
+    for (int c = 0; c < ch; ++c)
+      for (int x = 0; x < w; ++x) {
+        const float v = img.At(c, 0, x);
+        const uint8_t want =
+            c == 3 ? uint8_t(std::isnan(v) ? 0 : std::lround(std::clamp(v, 0.0f, 1.0f) * 255))
+                   : LinearToSrgb8(v);
+        ASSERT_EQ(back->u8[size_t(c) * w + x], want) << "value " << v << ", channel " << c;
+      }
+  }
+}
+
 // ImageWriteOptions::compact changes only the encoder's effort: both settings read back
 // bit for bit, and the compact files are smaller (a smooth image, which PIZ and zlib level 6
 // compress better than uncompressed EXR and level 1).
