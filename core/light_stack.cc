@@ -3,8 +3,10 @@
 #include <algorithm>
 #include <cstring>
 #include <type_traits>
+#include <utility>
 
 #include "core/parallel.h"
+#include "core/stack_probe.h"
 
 namespace matfit {
 namespace {
@@ -73,7 +75,7 @@ LightStack::LightStack(int width, int height, int channels, int num_images, Samp
 }
 
 template <typename T>
-std::span<T> LightStack::Codes(int image, int channel) {
+std::span<const T> LightStack::Codes(int image, int channel) const {
   MATFIT_CHECK(!released_, "LightStack::Codes after ReleaseSamples()");
   if constexpr (std::is_same_v<T, uint8_t>) {
     MATFIT_CHECK(type_ == SampleType::kUint8, "Codes<uint8_t> on a stack that is not uint8");
@@ -86,8 +88,12 @@ std::span<T> LightStack::Codes(int image, int channel) {
 }
 
 template <typename T>
-std::span<const T> LightStack::Codes(int image, int channel) const {
-  return const_cast<LightStack*>(this)->Codes<T>(image, channel);
+std::span<T> LightStack::Codes(int image, int channel) {
+  const std::span<const T> codes = std::as_const(*this).Codes<T>(image, channel);
+  // The caller may write codes. Only a stack with a probe is written to here: writers that
+  // fill fresh stacks from several threads (SelectImages, crops) only read the null pointer.
+  if (probe) probe.reset();
+  return {const_cast<T*>(codes.data()), codes.size()};
 }
 
 template std::span<uint8_t> LightStack::Codes<uint8_t>(int, int);
@@ -140,12 +146,14 @@ void LightStack::ReleaseSamples() {
   decltype(f32_)().swap(f32_);
   decltype(u8_)().swap(u8_);
   decltype(u16_)().swap(u16_);
+  probe.reset();
   released_ = true;
 }
 
 size_t LightStack::MemoryBytes() const {
   return f32_.size() * sizeof(float) + u8_.size() + u16_.size() * sizeof(uint16_t) +
-         lut_.size() * sizeof(float) + mask.size();
+         lut_.size() * sizeof(float) + mask.size() +
+         (probe ? probe->codes.size() * sizeof(uint16_t) : 0);
 }
 
 LightSample LightFromDirection(const Vec3& d) {

@@ -11,6 +11,7 @@
 #pragma once
 
 #include <cstdint>
+#include <memory>
 #include <span>
 #include <string>
 #include <vector>
@@ -24,6 +25,7 @@
 namespace matfit {
 
 class Comm;
+struct StackProbe;  // core/stack_probe.h
 
 // A stack split into row bands across the ranks of a distributed fit (docs/scale-out.md): this
 // process holds rows [row0, row0 + height()) of a stack of full_height rows. Stack-wide figures
@@ -212,6 +214,10 @@ class LightStack {
   bool is_read_crop() const { return crop_w > 0 && width() == crop_w && full_height() == crop_h; }
 
   bool has_mask() const { return !mask.empty(); }
+  // An integer stack's codes at the diagnosis's texels, taken by the loader while it decoded
+  // the images (core/stack_probe.h); null otherwise. Dropped by the non-const Codes() (the
+  // codes may change; call it from one thread, or drop the probe first) and by ReleaseSamples.
+  std::shared_ptr<const StackProbe> probe;
   StackBand band;  // which rows of a distributed stack these are (default: the whole stack)
   int64_t MaskedTexels() const;  // texels inside the mask (all when no mask)
   // Bytes held by the samples (at their native size), the lookup table and the mask.

@@ -13,6 +13,7 @@
 #include "core/near_lights.h"
 #include "core/parallel.h"
 #include "core/simd_clones.h"
+#include "core/stack_probe.h"
 #include "core/warnings.h"
 #include "fit/fit_common.h"
 #include "fit/light_cover.h"
@@ -237,19 +238,20 @@ StackDiagnostics DiagnoseStack(const LightStack& s, int max_texels) {
   StackDiagnostics d;
   const int n = s.num_images(), C = s.channels(), W = s.width();
   if (n < 6) return d;
-  const int64_t T = s.full_plane_size();
   // A regular 2-D grid of about max_texels texels (a 1-D stride would pick a few columns),
   // gathered row by row (sequential reads of each plane), rows in parallel, kept in row order.
   // The grid is the whole stack's: a band samples its rows of it, and the bands' rows are
-  // gathered in order below.
-  const int step = std::max(1, int(std::sqrt(double(T) / std::max(1, max_texels))));
+  // gathered in order below. A stack whose loader took the grid's codes while decoding
+  // (LightStack::probe) is read from those: the same codes, without a miss per plane row.
+  const ProbeGrid grid = MakeProbeGrid(W, s.full_height(), s.band.row0, s.height(), max_texels);
+  const std::vector<int>&xs = grid.xs, &ys = grid.ys;
+  const StackProbe* probe = s.probe && !s.is_float() && s.probe->images == n &&
+                                    s.probe->channels == C && s.probe->grid == grid
+                                ? s.probe.get()
+                                : nullptr;
   const bool clip = StackMayBeClipped(s);
   const bool near = s.has_light_positions();  // each texel under its own lamp directions
   const std::vector<float> inv = InverseIntensities(s);
-  std::vector<int> xs, ys;
-  for (int x = step / 2; x < W; x += step) xs.push_back(x);
-  for (int y = step / 2; y < s.full_height(); y += step)
-    if (y >= s.band.row0 && y < s.band.row0 + s.height()) ys.push_back(y - s.band.row0);
   const int X = int(xs.size());
   std::vector<SampledTexels> texels(ys.size());  // per sampled row
   static const CurveTable decode(&SrgbToLinear), encode(&LinearToSrgb);
@@ -280,7 +282,7 @@ StackDiagnostics DiagnoseStack(const LightStack& s, int max_texels) {
       const int64_t span = X ? xs.back() - xs.front() + 1 : 0;  // the row's sampled columns
       for (int i = 0; i < n; ++i) {
         // Two images ahead: each plane's row is a DRAM miss the loads below would wait for.
-        if (i + 2 < n && span > 0)
+        if (!probe && i + 2 < n && span > 0)
           for (int c = 0; c < C; ++c) s.Prefetch(i + 2, c, row + xs.front(), int(span));
         const bool lit = s.lights()[size_t(i)].direction.z > 0;
         for (int k = 0; k < X; ++k) {
@@ -298,7 +300,14 @@ StackDiagnostics DiagnoseStack(const LightStack& s, int max_texels) {
               y[at] += w * v.raw, yd[at] += w * v.decoded, ye[at] += w * v.encoded;
             }
           };
-          if (s.sample_type() == SampleType::kUint8) {
+          if (probe) {
+            for (int k = 0; k < X; ++k) {
+              const CodeValues& v = codes[probe->Code(int(r), i, c, k)];
+              const size_t at = size_t(k) * n + i;
+              good[at] = good[at] && v.usable;
+              y[at] += w * v.raw, yd[at] += w * v.decoded, ye[at] += w * v.encoded;
+            }
+          } else if (s.sample_type() == SampleType::kUint8) {
             gather_codes(s.Codes<uint8_t>(i, c).data());
           } else if (s.sample_type() == SampleType::kUint16) {
             gather_codes(s.Codes<uint16_t>(i, c).data());

@@ -9,6 +9,7 @@
 #include "core/parallel.h"
 #include "core/path_util.h"
 #include "core/stack_band.h"
+#include "core/stack_probe.h"
 #include "core/warnings.h"
 
 namespace matfit {
@@ -19,20 +20,25 @@ bool SameEncoding(const ColorEncoding& a, const ColorEncoding& b) {
   return a.transfer == b.transfer && (a.transfer != TransferFunction::kGamma || a.gamma == b.gamma);
 }
 
-// Copies a decoded image into image i of the stack (whose sample type it has).
-void StorePlanes(const NativeImage& img, int i, LightStack* stack) {
+// Copies a decoded image into image i of the stack (whose sample type it has); an integer
+// stack's planes come from `planes` ([i · channels + c], taken before decoding started).
+void StorePlanes(const NativeImage& img, int i, LightStack* stack,
+                 const std::vector<void*>& planes) {
   const int64_t n = stack->plane_size();
-  for (int c = 0; c < img.channels; ++c) switch (img.type) {
+  for (int c = 0; c < img.channels; ++c) {
+    void* to = planes.empty() ? nullptr : planes[size_t(i) * img.channels + c];
+    switch (img.type) {
       case SampleType::kFloat32:
         std::copy_n(img.floats.Plane(c).data(), n, stack->Plane(i, c).data());
         break;
       case SampleType::kUint8:
-        std::copy_n(img.u8.data() + c * n, n, stack->Codes<uint8_t>(i, c).data());
+        std::copy_n(img.u8.data() + c * n, n, static_cast<uint8_t*>(to));
         break;
       case SampleType::kUint16:
-        std::copy_n(img.u16.data() + c * n, n, stack->Codes<uint16_t>(i, c).data());
+        std::copy_n(img.u16.data() + c * n, n, static_cast<uint16_t*>(to));
         break;
     }
+  }
 }
 
 // Decodes files into a stack whose samples are of `type` with one transfer function
@@ -41,7 +47,7 @@ void StorePlanes(const NativeImage& img, int i, LightStack* stack) {
 // and the caller loads again as float).
 StatusOr<LightStack> Load(const std::vector<std::string>& files, std::vector<LightSample> lights,
                           const ImageReadOptions& options, const ProgressFn& progress,
-                          bool as_float, bool banded, bool* uniform) {
+                          bool as_float, bool banded, const ProbeGrid* probe_grid, bool* uniform) {
   *uniform = true;
   ImageFileInfo first_info;
   auto read = [&](const std::string& path, ImageFileInfo* info) -> StatusOr<NativeImage> {
@@ -77,6 +83,31 @@ StatusOr<LightStack> Load(const std::vector<std::string>& files, std::vector<Lig
   stack.encoding_reasons.resize(n);
   stack.saturated_pixels.assign(n, 0);
   stack.nonfinite_samples.assign(n, 0);
+  // Every image's planes, taken here (Codes() drops the stack's probe, so it is not called by
+  // the decoding threads).
+  std::vector<void*> planes(size_t(n) * ch, nullptr);
+  if (type != SampleType::kFloat32)
+    for (int i = 0; i < n; ++i)
+      for (int c = 0; c < ch; ++c)
+        planes[size_t(i) * ch + c] = type == SampleType::kUint8
+                                         ? static_cast<void*>(stack.Codes<uint8_t>(i, c).data())
+                                         : static_cast<void*>(stack.Codes<uint16_t>(i, c).data());
+  // The diagnosis's texels of each image, taken right after its decode (core/stack_probe.h):
+  // integer single-view stacks (a multi-view stack is diagnosed on one view's images), when
+  // the sample is small beside the stack.
+  const bool multi_view =
+      std::any_of(lights.begin(), lights.end(), [](const LightSample& l) { return l.has_view; });
+  std::shared_ptr<StackProbe> probe;
+  if (probe_grid && type != SampleType::kFloat32 && !multi_view && n >= 6 &&
+      probe_grid->xs.size() * probe_grid->ys.size() * 8 <= size_t(w) * size_t(h))
+    probe = std::make_shared<StackProbe>(*probe_grid, n, ch);
+  auto take_probe = [&](int i) {
+    if (!probe) return;
+    if (type == SampleType::kUint8)
+      probe->Take(i, reinterpret_cast<uint8_t* const*>(&planes[size_t(i) * ch]), w);
+    else
+      probe->Take(i, reinterpret_cast<uint16_t* const*>(&planes[size_t(i) * ch]), w);
+  };
 
   std::vector<Status> errors(n);
   std::atomic<int64_t> done{0};
@@ -96,8 +127,9 @@ StatusOr<LightStack> Load(const std::vector<std::string>& files, std::vector<Lig
     stack.saturated_pixels[i] = info.saturated_pixels;
     stack.nonfinite_samples[i] = info.nonfinite_samples;
   };
-  StorePlanes(*first, 0, &stack);
+  StorePlanes(*first, 0, &stack, planes);
   store(0, first_info);
+  take_probe(0);
   first = NativeImage();
   // Integer files decode straight into the stack's planes (ReadImageInto: nothing is written
   // unless the file has the first one's size, channels, depth and transfer function); float
@@ -119,10 +151,7 @@ StatusOr<LightStack> Load(const std::vector<std::string>& files, std::vector<Lig
       if (type != SampleType::kFloat32 && ch <= 4) {
         PlaneTarget target;
         target.width = w, target.height = h, target.channels = ch, target.type = type;
-        for (int c = 0; c < ch; ++c)
-          target.planes[c] = type == SampleType::kUint8
-                                 ? static_cast<void*>(stack.Codes<uint8_t>(int(i), c).data())
-                                 : static_cast<void*>(stack.Codes<uint16_t>(int(i), c).data());
+        for (int c = 0; c < ch; ++c) target.planes[c] = planes[size_t(i) * ch + c];
         ImageHeader shape;
         auto stored =
             ReadImageInto(files[size_t(i)], options, target, &info, &shape, same_encoding);
@@ -152,9 +181,10 @@ StatusOr<LightStack> Load(const std::vector<std::string>& files, std::vector<Lig
           mixed = true;  // one table cannot serve both: the caller reloads as float
           break;
         }
-        StorePlanes(*img, int(i), &stack);
+        StorePlanes(*img, int(i), &stack, planes);
       }
       store(int(i), info);
+      take_probe(int(i));
       const int64_t d = ++done;
       if (progress) {
         std::lock_guard<std::mutex> lock(progress_mutex);
@@ -169,6 +199,7 @@ StatusOr<LightStack> Load(const std::vector<std::string>& files, std::vector<Lig
     return stack;
   }
   if (progress) progress(n, n);
+  stack.probe = std::move(probe);
   // A rank's band keeps its part of the alpha mask as it is: whether the whole mask is empty or
   // full is a question about every band (JoinBands, core/stack_band.h, answers it).
   if (alpha_images > 0 && banded) {
@@ -281,12 +312,16 @@ StatusOr<LightStack> LoadStack(const std::vector<std::string>& files,
   }
   try {
     bool uniform = true;
-    auto stack = Load(files, lights, options, o.progress, /*as_float=*/false, o.rows > 0, &uniform);
+    // The diagnosis's grid over the whole region; a band takes its rows of it.
+    const ProbeGrid grid =
+        MakeProbeGrid(w, h, o.rows > 0 ? o.row0 : 0, o.rows > 0 ? o.rows : h, kProbeTexels);
+    auto stack =
+        Load(files, lights, options, o.progress, /*as_float=*/false, o.rows > 0, &grid, &uniform);
     if (stack.ok() && !uniform) {
       // Files of mixed depth or transfer function: linear float32, as every image decodes alone.
       *stack = LightStack();
       stack = Load(files, std::move(lights), options, o.progress, /*as_float=*/true, o.rows > 0,
-                   &uniform);
+                   nullptr, &uniform);
     }
     if (stack.ok()) provenance(&*stack);
     if (stack.ok() && o.rows > 0) stack->band.row0 = o.row0, stack->band.full_height = h;

@@ -1,17 +1,22 @@
 // Per-texel error bounds (fit/confidence.h) and stack diagnostics (fit/diagnostics.h).
 #include <gtest/gtest.h>
 
+#include <unistd.h>
+
 #include <cstdio>
 
 #include <filesystem>
 
 #include <functional>
+#include <memory>
+#include <utility>
 
 #include <algorithm>
 #include <cmath>
 
 #include "core/color.h"
 #include "core/dataset/dataset.h"
+#include "core/stack_probe.h"
 #include "core/synth/light_sets.h"
 #include "fit/assess.h"
 #include "fit/method.h"
@@ -238,6 +243,87 @@ TEST(Diagnostics, AutoColourSpaceReadsTheCurveTheStackShows) {
       }
     }
   }
+}
+
+// The loader takes the diagnosis's texels while it decodes (LightStack::probe): the probe holds
+// the stack's codes at the grid DiagnoseStack samples, DiagnoseStack reads it (a stack whose
+// probe codes are altered is diagnosed differently) and gives exactly the diagnosis of a gather
+// from the planes: whole, cropped, as a band of rows, read as linear (the tone correction
+// re-reads the codes with a new table and diagnoses again).
+TEST(Diagnostics, TheLoadersProbeGivesTheGatheredDiagnosis) {
+  namespace fs = std::filesystem;
+  const fs::path dir = fs::temp_directory_path() / ("matfit_probe_" + std::to_string(getpid()));
+  fs::remove_all(dir);
+  synth::SynthOptions o;
+  o.material = "plastic", o.lights = "dome:40", o.size = 256, o.height = 180;
+  o.layout = Layout::kLp, o.bits = 8, o.format = "png";
+  auto r = synth::Synthesize(o);
+  ASSERT_TRUE(r.ok());
+  ASSERT_TRUE(synth::WriteSynthDataset(*r, o, dir.string(), true).ok());
+  auto same = [](const StackDiagnostics& a, const StackDiagnostics& b, const std::string& what) {
+    EXPECT_EQ(a.encoding_exponent, b.encoding_exponent) << what;
+    EXPECT_EQ(a.residual_linear, b.residual_linear) << what;
+    EXPECT_EQ(a.residual_best, b.residual_best) << what;
+    EXPECT_EQ(a.residual_srgb_decoded, b.residual_srgb_decoded) << what;
+    EXPECT_EQ(a.residual_srgb_encoded, b.residual_srgb_encoded) << what;
+    EXPECT_EQ(a.evidence, b.evidence) << what;
+    EXPECT_EQ(a.verdict, b.verdict) << what;
+    EXPECT_EQ(a.texels_used, b.texels_used) << what;
+    EXPECT_EQ(a.warnings, b.warnings) << what;
+  };
+  struct Case {
+    const char* what;
+    ReadOptions read;
+  };
+  std::vector<Case> cases(4);
+  cases[0].what = "whole";
+  cases[1].what = "cropped", cases[1].read.crop = CropRect{5, 3, 230, 161};
+  cases[2].what = "band", cases[2].read.row0 = 20, cases[2].read.rows = 97;
+  cases[3].what = "read as linear", cases[3].read.color_space = ColorSpaceChoice::kLinear;
+  for (const Case& c : cases) {
+    auto s = ReadDataset(dir.string(), c.read);
+    ASSERT_TRUE(s.ok()) << c.what << ": " << s.status().message();
+    ASSERT_NE(s->probe, nullptr) << c.what;
+    const StackProbe& p = *s->probe;
+    EXPECT_EQ(p.grid,
+              MakeProbeGrid(s->width(), s->full_height(), s->band.row0, s->height(), kProbeTexels))
+        << c.what;
+    for (size_t y = 0; y < p.grid.ys.size(); ++y)
+      for (int i = 0; i < s->num_images(); i += 3)
+        for (int ch = 0; ch < 3; ++ch)
+          for (size_t k = 0; k < p.grid.xs.size(); ++k)
+            ASSERT_EQ(p.Code(int(y), i, ch, int(k)),
+                      std::as_const(*s).Codes<uint8_t>(
+                          i, ch)[size_t(p.grid.ys[y]) * s->width() + size_t(p.grid.xs[k])])
+                << c.what;
+    LightStack gathered = *s;
+    gathered.probe.reset();
+    StackDiagnostics with = DiagnoseStack(*s), without = DiagnoseStack(gathered);
+    same(with, without, c.what);
+    EXPECT_GT(with.texels_used, 100) << c.what;
+    auto altered = std::make_shared<StackProbe>(p);
+    for (uint16_t& code : altered->codes) code = uint16_t(code / 2);
+    LightStack wrong = *s;
+    wrong.probe = altered;
+    EXPECT_NE(DiagnoseStack(wrong).residual_linear, with.residual_linear) << c.what;
+    // The same codes re-read through another table (what --color-space auto does when it
+    // corrects the reading): the probe holds codes, so it still gives the gathered diagnosis.
+    if (c.read.color_space == ColorSpaceChoice::kLinear) {
+      EXPECT_EQ(with.verdict, ToneVerdict::kSrgbReadAsLinear) << DescribeToneCurve(with);
+    }
+    const ColorEncoding other = c.read.color_space == ColorSpaceChoice::kLinear
+                                    ? ColorEncoding{TransferFunction::kSrgb, 1.0f}
+                                    : ColorEncoding{TransferFunction::kGamma, 1.6f};
+    s->Relinearise(other, "test"), gathered.Relinearise(other, "test");
+    ASSERT_NE(s->probe, nullptr);
+    same(DiagnoseStack(*s), DiagnoseStack(gathered), std::string(c.what) + ", re-read");
+  }
+  // Codes that may be written drop the probe.
+  auto s = ReadDataset(dir.string());
+  ASSERT_TRUE(s.ok() && s->probe);
+  (void)s->Codes<uint8_t>(0, 0);
+  EXPECT_EQ(s->probe, nullptr);
+  fs::remove_all(dir);
 }
 
 // A mistake the reader cannot have made is not reported: a glossy set under one ring of lights,
