@@ -64,8 +64,9 @@ ColorEncoding ChooseEncoding(const codec::Header& h, const ImageReadOptions& opt
 
 // Interleaved codes (F per pixel) → planar codes of the first K channels; returns the number of
 // pixels with a kept channel at the maximum code. A fixed layout, so that the compiler turns
-// the strided loads into vector shuffles (8-bit RGB: 20× the byte-by-byte loop, 0.02 ns per
-// sample); the count is kept per block of 256 pixels in 32 bits (no widening per pixel).
+// the strided loads into vector shuffles (core/CMakeLists.txt: GCC's dynamic vector cost model
+// for this file; 8-bit RGB: 20× the byte-by-byte loop, 0.02 ns per sample); the count is kept
+// per block of 256 pixels in 32 bits (no widening per pixel).
 template <typename T, int F, int K>
 MATFIT_CLONES_V4 __attribute__((optimize("tree-vectorize"))) int64_t SplitFixed(
     const T* __restrict raw, int64_t n, T* __restrict d0, T* __restrict d1, T* __restrict d2) {
@@ -283,10 +284,10 @@ template <typename T>
 void StoreCodes(const OpenImage& o, const std::vector<T>& raw, T* const* planes,
                 ImageFileInfo* fi) {
   const int64_t n = o.pixels();
+  if (o.want_alpha) fi->alpha_mask.resize(size_t(n));  // may throw: before a plane is written
   fi->saturated_pixels = SplitChannels(raw.data(), n, o.file_ch, o.keep_ch, planes);
   if (o.want_alpha) {
     constexpr T kHalf = T(~T(0)) / 2;
-    fi->alpha_mask.resize(size_t(n));
     for (int64_t p = 0; p < n; ++p) fi->alpha_mask[p] = raw[p * o.file_ch + o.keep_ch] > kHalf;
   }
 }
@@ -327,7 +328,7 @@ StatusOr<NativeImage> ReadImageNative(const std::string& path, const ImageReadOp
     ok = DecodeRegion(o, &raw);
     if (!ok) return;
     planes->resize(size_t(n) * o.keep_ch);
-    T* dst[4];
+    T* dst[4] = {};
     for (int c = 0; c < o.keep_ch && c < 4; ++c) dst[c] = planes->data() + size_t(c) * n;
     if (o.keep_ch <= 4) {
       StoreCodes(o, raw, dst, &fi);
@@ -391,7 +392,7 @@ StatusOr<bool> ReadImageInto(const std::string& path, const ImageReadOptions& op
     fi.pixel_format = name;
     std::vector<T> raw;
     ok = DecodeRegion(o, &raw);
-    T* dst[4];
+    T* dst[4] = {};
     for (int c = 0; c < o.keep_ch; ++c) dst[c] = static_cast<T*>(target.planes[c]);
     if (ok) StoreCodes(o, raw, dst, &fi);
   };

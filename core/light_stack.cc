@@ -6,7 +6,6 @@
 #include <utility>
 
 #include "core/parallel.h"
-#include "core/stack_probe.h"
 
 namespace matfit {
 namespace {
@@ -152,8 +151,7 @@ void LightStack::ReleaseSamples() {
 
 size_t LightStack::MemoryBytes() const {
   return f32_.size() * sizeof(float) + u8_.size() + u16_.size() * sizeof(uint16_t) +
-         lut_.size() * sizeof(float) + mask.size() +
-         (probe ? probe->codes.size() * sizeof(uint16_t) : 0);
+         lut_.size() * sizeof(float) + mask.size();
 }
 
 LightSample LightFromDirection(const Vec3& d) {

@@ -33,7 +33,8 @@ struct StackProbe {
   uint16_t Code(int r, int i, int c, int k) const {
     return codes[((std::size_t(r) * images + i) * channels + c) * grid.xs.size() + k];
   }
-  // Takes image i's codes from its planes (planes[c]: rows of `width` codes, the band's rows).
+  // Takes image i's codes from its planes (planes[c]: rows of `width` codes, the band's rows;
+  // channels ≤ 4).
   template <typename T>
   void Take(int i, const T* const* planes, int width);
 };

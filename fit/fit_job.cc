@@ -123,6 +123,7 @@ StatusOr<FitJobResult> RunFitJob(const FitJobOptions& o, const StageProgress& pr
   }
   ReadOptions ro = o.read;
   ro.progress = stages.Callback();
+  ro.diagnosis_probe = !o.decode_only;
   // Distributed: this rank reads only its band of rows of every image (fit/bands.h).
   const Comm* comm = o.comm && o.comm->size() > 1 ? o.comm : nullptr;
   if (comm) {
@@ -159,6 +160,7 @@ StatusOr<FitJobResult> RunFitJob(const FitJobOptions& o, const StageProgress& pr
     // The assessment appends the diagnosis's warnings; this one is the dataset's (above).
     if (r.tone->corrected) diagnosis->warnings.erase(diagnosis->warnings.begin());
   }
+  stack->probe.reset();  // the diagnosis is made: its texels' codes are not needed again
   std::optional<PackContents> pack;
   if (!o.report_only.empty()) {
     auto p = ReadPack(o.report_only);

@@ -95,7 +95,9 @@ struct Block {
         e(size_t(n)),
         keep(size_t(n)),
         next(size_t(n)),
-        sel(size_t(n)) {}
+        sel(size_t(n)),
+        sel2(size_t(n)),
+        scratch(size_t(2 * n + 16)) {}
   // Inputs.
   LaneVector<Vd> y;        // luminance / I (non-finite → 0)
   LaneVector<Vm> usable;   // neither clipped nor non-finite
@@ -108,7 +110,7 @@ struct Block {
   // Scratch.
   LaneVector<Vd> e;  // |r_i|
   LaneVector<Vm> keep, next;
-  std::vector<double> sel;
+  std::vector<double> sel, sel2, scratch;  // selections (SelectKthFinite)
 };
 
 // Σ l lᵀ and Σ l y over each lane's kept samples, and their count. Branch-free: a kept sample
@@ -203,13 +205,9 @@ MATFIT_CLONES_V4 void FitBlock(const LightTable& L, const float* inv, int C, Blo
   Vd v_lo = {}, v_hi = {};
   for (int j = 0; j < kLanes; ++j) {
     if (!lanes[j]) continue;
-    for (int i = 0; i < n; ++i) b.sel[i] = b.y[i][j];
-    double a = 0, c = 0;
-    if (hi < n)
-      SelectTwo(b.sel.data(), n, lo, hi, std::less<double>(), &a, &c);
-    else
-      a = SelectKth(b.sel.data(), n, lo);
-    v_lo[j] = a, v_hi[j] = c;
+    for (int i = 0; i < n; ++i) b.sel[i] = b.sel2[i] = b.y[i][j];
+    v_lo[j] = SelectKthFinite(b.sel.data(), n, lo, b.scratch.data());
+    v_hi[j] = hi < n ? SelectKthFinite(b.sel2.data(), n, hi, b.scratch.data()) : 0.0;
   }
   const Vm first = IndexOfRank(b.y.data(), n, v_lo, lo);
   const Vm end = hi < n ? IndexOfRank(b.y.data(), n, v_hi, hi) : Vm{} + n;
@@ -247,7 +245,8 @@ MATFIT_CLONES_V4 void FitBlock(const LightTable& L, const float* inv, int C, Blo
       int count = 0;  // the inliers' |r|, compacted branch-free
       for (int i = 0; i < n; ++i) b.sel[count] = b.e[i][j], count += b.keep[i][j] != 0;
       const double sigma =
-          1.4826 * SelectKth(b.sel.data(), count, count / 2) + 1e-3 * Length(g[j]) + 1e-6;
+          1.4826 * SelectKthFinite(b.sel.data(), count, count / 2, b.scratch.data()) +
+          1e-3 * Length(g[j]) + 1e-6;
       limit[j] = 3 * sigma;
     }
     Vm differ = {};

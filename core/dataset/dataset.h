@@ -64,6 +64,10 @@ struct ReadOptions {
   // Ignore light_positions.txt (near lights): every light is distant, along its nominal
   // direction (--distant-lights).
   bool distant_lights = false;
+  // Integer stacks: take the stack diagnosis's texels as each image is decoded
+  // (LightStack::probe, core/stack_probe.h). `matfit fit --decode-only` turns it off: it times
+  // the decode alone.
+  bool diagnosis_probe = true;
 
   bool Check(std::string* why) const;
 };

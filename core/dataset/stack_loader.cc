@@ -95,18 +95,24 @@ StatusOr<LightStack> Load(const std::vector<std::string>& files, std::vector<Lig
   // The diagnosis's texels of each image, taken right after its decode (core/stack_probe.h):
   // integer single-view stacks (a multi-view stack is diagnosed on one view's images), when
   // the sample is small beside the stack.
-  const bool multi_view =
-      std::any_of(lights.begin(), lights.end(), [](const LightSample& l) { return l.has_view; });
+  // A grid with step < 3 (tiny stacks) is most of the stack: DiagnoseStack reads it directly.
   std::shared_ptr<StackProbe> probe;
-  if (probe_grid && type != SampleType::kFloat32 && !multi_view && n >= 6 &&
-      probe_grid->xs.size() * probe_grid->ys.size() * 8 <= size_t(w) * size_t(h))
+  if (probe_grid && type != SampleType::kFloat32 && !stack.is_multi_view() && n >= 6 &&
+      probe_grid->step >= 3)
     probe = std::make_shared<StackProbe>(*probe_grid, n, ch);
   auto take_probe = [&](int i) {
     if (!probe) return;
+    auto take = [&](auto zero) {
+      using T = decltype(zero);
+      const T* p[4] = {};
+      for (int c = 0; c < ch && c < 4; ++c)
+        p[c] = static_cast<const T*>(planes[size_t(i) * ch + c]);
+      probe->Take(i, p, w);
+    };
     if (type == SampleType::kUint8)
-      probe->Take(i, reinterpret_cast<uint8_t* const*>(&planes[size_t(i) * ch]), w);
+      take(uint8_t{});
     else
-      probe->Take(i, reinterpret_cast<uint16_t* const*>(&planes[size_t(i) * ch]), w);
+      take(uint16_t{});
   };
 
   std::vector<Status> errors(n);
@@ -315,8 +321,8 @@ StatusOr<LightStack> LoadStack(const std::vector<std::string>& files,
     // The diagnosis's grid over the whole region; a band takes its rows of it.
     const ProbeGrid grid =
         MakeProbeGrid(w, h, o.rows > 0 ? o.row0 : 0, o.rows > 0 ? o.rows : h, kProbeTexels);
-    auto stack =
-        Load(files, lights, options, o.progress, /*as_float=*/false, o.rows > 0, &grid, &uniform);
+    auto stack = Load(files, lights, options, o.progress, /*as_float=*/false, o.rows > 0,
+                      o.diagnosis_probe ? &grid : nullptr, &uniform);
     if (stack.ok() && !uniform) {
       // Files of mixed depth or transfer function: linear float32, as every image decodes alone.
       *stack = LightStack();

@@ -58,6 +58,49 @@ std::string LpFile(const std::string& dir) {
   return {};
 }
 
+// One table serves an integer stack only when every file has the first one's depth and transfer
+// function; otherwise the loader starts again and reads every file as linear float32, each
+// with its own decoding (what ReadImage gives). Integer stacks decode straight into their
+// planes (ReadImageInto), so a file that differs must leave nothing behind.
+TEST(StackLoad, FilesOfAnotherDepthOrCurveAreReadAsLinearFloat) {
+  struct Case {
+    const char* what;
+    int bits;                   // of the set
+    ImageWriteOptions rewrite;  // of its sixth image
+  };
+  const Case cases[] = {
+      {"one 16-bit file among 8-bit ones", 8, {PixelFormat::kUint16, TransferFunction::kLinear}},
+      {"one sRGB file among linear 16-bit ones",
+       16,
+       {PixelFormat::kUint16, TransferFunction::kSrgb}},
+  };
+  for (const Case& c : cases) {
+    TempDir tmp;
+    testing::WriteSynthSet(tmp.path(), "rti", Layout::kLp, c.bits);
+    const std::string lp = LpFile(tmp / "rti");
+    auto uniform = ReadDataset(lp);
+    ASSERT_TRUE(uniform.ok()) << c.what;
+    EXPECT_EQ(uniform->sample_type(), c.bits == 8 ? SampleType::kUint8 : SampleType::kUint16);
+    const std::string odd = uniform->image_files[5];
+    auto img = ReadImage(odd);
+    ASSERT_TRUE(img.ok());
+    ASSERT_TRUE(WriteImage(odd, *img, c.rewrite).ok());
+    auto s = ReadDataset(lp);
+    ASSERT_TRUE(s.ok()) << c.what << ": " << s.status().message();
+    EXPECT_EQ(s->sample_type(), SampleType::kFloat32) << c.what;
+    ASSERT_EQ(s->num_images(), uniform->num_images());
+    for (int i = 0; i < s->num_images(); ++i) {
+      auto want = ReadImage(s->image_files[size_t(i)]);
+      ASSERT_TRUE(want.ok());
+      for (int ch = 0; ch < s->channels(); ++ch)
+        for (int64_t p = 0; p < s->plane_size(); ++p)
+          ASSERT_EQ(s->Sample(i, ch, p), want->Plane(ch)[size_t(p)])
+              << c.what << ", image " << i << ", channel " << ch << ", texel " << p;
+    }
+    EXPECT_EQ(s->probe, nullptr) << c.what;  // float stacks are diagnosed from their planes
+  }
+}
+
 TEST(LpPaths, WindowsAbsolutePathsFallBackToTheBaseNameWithANote) {
   TempDir tmp;
   const LightStack truth = testing::WriteSynthSet(tmp.path(), "rti", Layout::kLp);

@@ -3,6 +3,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstring>
 #include <filesystem>
 #include <fstream>
 #include <limits>
@@ -97,8 +98,9 @@ TEST(ImageIo, EightBitSrgbQuantisationIsExact) {
 }
 
 // 8-bit sRGB files hold round(255 · LinearToSrgb(clamp(v))) (LinearToSrgb8, with its pow) for
-// every value: both sides of every code boundary, out-of-range, infinite and NaN values; the
-// alpha plane of RGBA stays linear.
+// every value: the two floats either side of every code boundary (found by bisection over the
+// bit patterns of [0, 1], which order as the floats), out-of-range, infinite and NaN values;
+// the alpha plane of RGBA stays linear.
 TEST(ImageIo, EightBitSrgbCodesAreExactAtEveryBoundary) {
   std::vector<float> values = {0.0f,
                                -0.0f,
@@ -110,14 +112,29 @@ TEST(ImageIo, EightBitSrgbCodesAreExactAtEveryBoundary) {
                                std::numeric_limits<float>::infinity(),
                                -std::numeric_limits<float>::infinity(),
                                std::numeric_limits<float>::quiet_NaN()};
-  const float* lut = Srgb8ToLinearTable();
-  for (int k = 1; k < 256; ++k) {  // the codes' midpoints in linear, and their neighbours
-    const float mid = 0.5f * (lut[k - 1] + lut[k]);
-    for (float v = mid, step = 0; step < 3; ++step) {
-      values.push_back(v);
-      values.push_back(std::nextafter(mid, step == 0 ? 0.0f : 2.0f));
-      v = std::nextafter(v, 0.0f);
+  auto bits = [](float f) {
+    uint32_t b;
+    std::memcpy(&b, &f, sizeof b);
+    return b;
+  };
+  auto from_bits = [](uint32_t b) {
+    float f;
+    std::memcpy(&f, &b, sizeof f);
+    return f;
+  };
+  for (int k = 1; k < 256; ++k) {  // the smallest float with code ≥ k, and the one below it
+    uint32_t lo = 0, hi = bits(1.0f);
+    while (lo < hi) {
+      const uint32_t mid = lo + (hi - lo) / 2;
+      if (LinearToSrgb8(from_bits(mid)) >= k)
+        hi = mid;
+      else
+        lo = mid + 1;
     }
+    ASSERT_EQ(LinearToSrgb8(from_bits(lo)), k);
+    ASSERT_EQ(LinearToSrgb8(from_bits(lo - 1)), k - 1);
+    values.push_back(from_bits(lo));
+    values.push_back(from_bits(lo - 1));
   }
   const int w = int(values.size());
   TempDir tmp;
@@ -372,16 +389,22 @@ TEST(ImageIo, ReadIntoLeavesMismatchedPlanesUntouched) {
   ASSERT_TRUE(taken.ok());
   EXPECT_TRUE(*taken);
   EXPECT_NE(planes, before);
-  // A file that fails to decode leaves the planes as they were and names the file.
+  // A file whose header is sound but whose pixel data is corrupt (bytes inside IDAT flipped, the
+  // length kept: it opens, then fails to decode) leaves the planes as they were, naming the file.
   const std::string bad = tmp / "bad.png";
   {
     std::ifstream in(path, std::ios::binary);
     std::string bytes((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
-    std::ofstream(bad, std::ios::binary) << bytes.substr(0, bytes.size() / 2);
+    const size_t idat = bytes.find("IDAT");
+    ASSERT_NE(idat, std::string::npos);
+    for (size_t i = idat + 8; i < idat + 40 && i < bytes.size(); ++i) bytes[i] = char(~bytes[i]);
+    std::ofstream(bad, std::ios::binary) << bytes;
   }
   std::vector<uint8_t> kept = planes;
   auto broken = ReadImageInto(bad, {}, target(40, 30, 3, SampleType::kUint8), &info, &shape);
-  EXPECT_FALSE(broken.ok());
+  ASSERT_FALSE(broken.ok());
+  EXPECT_EQ(broken.status().message().rfind("cannot decode image '", 0), 0u)
+      << broken.status().message();
   EXPECT_NE(broken.status().message().find("bad.png"), std::string::npos);
   EXPECT_EQ(planes, kept);
 }

@@ -78,6 +78,30 @@ TEST(SelectKth, MatchesNthElementForEveryRank) {
   }
 }
 
+// SelectKthFinite (the vector-compression path where the CPU has AVX-512) returns
+// std::nth_element's value for every rank: lengths around its 8-lane blocks and its scalar
+// finish (≤ 16), ties (one value, a few, many, ±0), sorted and reversed inputs, ±inf.
+TEST(SelectKth, FiniteSelectionMatchesNthElementForEveryRank) {
+  std::mt19937 rng(13);
+  for (int trial = 0; trial < 300; ++trial) {
+    const int n = trial < 60 ? 1 + trial : 1 + int(rng() % 400);
+    const int levels = trial % 4 == 0 ? 1 : trial % 4 == 1 ? 5 : trial % 4 == 2 ? 256 : 1 << 30;
+    std::vector<double> a(static_cast<size_t>(n));
+    for (double& v : a) v = double(rng() % uint32_t(levels)) - levels / 3;
+    if (trial % 9 == 3) a[0] = -0.0, a[size_t(n / 2)] = 0.0;
+    if (trial % 9 == 4) a[0] = INFINITY, a[size_t(n - 1)] = -INFINITY;
+    if (trial % 7 == 0) std::sort(a.begin(), a.end());
+    if (trial % 7 == 1) std::sort(a.rbegin(), a.rend());
+    std::vector<double> scratch(size_t(2 * n + 16));
+    for (int k = 0; k < n; k += 1 + n / 60) {
+      std::vector<double> ref = a, got = a;
+      std::nth_element(ref.begin(), ref.begin() + k, ref.end());
+      ASSERT_EQ(SelectKthFinite(got.data(), n, k, scratch.data()), ref[size_t(k)])
+          << "n " << n << " k " << k;
+    }
+  }
+}
+
 // With a strict weak order on (value, index) pairs: the rank cut-offs of lambert-robust.
 TEST(SelectKth, LexicographicKeys) {
   std::mt19937 rng(11);
