@@ -68,8 +68,8 @@ ColorEncoding ChooseEncoding(const codec::Header& h, const ImageReadOptions& opt
 // for this file; 8-bit RGB: 20× the byte-by-byte loop, 0.02 ns per sample); the count is kept
 // per block of 256 pixels in 32 bits (no widening per pixel).
 template <typename T, int F, int K>
-MATFIT_CLONES_V4 __attribute__((optimize("tree-vectorize"))) int64_t SplitFixed(
-    const T* __restrict raw, int64_t n, T* __restrict d0, T* __restrict d1, T* __restrict d2) {
+MATFIT_CLONES_V4 int64_t SplitFixed(const T* __restrict raw, int64_t n, T* __restrict d0,
+                                    T* __restrict d1, T* __restrict d2) {
   static_assert(K == 1 || K == 3);
   constexpr T kMax = T(~T(0));
   // Pixel q: its kept codes stored, 1 when one of them is at the maximum.
