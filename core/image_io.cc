@@ -225,6 +225,8 @@ namespace {
 // inside it), the channels kept and whether its alpha channel makes the mask.
 struct OpenImage {
   std::unique_ptr<codec::Reader> in;
+  ImageFileInfo* fi = nullptr;  // what reading finds out: the caller's, or `own`
+  ImageFileInfo own;
   std::string shown;  // the name errors give
   int file_ch = 0, keep_ch = 0;
   int row0 = 0, rows = 0, col0 = 0, cols = 0;
@@ -233,9 +235,10 @@ struct OpenImage {
 };
 
 // Opens `path` (OpenChecked), resolves the region and the channels kept, and fills the file's
-// channel count and encoding into *fi.
-Status OpenForDecode(const std::string& path, const ImageReadOptions& options, ImageFileInfo* fi,
+// channel count and encoding into *info (or o->own when info is null): o->fi.
+Status OpenForDecode(const std::string& path, const ImageReadOptions& options, ImageFileInfo* info,
                      OpenImage* o) {
+  ImageFileInfo* fi = o->fi = info ? info : &o->own;
   MATFIT_RETURN_IF_ERROR(OpenChecked(path, options, &o->in));
   const codec::Header& h = o->in->header();
   o->shown = DatasetRelative(path, options.confine_to);
@@ -308,10 +311,9 @@ SampleType SampleOf(const codec::Header& h) {
 
 StatusOr<NativeImage> ReadImageNative(const std::string& path, const ImageReadOptions& options,
                                       ImageFileInfo* info) {
-  ImageFileInfo local;
-  ImageFileInfo& fi = info ? *info : local;
   OpenImage o;
-  MATFIT_RETURN_IF_ERROR(OpenForDecode(path, options, &fi, &o));
+  MATFIT_RETURN_IF_ERROR(OpenForDecode(path, options, info, &o));
+  ImageFileInfo& fi = *o.fi;
   const codec::Header& h = o.in->header();
   NativeImage img;
   img.width = o.cols, img.height = o.rows, img.channels = o.keep_ch;
@@ -373,10 +375,9 @@ StatusOr<bool> ReadImageInto(const std::string& path, const ImageReadOptions& op
                              const std::function<bool(const ImageFileInfo&)>& accept) {
   MATFIT_CHECK(target.type != SampleType::kFloat32 && target.channels >= 1 && target.channels <= 4,
                "ReadImageInto: integer planes of 1 to 4 channels");
-  ImageFileInfo local;
-  ImageFileInfo& fi = info ? *info : local;
   OpenImage o;
-  MATFIT_RETURN_IF_ERROR(OpenForDecode(path, options, &fi, &o));
+  MATFIT_RETURN_IF_ERROR(OpenForDecode(path, options, info, &o));
+  ImageFileInfo& fi = *o.fi;
   const codec::Header& h = o.in->header();
   ImageHeader got;
   got.width = o.cols, got.height = o.rows, got.channels = o.keep_ch, got.file_channels = o.file_ch;
