@@ -93,11 +93,11 @@ StatusOr<LightStack> Load(const std::vector<std::string>& files, std::vector<Lig
                                          ? static_cast<void*>(stack.Codes<uint8_t>(i, c).data())
                                          : static_cast<void*>(stack.Codes<uint16_t>(i, c).data());
   // The diagnosis's texels of each image, taken right after its decode (core/stack_probe.h):
-  // integer single-view stacks (a multi-view stack is diagnosed on one view's images), when
-  // the sample is small beside the stack.
-  // A grid with step < 3 (tiny stacks) is most of the stack: DiagnoseStack reads it directly.
+  // integer single-view stacks of 1 to 4 channels (a multi-view stack is diagnosed on one
+  // view's images) whose grid skips texels (step ≥ 3; a finer grid is most of the stack, which
+  // DiagnoseStack then reads directly).
   std::shared_ptr<StackProbe> probe;
-  if (probe_grid && type != SampleType::kFloat32 && !stack.is_multi_view() && n >= 6 &&
+  if (probe_grid && type != SampleType::kFloat32 && !stack.is_multi_view() && n >= 6 && ch <= 4 &&
       probe_grid->step >= 3)
     probe = std::make_shared<StackProbe>(*probe_grid, n, ch);
   auto take_probe = [&](int i) {
@@ -105,8 +105,7 @@ StatusOr<LightStack> Load(const std::vector<std::string>& files, std::vector<Lig
     auto take = [&](auto zero) {
       using T = decltype(zero);
       const T* p[4] = {};
-      for (int c = 0; c < ch && c < 4; ++c)
-        p[c] = static_cast<const T*>(planes[size_t(i) * ch + c]);
+      for (int c = 0; c < ch; ++c) p[c] = static_cast<const T*>(planes[size_t(i) * ch + c]);
       probe->Take(i, p, w);
     };
     if (type == SampleType::kUint8)
