@@ -137,7 +137,8 @@ void BM_Median(benchmark::State& state) {
   constexpr int kN = 168, kArrays = 4096;
   std::mt19937 rng(1);
   std::normal_distribution<double> normal;
-  std::vector<double> pool(size_t(kN) * kArrays), a(kN), scratch(2 * kN + 16);
+  std::vector<double> pool(size_t(kN) * kArrays), a(kN),
+      scratch(size_t(fit::SelectScratchSize(kN)));
   for (double& v : pool) v = std::abs(normal(rng));
   double acc = 0;
   int64_t t = 0;

@@ -291,26 +291,25 @@ StackDiagnostics DiagnoseStack(const LightStack& s, int max_texels) {
         }
         for (int c = 0; c < C; ++c) {
           const float w = (C == 3 ? kLuma[c] : 1.0f) * inv[size_t(i) * C + c];
-          // Integer stacks: every per-sample value from the code's row of `codes`.
-          auto gather_codes = [&](const auto* plane) {
+          // Integer stacks: every per-sample value from the code's row of `codes`; code_of(k)
+          // is column xs[k]'s code (from the probe, or the plane).
+          auto gather_codes = [&](const auto& code_of) {
             for (int k = 0; k < X; ++k) {
-              const CodeValues& v = codes[plane[row + xs[size_t(k)]]];
+              const CodeValues& v = codes[code_of(k)];
               const size_t at = size_t(k) * n + i;
               good[at] = good[at] && v.usable;
               y[at] += w * v.raw, yd[at] += w * v.decoded, ye[at] += w * v.encoded;
             }
           };
+          auto from_plane = [&](const auto* plane) {
+            gather_codes([&](int k) { return plane[row + xs[size_t(k)]]; });
+          };
           if (probe) {
-            for (int k = 0; k < X; ++k) {
-              const CodeValues& v = codes[probe->Code(int(r), i, c, k)];
-              const size_t at = size_t(k) * n + i;
-              good[at] = good[at] && v.usable;
-              y[at] += w * v.raw, yd[at] += w * v.decoded, ye[at] += w * v.encoded;
-            }
+            gather_codes([&](int k) { return probe->Code(int(r), i, c, k); });
           } else if (s.sample_type() == SampleType::kUint8) {
-            gather_codes(s.Codes<uint8_t>(i, c).data());
+            from_plane(s.Codes<uint8_t>(i, c).data());
           } else if (s.sample_type() == SampleType::kUint16) {
-            gather_codes(s.Codes<uint16_t>(i, c).data());
+            from_plane(s.Codes<uint16_t>(i, c).data());
           } else {
             for (int k = 0; k < X; ++k) {
               const float raw = s.Sample(i, c, row + xs[size_t(k)]);

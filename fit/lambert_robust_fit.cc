@@ -97,7 +97,7 @@ struct Block {
         next(size_t(n)),
         sel(size_t(n)),
         sel2(size_t(n)),
-        scratch(size_t(2 * n + 16)) {}
+        scratch(size_t(SelectScratchSize(n))) {}
   // Inputs.
   LaneVector<Vd> y;        // luminance / I (non-finite → 0)
   LaneVector<Vm> usable;   // neither clipped nor non-finite

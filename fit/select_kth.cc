@@ -10,17 +10,20 @@ namespace {
 
 #ifdef MATFIT_SELECT_AVX512
 // Quickselect whose partitions are branch-free vector compressions: eight values at a time are
-// compared with the pivot, and the ones below and above it are packed into two other buffers
-// (the three buffers take turns: the part kept becomes the next input). Values equal to the
-// pivot are only counted. Small parts finish with the scalar SelectKth.
+// compared with the pivot, and the ones below and above it are packed into two scratch buffers
+// (three of n + 8 doubles take turns: the part kept becomes the next input, the other two the
+// next outputs; `a` is only read, since a full-width store may run 7 doubles past its part).
+// Values equal to the pivot are only counted. Small parts finish with the scalar SelectKth.
 __attribute__((target("avx512f"))) double SelectAvx512(double* a, int n, int k, double* scratch) {
-  double* buffers[3] = {a, scratch, scratch + n + 8};
-  int src = 0;
+  double* buffers[3] = {scratch, scratch + (n + 8), scratch + 2 * (n + 8)};
+  double* in = a;
+  int src = -1;  // in = buffers[src], or a
   int m = n;
   while (m > 16) {
-    const double* in = buffers[src];
-    double* below = buffers[(src + 1) % 3];
-    double* above = buffers[(src + 2) % 3];
+    // The two buffers that are not the input, in order.
+    const int b0 = src == 0 ? 1 : 0, b1 = src == 2 ? 1 : 2;
+    double* below = buffers[b0];
+    double* above = buffers[b1];
     const double pivot = select_detail::MedianOfThree(in, 0, m, std::less<double>());
     const __m512d p = _mm512_set1_pd(pivot);
     int nb = 0, na = 0, i = 0;
@@ -43,14 +46,15 @@ __attribute__((target("avx512f"))) double SelectAvx512(double* a, int n, int k, 
     }
     const int equal = m - nb - na;  // ≥ 1: the pivot is one of the values
     if (k < nb) {
-      src = (src + 1) % 3, m = nb;
+      src = b0, m = nb;
     } else if (k < nb + equal) {
       return pivot;
     } else {
-      src = (src + 2) % 3, m = na, k -= nb + equal;
+      src = b1, m = na, k -= nb + equal;
     }
+    in = buffers[src];
   }
-  return SelectKth(buffers[src], m, k);
+  return SelectKth(in, m, k);
 }
 
 bool HasAvx512() {

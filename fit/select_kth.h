@@ -122,8 +122,9 @@ void SelectTwo(T* a, int n, int k1, int k2, Less less, T* v1, T* v2) {
 }
 
 // The k-th smallest of n finite doubles: SelectKth(a, n, k)'s value, by vector compressions where
-// the CPU has AVX-512 (fit/select_kth.cc: about 3x faster on random data). `scratch` holds
-// 2 n + 16 doubles; a's contents are left unspecified (not a permutation).
+// the CPU has AVX-512 (fit/select_kth.cc; fit_bench median_168: 1.8x SelectKth). `scratch`
+// holds SelectScratchSize(n) doubles; a's contents are left unspecified (not a permutation).
 double SelectKthFinite(double* a, int n, int k, double* scratch);
+inline int SelectScratchSize(int n) { return 3 * (n + 8); }
 
 }  // namespace matfit::fit

@@ -80,7 +80,8 @@ TEST(SelectKth, MatchesNthElementForEveryRank) {
 
 // SelectKthFinite (the vector-compression path where the CPU has AVX-512) returns
 // std::nth_element's value for every rank: lengths around its 8-lane blocks and its scalar
-// finish (≤ 16), ties (one value, a few, many, ±0), sorted and reversed inputs, ±inf.
+// finish (≤ 16), ties (one value, a few, many, ±0), sorted and reversed inputs (the pivot is
+// then often a part's minimum), ±inf; nothing written past the array or the scratch.
 TEST(SelectKth, FiniteSelectionMatchesNthElementForEveryRank) {
   std::mt19937 rng(13);
   for (int trial = 0; trial < 300; ++trial) {
@@ -92,13 +93,55 @@ TEST(SelectKth, FiniteSelectionMatchesNthElementForEveryRank) {
     if (trial % 9 == 4) a[0] = INFINITY, a[size_t(n - 1)] = -INFINITY;
     if (trial % 7 == 0) std::sort(a.begin(), a.end());
     if (trial % 7 == 1) std::sort(a.rbegin(), a.rend());
-    std::vector<double> scratch(size_t(2 * n + 16));
+    // Canaries after the array and the scratch: nothing is written past either.
+    constexpr double kCanary = 12345.678;
+    const size_t scratch_size = size_t(SelectScratchSize(n));
+    std::vector<double> scratch(scratch_size + 16, kCanary);
     for (int k = 0; k < n; k += 1 + n / 60) {
       std::vector<double> ref = a, got = a;
+      got.resize(size_t(n) + 16, kCanary);
       std::nth_element(ref.begin(), ref.begin() + k, ref.end());
       ASSERT_EQ(SelectKthFinite(got.data(), n, k, scratch.data()), ref[size_t(k)])
           << "n " << n << " k " << k;
+      for (size_t j = size_t(n); j < got.size(); ++j) ASSERT_EQ(got[j], kCanary) << "n " << n;
+      for (size_t j = scratch_size; j < scratch.size(); ++j)
+        ASSERT_EQ(scratch[j], kCanary) << "n " << n;
     }
+  }
+}
+
+// Short arrays of few distinct values, every rank: parts that shrink by a few values per pass,
+// where a full-width store at the end of a part reaches past it (a store into the caller's
+// array would overwrite what follows it; the canaries would show it).
+TEST(SelectKth, FiniteSelectionWritesNothingPastItsBuffers) {
+  constexpr double kCanary = -777.5;
+  {
+    // 43 values: the first pivot (median of a[0] = 0, a[21], a[42] = 0.5) leaves 41 above it;
+    // in those, the second pivot (median of 100, 101, 102) has 39 below it, so the part's last
+    // store starts at 39 and would run 4 doubles past a 43-double buffer.
+    const int n = 43;
+    std::vector<double> a(size_t(n) + 16, kCanary),
+        scratch(size_t(SelectScratchSize(n)) + 16, kCanary);
+    for (int j = 0; j < n; ++j) a[size_t(j)] = 1 + j;
+    a[0] = 0, a[42] = 0.5, a[1] = 100, a[21] = 101, a[41] = 102;
+    std::vector<double> ref(a.begin(), a.begin() + n);
+    std::nth_element(ref.begin(), ref.begin() + 5, ref.end());
+    ASSERT_EQ(SelectKthFinite(a.data(), n, 5, scratch.data()), ref[5]);
+    for (size_t j = size_t(n); j < a.size(); ++j) ASSERT_EQ(a[j], kCanary) << j;
+  }
+  std::mt19937 rng(17);
+  for (int trial = 0; trial < 20000; ++trial) {
+    const int n = 17 + int(rng() % 48), levels = 2 + int(rng() % 4);
+    std::vector<double> a(size_t(n) + 16, kCanary),
+        scratch(size_t(SelectScratchSize(n)) + 16, kCanary);
+    for (int j = 0; j < n; ++j) a[size_t(j)] = double(rng() % uint32_t(levels));
+    const int k = int(rng() % uint32_t(n));
+    std::vector<double> ref(a.begin(), a.begin() + n);
+    std::nth_element(ref.begin(), ref.begin() + k, ref.end());
+    ASSERT_EQ(SelectKthFinite(a.data(), n, k, scratch.data()), ref[size_t(k)]);
+    for (size_t j = size_t(n); j < a.size(); ++j) ASSERT_EQ(a[j], kCanary) << "n " << n;
+    for (size_t j = size_t(SelectScratchSize(n)); j < scratch.size(); ++j)
+      ASSERT_EQ(scratch[j], kCanary) << "n " << n;
   }
 }
 
