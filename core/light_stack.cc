@@ -78,16 +78,17 @@ std::span<const T> LightStack::Codes(int image, int channel) const {
   MATFIT_CHECK(!released_, "LightStack::Codes after ReleaseSamples()");
   if constexpr (std::is_same_v<T, uint8_t>) {
     MATFIT_CHECK(type_ == SampleType::kUint8, "Codes<uint8_t> on a stack that is not uint8");
-    return {u8_.data() + PlaneOffset(image, channel), size_t(plane_size())};
+    return {U8() + PlaneOffset(image, channel), size_t(plane_size())};
   } else {
     static_assert(std::is_same_v<T, uint16_t>, "codes are uint8_t or uint16_t");
     MATFIT_CHECK(type_ == SampleType::kUint16, "Codes<uint16_t> on a stack that is not uint16");
-    return {u16_.data() + PlaneOffset(image, channel), size_t(plane_size())};
+    return {U16() + PlaneOffset(image, channel), size_t(plane_size())};
   }
 }
 
 template <typename T>
 std::span<T> LightStack::Codes(int image, int channel) {
+  Own();
   const std::span<const T> codes = std::as_const(*this).Codes<T>(image, channel);
   // The caller may write codes. Only a stack with a probe is written to here: writers that
   // fill fresh stacks from several threads (SelectImages, crops) only read the null pointer.
@@ -102,14 +103,38 @@ template std::span<const uint16_t> LightStack::Codes<uint16_t>(int, int) const;
 
 void LightStack::Decode(int64_t k, int n, float* out) const {
   if (type_ == SampleType::kUint8)
-    DecodeRun(u8_.data() + k, n, lut_.data(), out);
+    DecodeRun(U8() + k, n, lut_.data(), out);
   else
-    DecodeRun(u16_.data() + k, n, lut_.data(), out);
+    DecodeRun(U16() + k, n, lut_.data(), out);
+}
+
+void LightStack::Own() {
+  if (!borrowed_) return;
+  MATFIT_CHECK(!released_);
+  LightStack own(width_, height_, channels_, num_images_, type_, lut_, Uninitialised{});
+  const int64_t P = plane_size();
+  ParallelFor(0, int64_t(num_images_) * channels_, [&](int64_t b, int64_t e) {
+    for (int64_t j = b; j < e; ++j) {
+      const int64_t from = PlaneOffset(int(j / channels_), int(j % channels_)), to = j * P;
+      switch (type_) {
+        case SampleType::kFloat32: std::copy_n(F32() + from, P, own.f32_.data() + to); break;
+        case SampleType::kUint8: std::copy_n(U8() + from, P, own.u8_.data() + to); break;
+        case SampleType::kUint16: std::copy_n(U16() + from, P, own.u16_.data() + to); break;
+      }
+    }
+  });
+  f32_.swap(own.f32_), u8_.swap(own.u8_), u16_.swap(own.u16_);
+  borrowed_ = nullptr;
+  borrowed_images_.clear();
 }
 
 LightStack LightStack::ToFloat() const {
   MATFIT_CHECK(!released_, "LightStack::ToFloat after ReleaseSamples()");
-  if (is_float()) return *this;
+  if (is_float()) {
+    LightStack copy = *this;
+    copy.Own();
+    return copy;
+  }
   LightStack out(width_, height_, channels_, num_images_);
   for (int i = 0; i < num_images_; ++i)
     for (int c = 0; c < channels_; ++c)
@@ -145,6 +170,8 @@ void LightStack::ReleaseSamples() {
   decltype(f32_)().swap(f32_);
   decltype(u8_)().swap(u8_);
   decltype(u16_)().swap(u16_);
+  borrowed_ = nullptr;
+  borrowed_images_.clear();
   probe.reset();
   released_ = true;
 }
@@ -199,6 +226,49 @@ LightStack SelectView(const LightStack& s, const std::vector<int>& group) {
   return out;
 }
 
+namespace {
+
+// Everything of `s` but the samples, for images `idx`: lights, view, mask, physical size,
+// frame, band and per-image provenance (SelectImages, BorrowImages).
+void CopyDescription(const LightStack& s, const std::vector<int>& idx, LightStack* out) {
+  auto pick = [&](const auto& v, auto& dst) {
+    if (v.size() == size_t(s.num_images()))
+      for (int i : idx) dst.push_back(v[size_t(i)]);
+  };
+  for (size_t k = 0; k < idx.size(); ++k) out->lights()[k] = s.lights()[size_t(idx[k])];
+  out->view_direction = s.view_direction;
+  out->view_theta_deg = s.view_theta_deg, out->view_phi_deg = s.view_phi_deg;
+  out->mask = s.mask;
+  out->mm_per_texel = s.mm_per_texel;
+  out->near_frame = s.near_frame;
+  out->band = s.band;
+  out->layout = s.layout, out->source = s.source, out->object_name = s.object_name;
+  pick(s.image_files, out->image_files);
+  pick(s.encodings, out->encodings);
+  pick(s.encoding_reasons, out->encoding_reasons);
+  pick(s.saturated_pixels, out->saturated_pixels);
+  pick(s.nonfinite_samples, out->nonfinite_samples);
+}
+
+}  // namespace
+
+LightStack BorrowImages(const LightStack& s, const std::vector<int>& idx) {
+  for (int i : idx) MATFIT_CHECK(i >= 0 && i < s.num_images());
+  MATFIT_CHECK(!s.samples_released(), "BorrowImages: the stack's samples were released");
+  LightStack out(s.width(), s.height(), s.channels(), 0, s.sample_type(), s.lut(),
+                 LightStack::Uninitialised{});
+  out.num_images_ = int(idx.size());
+  out.lights_.resize(idx.size());
+  // A view of a view reads the first source's planes.
+  const void* first = s.sample_type() == SampleType::kFloat32 ? static_cast<const void*>(s.F32())
+                      : s.sample_type() == SampleType::kUint8 ? static_cast<const void*>(s.U8())
+                                                              : static_cast<const void*>(s.U16());
+  out.borrowed_ = first;
+  for (int i : idx) out.borrowed_images_.push_back(s.borrowed_ ? s.borrowed_images_[size_t(i)] : i);
+  CopyDescription(s, idx, &out);
+  return out;
+}
+
 LightStack SelectImages(const LightStack& s, const std::vector<int>& idx) {
   for (int i : idx) MATFIT_CHECK(i >= 0 && i < s.num_images());
   // Every plane is copied below: no zeroing first, and the copies run in parallel (a held-out
@@ -206,11 +276,6 @@ LightStack SelectImages(const LightStack& s, const std::vector<int>& idx) {
   // 0.03–0.06 s per fold).
   LightStack out(s.width(), s.height(), s.channels(), int(idx.size()), s.sample_type(), s.lut(),
                  LightStack::Uninitialised{});
-  auto pick = [&](const auto& v, auto& dst) {
-    if (v.size() == size_t(s.num_images()))
-      for (int i : idx) dst.push_back(v[i]);
-  };
-  for (size_t k = 0; k < idx.size(); ++k) out.lights()[k] = s.lights()[size_t(idx[k])];
   const int C = s.channels();
   ParallelFor(0, int64_t(idx.size()) * C, [&](int64_t b, int64_t e) {
     for (int64_t j = b; j < e; ++j) {
@@ -223,18 +288,7 @@ LightStack SelectImages(const LightStack& s, const std::vector<int>& idx) {
       }
     }
   });
-  out.view_direction = s.view_direction;
-  out.view_theta_deg = s.view_theta_deg, out.view_phi_deg = s.view_phi_deg;
-  out.mask = s.mask;
-  out.mm_per_texel = s.mm_per_texel;
-  out.near_frame = s.near_frame;
-  out.band = s.band;
-  out.layout = s.layout, out.source = s.source, out.object_name = s.object_name;
-  pick(s.image_files, out.image_files);
-  pick(s.encodings, out.encodings);
-  pick(s.encoding_reasons, out.encoding_reasons);
-  pick(s.saturated_pixels, out.saturated_pixels);
-  pick(s.nonfinite_samples, out.nonfinite_samples);
+  CopyDescription(s, idx, &out);
   return out;
 }
 

@@ -98,13 +98,16 @@ class LightStack {
   // Float stacks only (a MATFIT_CHECK failure on a native-depth stack): the planes for code
   // that builds or edits stacks (renderer, perturbations, tests), and the planes as one array.
   // Readers use Row/Texels/At/Sample, which work on every stack.
+  // On a view (BorrowImages) the non-const accessors (Plane, data, Codes) first copy the
+  // view's images into samples of its own (Own): writing never reaches the source.
   std::span<float> Plane(int image, int channel) {
     CheckFloat();
+    Own();
     return {f32_.data() + PlaneOffset(image, channel), size_t(plane_size())};
   }
   std::span<const float> Plane(int image, int channel) const {
     CheckFloat();
-    return {f32_.data() + PlaneOffset(image, channel), size_t(plane_size())};
+    return {F32() + PlaneOffset(image, channel), size_t(plane_size())};
   }
   // Linear value of one sample, any sample type (read-only for every stack, so that reading a
   // non-const native stack never picks a float-only overload; write through Plane()).
@@ -116,8 +119,8 @@ class LightStack {
   float Sample(int image, int channel, int64_t p) const {
     MATFIT_DCHECK(p >= 0 && p < plane_size());
     const int64_t k = PlaneOffset(image, channel) + p;
-    if (type_ == SampleType::kFloat32) return f32_[k];
-    return type_ == SampleType::kUint8 ? lut_[u8_[k]] : lut_[u16_[k]];
+    if (type_ == SampleType::kFloat32) return F32()[k];
+    return type_ == SampleType::kUint8 ? lut_[U8()[k]] : lut_[U16()[k]];
   }
   // Row y, columns [x0, x0 + n) of (image, channel) as linear floats. Kernels read the stack
   // through this: it points into the planes for float stacks, and decodes into `scratch`
@@ -130,7 +133,7 @@ class LightStack {
   const float* Texels(int image, int channel, int64_t p, int n, float* scratch) const {
     MATFIT_DCHECK(p >= 0 && p + n <= plane_size());
     const int64_t k = PlaneOffset(image, channel) + p;
-    if (type_ == SampleType::kFloat32) return f32_.data() + k;
+    if (type_ == SampleType::kFloat32) return F32() + k;
     Decode(k, n, scratch);
     return scratch;
   }
@@ -138,9 +141,9 @@ class LightStack {
   // planes, which the hardware prefetcher cannot predict).
   void Prefetch(int image, int channel, int64_t p, int n) const {
     const int64_t k = PlaneOffset(image, channel) + p;
-    const char* b = type_ == SampleType::kFloat32 ? reinterpret_cast<const char*>(f32_.data() + k)
-                    : type_ == SampleType::kUint8 ? reinterpret_cast<const char*>(u8_.data() + k)
-                                                  : reinterpret_cast<const char*>(u16_.data() + k);
+    const char* b = type_ == SampleType::kFloat32 ? reinterpret_cast<const char*>(F32() + k)
+                    : type_ == SampleType::kUint8 ? reinterpret_cast<const char*>(U8() + k)
+                                                  : reinterpret_cast<const char*>(U16() + k);
     const int64_t bytes = int64_t(n) * (type_ == SampleType::kFloat32 ? 4
                                         : type_ == SampleType::kUint8 ? 1
                                                                       : 2);
@@ -152,16 +155,20 @@ class LightStack {
   std::span<T> Codes(int image, int channel);
   template <typename T>
   std::span<const T> Codes(int image, int channel) const;
-  // Float stacks only: every sample, plane after plane.
+  // Float stacks only: every sample, plane after plane (a view's planes are its source's, in
+  // the source's order: const data() refuses a view).
   const float* data() const {
     CheckFloat();
+    MATFIT_CHECK(!is_view(), "LightStack::data() on a view: read it plane by plane");
     return f32_.data();
   }
   float* data() {
     CheckFloat();
+    Own();
     return f32_.data();
   }
-  // The same stack as float32 (a copy; metadata kept). Costs 4 bytes per sample.
+  // The same stack as float32 (a copy that owns its samples, also of a view; metadata kept).
+  // Costs 4 bytes per sample.
   LightStack ToFloat() const;
   // Integer stacks only: linearises the stored codes with `enc` from now on (a new code table,
   // no sample touched), recorded for every image with `reason`.
@@ -220,20 +227,37 @@ class LightStack {
   std::shared_ptr<const StackProbe> probe;
   StackBand band;  // which rows of a distributed stack these are (default: the whole stack)
   int64_t MaskedTexels() const;  // texels inside the mask (all when no mask)
-  // Bytes held by the samples (at their native size), the lookup table and the mask.
+  // Bytes held by the samples (at their native size; none for a view's borrowed ones), the
+  // lookup table and the mask.
   size_t MemoryBytes() const;
   // Frees the samples and keeps everything else (size, lights, mask, metadata): for a job whose
   // remaining steps need only the stack's description (fit/fit_job.cc, before the pack is
   // written). Reading a sample afterwards is a MATFIT_DCHECK failure.
   void ReleaseSamples();
   bool samples_released() const { return released_; }
+  // Whether the samples are another stack's (BorrowImages).
+  bool is_view() const { return borrowed_ != nullptr; }
 
  private:
   int64_t PlaneOffset(int image, int channel) const {
     MATFIT_DCHECK(image >= 0 && image < num_images_ && channel >= 0 && channel < channels_);
     MATFIT_DCHECK(!released_, "LightStack: a sample read after ReleaseSamples()");
-    return (int64_t(image) * channels_ + channel) * plane_size();
+    const int64_t source = borrowed_ ? borrowed_images_[size_t(image)] : image;
+    return (source * channels_ + channel) * plane_size();
   }
+  // The first sample of the planes PlaneOffset indexes: the stack's own, or a view's source's.
+  const float* F32() const {
+    return borrowed_ ? static_cast<const float*>(borrowed_) : f32_.data();
+  }
+  const uint8_t* U8() const {
+    return borrowed_ ? static_cast<const uint8_t*>(borrowed_) : u8_.data();
+  }
+  const uint16_t* U16() const {
+    return borrowed_ ? static_cast<const uint16_t*>(borrowed_) : u16_.data();
+  }
+  // A view takes samples of its own: a copy of its images, in its order (no-op otherwise).
+  void Own();
+  friend LightStack BorrowImages(const LightStack& stack, const std::vector<int>& indices);
 
   void CheckFloat() const {
     MATFIT_CHECK(!released_, "LightStack: Plane()/data() after ReleaseSamples()");
@@ -254,11 +278,20 @@ class LightStack {
   std::vector<uint16_t, LargePageAllocator<uint16_t>> u16_;
   std::vector<float> lut_;
   std::vector<LightSample> lights_;
+  // A view: the source's first sample and, for each of this stack's images, the source's image
+  // (its planes). Null for a stack that holds its samples.
+  const void* borrowed_ = nullptr;
+  std::vector<int> borrowed_images_;
 };
 
 // A stack holding only images `indices` of `stack` (in that order), with their lights and
 // provenance; sample type and table, mask, view and physical size are kept.
 LightStack SelectImages(const LightStack& stack, const std::vector<int>& indices);
+// The same stack without copying a sample: a view that reads `stack`'s own planes (held-out
+// folds, model selection). Valid while `stack` lives and its samples are neither written,
+// reallocated nor released; the view's non-const sample accessors copy its images first (Own),
+// so writing a view never changes `stack`. Copies of a view are views of the same source.
+LightStack BorrowImages(const LightStack& stack, const std::vector<int>& indices);
 
 // The images of each distinct view (ViewOf equal within 1e-9), views in order of first
 // appearance, images in stack order (every light of a headers-only stack). One group for a

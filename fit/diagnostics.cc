@@ -233,7 +233,7 @@ StackDiagnostics DiagnoseStack(const LightStack& s, int max_texels) {
   // lacquer BTF read as γ 1.21, "sRGB read as linear", over all its views).
   if (s.is_multi_view()) {
     const auto groups = ViewGroups(s);
-    return DiagnoseStack(SelectImages(s, groups[size_t(MostFrontalView(s, groups))]), max_texels);
+    return DiagnoseStack(BorrowImages(s, groups[size_t(MostFrontalView(s, groups))]), max_texels);
   }
   StackDiagnostics d;
   const int n = s.num_images(), C = s.channels(), W = s.width();

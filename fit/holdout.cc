@@ -33,7 +33,7 @@ StatusOr<HeldOutMetrics> HeldOut(const FitMethod& method, const LightStack& s, i
       };
     std::vector<int> train, test;
     for (int i = 0; i < n; ++i) (i % folds == f ? test : train).push_back(i);
-    auto fit = method.Fit(SelectImages(s, train), o);
+    auto fit = method.Fit(BorrowImages(s, train), o);  // no copy of the training images
     if (cancelled || (!fit.ok() && fit.status().code() == StatusCode::kCancelled))
       return Status(StatusCode::kCancelled, "cancelled");
     if (!fit.ok()) {

@@ -60,7 +60,7 @@ StatusOr<HeldOutViewMetrics> HeldOutViews(const FitMethod& method, const LightSt
   const std::vector<int> held = ChooseHeldOutViews(s, groups, count);
   std::vector<int> train, test;
   SplitByViews(groups, held, &train, &test);
-  const LightStack train_stack = SelectImages(s, train);
+  const LightStack train_stack = BorrowImages(s, train);
   auto fit = method.Fit(train_stack, options);
   if (!fit.ok())
     return Status(fit.status().code(),

@@ -76,7 +76,7 @@ StatusOr<HeldOutSums> Score(const FitMethod& m, const LightStack& fine, const Li
   for (int f = 0; f < folds; ++f) {
     std::vector<int> train, test;
     for (int i = 0; i < n; ++i) (i % folds == f ? test : train).push_back(i);
-    const LightStack train_stack = SelectImages(coarse, train);
+    const LightStack train_stack = BorrowImages(coarse, train);
     auto fit = m.Fit(train_stack, options);
     if (!fit.ok()) {
       if (fit.status().code() == StatusCode::kCancelled) return fit.status();

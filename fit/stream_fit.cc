@@ -164,7 +164,7 @@ Status StreamedFit::FitBands(const FitOptions& o, const ProgressFn& progress,
         return !progress || t <= 0 ||
                progress(int64_t(b * passes + 1) * t + d, int64_t(bands) * passes * t);
       };
-      auto hf = RefineSvbrdf(SelectImages(*band, train), *start_, cache_->band_row0(b), ho);
+      auto hf = RefineSvbrdf(BorrowImages(*band, train), *start_, cache_->band_row0(b), ho);
       if (!hf.ok()) return hf.status();
       for (size_t h = 0; h < held.size(); ++h)
         for (const auto& [tl, images] : tests[h]) {

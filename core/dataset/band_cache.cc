@@ -7,6 +7,7 @@
 #include <cerrno>
 #include <cstring>
 #include <filesystem>
+#include <utility>
 
 #include "core/dataset/stack_loader.h"
 #include "core/path_util.h"
@@ -18,8 +19,10 @@ namespace {
 
 namespace fs = std::filesystem;
 
-// The samples of a stack as bytes (every plane, in plane order): one contiguous block.
+// The samples of a stack as bytes (every plane, in plane order): one contiguous block, so not
+// a view's (BorrowImages: its planes are its source's, in the source's order).
 const char* Bytes(const LightStack& s) {
+  MATFIT_CHECK(!s.is_view(), "band cache: a view of a stack has no contiguous samples");
   switch (s.sample_type()) {
     case SampleType::kUint8: return reinterpret_cast<const char*>(s.Codes<uint8_t>(0, 0).data());
     case SampleType::kUint16: return reinterpret_cast<const char*>(s.Codes<uint16_t>(0, 0).data());
@@ -27,7 +30,14 @@ const char* Bytes(const LightStack& s) {
   }
   return reinterpret_cast<const char*>(s.data());
 }
-char* Bytes(LightStack& s) { return const_cast<char*>(Bytes(std::as_const(s))); }
+char* Bytes(LightStack& s) {
+  switch (s.sample_type()) {
+    case SampleType::kUint8: return reinterpret_cast<char*>(s.Codes<uint8_t>(0, 0).data());
+    case SampleType::kUint16: return reinterpret_cast<char*>(s.Codes<uint16_t>(0, 0).data());
+    case SampleType::kFloat32: break;
+  }
+  return reinterpret_cast<char*>(s.data());
+}
 
 std::string BandFile(const std::string& dir, int b) {
   char name[32];
@@ -159,7 +169,7 @@ StatusOr<BandCache> BandCache::Build(const LightStack& shape, const ReadOptions&
     append(cache.meta_.read_warnings, part->read_warnings);
     // Each band file: planes (image, channel) of band_rows × W samples, in stack order. One band
     // file open at a time (a tall stack under a small budget has thousands of bands).
-    const char* src = Bytes(*part);
+    const char* src = Bytes(std::as_const(*part));
     for (int b = 0; b < cache.bands(); ++b) {
       const std::string path = BandFile(cache.dir_, b);
       const int fd = ::open(path.c_str(), O_CREAT | O_WRONLY | O_CLOEXEC, 0600);

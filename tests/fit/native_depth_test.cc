@@ -165,5 +165,108 @@ TEST(NativeDepth, HeldOutFiguresEqualFloat) {
     }
 }
 
+// BorrowImages: a view reads the source's planes in its own image order (views of views too),
+// carries the same description as SelectImages' copy, and copies its images before any write,
+// leaving the source as it was.
+TEST(Borrow, ViewsReadTheSourcesSamplesAndWritesCopyThemFirst) {
+  const LightStack f = SynthData({"plaster", "dome:12", 9}).stack;
+  const std::vector<int> pick = {3, 1, 7, 11, 0, 5}, again = {4, 0, 2};
+  for (const LightStack& s : {QuantiseStack(f, 8), QuantiseStack(f, 16), f}) {
+    SCOPED_TRACE(int(s.sample_type()));
+    const LightStack copy = SelectImages(s, pick), view = BorrowImages(s, pick);
+    EXPECT_TRUE(view.is_view());
+    EXPECT_FALSE(copy.is_view());
+    EXPECT_EQ(view.MemoryBytes(), s.lut().size() * sizeof(float)) << "a view holds no sample";
+    ASSERT_EQ(view.num_images(), copy.num_images());
+    EXPECT_EQ(view.sample_type(), s.sample_type());
+    EXPECT_EQ(view.image_files, copy.image_files);
+    EXPECT_EQ(view.encodings.size(), copy.encodings.size());
+    const LightStack view2 = BorrowImages(view, again);  // images pick[again[k]] of s
+    std::vector<float> a(size_t(s.plane_size())), b(a.size());
+    for (int k = 0; k < view.num_images(); ++k) {
+      EXPECT_EQ(view.lights()[size_t(k)].direction, copy.lights()[size_t(k)].direction);
+      for (int c = 0; c < s.channels(); ++c) {
+        const int n = int(s.plane_size());
+        const float* x = view.Texels(k, c, 0, n, a.data());
+        const float* y = copy.Texels(k, c, 0, n, b.data());
+        for (int p = 0; p < n; ++p) ASSERT_EQ(x[p], y[p]) << k << " " << c << " " << p;
+        EXPECT_EQ(view.At(k, c, 8, 3), s.At(pick[size_t(k)], c, 8, 3));
+      }
+    }
+    for (int k = 0; k < view2.num_images(); ++k)
+      for (int64_t p = 0; p < s.plane_size(); ++p)
+        ASSERT_EQ(view2.Sample(k, 2, p), s.Sample(pick[size_t(again[size_t(k)])], 2, p));
+    // Writing a view (its copy) makes it own its images; the source is unchanged.
+    LightStack w = view2;
+    EXPECT_TRUE(w.is_view());
+    const float before = s.Sample(pick[size_t(again[1])], 1, 5);
+    if (s.is_float())
+      w.Plane(1, 1)[5] = 0.25f;
+    else if (s.sample_type() == SampleType::kUint8)
+      w.Codes<uint8_t>(1, 1)[5] = 200;
+    else
+      w.Codes<uint16_t>(1, 1)[5] = 60000;
+    EXPECT_FALSE(w.is_view());
+    EXPECT_GT(w.MemoryBytes(), s.lut().size() * sizeof(float));
+    EXPECT_EQ(s.Sample(pick[size_t(again[1])], 1, 5), before);
+    EXPECT_EQ(view2.Sample(1, 1, 5), before);
+    EXPECT_NE(w.Sample(1, 1, 5), before);
+    for (int k = 0; k < w.num_images(); ++k)
+      for (int c = 0; c < s.channels(); ++c)
+        for (int64_t p = 0; p < s.plane_size(); ++p)
+          if (k != 1 || c != 1 || p != 5) {
+            ASSERT_EQ(w.Sample(k, c, p), view2.Sample(k, c, p));
+          }
+    if (s.is_float()) {
+      const LightStack owned = view.ToFloat();  // a float view's ToFloat owns its samples
+      EXPECT_FALSE(owned.is_view());
+      EXPECT_EQ(owned.data()[s.plane_size() * 3 + 7], s.Sample(pick[1], 0, 7));
+      GTEST_FLAG_SET(death_test_style, "threadsafe");
+      EXPECT_DEATH((void)view.data(), "on a view");
+    }
+    LightStack r = view;
+    r.ReleaseSamples();
+    EXPECT_FALSE(r.is_view());
+    EXPECT_TRUE(view.is_view());
+  }
+}
+
+// Every method fits a view of some images exactly as it fits a copy of them (held-out folds and
+// model selection fit views), on an 8-bit and a float stack with clipped samples and a mask.
+TEST(Borrow, EveryMethodFitsAViewAsItFitsACopy) {
+  auto data = SynthData({"plastic", "dome:30", 23, 0.01});
+  for (int i = 0; i < data.stack.num_images(); ++i)
+    for (int c = 0; c < 3; ++c)
+      for (float& v : data.stack.Plane(i, c)) v = std::min(v * 1.6f, 1.0f);
+  LightStack q8 = QuantiseStack(data.stack, 8), qf = data.stack;
+  for (LightStack* q : {&q8, &qf}) {
+    q->mask.assign(size_t(q->plane_size()), 1);
+    for (int64_t p = 0; p < q->plane_size(); p += 7) q->mask[size_t(p)] = 0;
+  }
+  std::vector<int> train;
+  for (int i = 0; i < q8.num_images(); ++i)
+    if (i % 4 != 1) train.push_back(i);
+  int fitted = 0;
+  for (const LightStack* q : {&q8, &qf})
+    for (const std::string& name : MethodNames()) {
+      const LightStack copy = SelectImages(*q, train), view = BorrowImages(*q, train);
+      auto method = MakeMethod(name);
+      ASSERT_TRUE(method) << name;
+      auto a = method->Fit(view, {}), b = method->Fit(copy, {});
+      ASSERT_EQ(a.ok(), b.ok()) << name;
+      if (!b.ok()) {
+        EXPECT_EQ(a.status().message(), b.status().message()) << name;
+        continue;
+      }
+      ++fitted;
+      EXPECT_EQ(a->status, b->status) << name;
+      ExpectSameMaps(a->maps, b->maps, name);
+      const auto ra = Reconstruction(*q, a->maps, a->status);
+      const auto rb = Reconstruction(*q, b->maps, b->status);
+      EXPECT_EQ(ra.rmse, rb.rmse) << name;
+    }
+  EXPECT_GE(fitted, 24);
+}
+
 }  // namespace
 }  // namespace matfit::fit
