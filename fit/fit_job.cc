@@ -198,11 +198,12 @@ StatusOr<FitJobResult> RunFitJob(const FitJobOptions& o, const StageProgress& pr
     with_dataset_warnings(&r.fit.warnings);
     for (uint8_t st : r.fit.status) r.fit.flagged_texels += st != 0 && st != 1;
     if (!stages.Begin("reconstruction")) return Cancelled();
-    const ScoreParts recon{.reconstruction = true, .residuals = false};
-    r.reconstruction = ScoreFit(*stack, r.fit, false, stages.Callback(), recon).reconstruction;
-    r.reconstruction_common = AnyFlagged(r.fit.status) || !r.fit.views.empty()
-                                  ? ScoreFit(*stack, r.fit, true, {}, recon).reconstruction
-                                  : r.reconstruction;
+    const bool common = AnyFlagged(r.fit.status) || !r.fit.views.empty();
+    const StackScore score =
+        ScoreFit(*stack, r.fit, false, stages.Callback(),
+                 {.reconstruction = true, .residuals = false, .common = common});
+    r.reconstruction = score.reconstruction;
+    r.reconstruction_common = common ? score.reconstruction_common : r.reconstruction;
     stages.End();
     const std::string truth_dir = synth::FindTruthFolder(o.input);
     if (!truth_dir.empty()) {
@@ -284,17 +285,14 @@ StatusOr<FitJobResult> RunFitJob(const FitJobOptions& o, const StageProgress& pr
   // A per-view fit predicts each view's images from its own maps (fit/per_view_fit.h).
   const bool per_view = !fit->views.empty();
   if (!stages.Begin("reconstruction")) return Cancelled();
-  StackScore score = ScoreFit(*stack, *fit, false, stages.Callback(),
-                              {.reconstruction = true, .residuals = !per_view});
-  r.reconstruction = score.reconstruction;
-  // The common texel set costs a second pass only when the fit flagged texels (no progress of
-  // its own: the stage's bar has reached its end once).
+  // The common texel set differs only when the fit flagged texels: then its figures come from
+  // the same pass (ScoreParts::common).
   bool flagged = AnyFlagged(*stack, fit->status);
   for (const ViewFit& v : fit->views) flagged = flagged || AnyFlagged(*stack, v.status);
-  r.reconstruction_common =
-      flagged ? ScoreFit(*stack, *fit, true, {}, {.reconstruction = true, .residuals = false})
-                    .reconstruction
-              : r.reconstruction;
+  StackScore score = ScoreFit(*stack, *fit, false, stages.Callback(),
+                              {.reconstruction = true, .residuals = !per_view, .common = flagged});
+  r.reconstruction = score.reconstruction;
+  r.reconstruction_common = flagged ? score.reconstruction_common : r.reconstruction;
   stages.End();
   std::vector<uint8_t> fitted_status = fit->status;  // metrics describe what was fitted
   if (!stages.Begin("confidence")) return Cancelled();

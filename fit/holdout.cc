@@ -41,19 +41,17 @@ StatusOr<HeldOutMetrics> HeldOut(const FitMethod& method, const LightStack& s, i
       continue;
     }
     // A per-view fit predicts each image from its own view's maps (fit/per_view_fit.h).
-    StackScore score = ScoreFit(s, test, *fit, /*common=*/false, {},
-                                {.reconstruction = true, .residuals = true, .srgb8 = true});
+    // The common texel set's figures from the same pass when they differ (flagged texels).
+    const bool common = AnyFlagged(s, fit->status) || !fit->views.empty();
+    StackScore score =
+        ScoreFit(s, test, *fit, /*common=*/false, {},
+                 {.reconstruction = true, .residuals = true, .srgb8 = true, .common = common});
     const ReconstructionMetrics& m = score.reconstruction;
     for (size_t p = 0; p < texel_rss.size(); ++p)
       texel_rss[p] += score.residuals.rss[p], texel_samples[p] += score.residuals.samples[p];
     total += m.deviation_percent / 100 * double(m.samples);
     h.samples += m.samples;
-    const ReconstructionMetrics mc =
-        AnyFlagged(s, fit->status) || !fit->views.empty()
-            ? ScoreFit(s, test, *fit, /*common=*/true, {},
-                       {.reconstruction = true, .residuals = false, .srgb8 = true})
-                  .reconstruction
-            : m;
+    const ReconstructionMetrics& mc = common ? score.reconstruction_common : m;
     total_common += mc.deviation_percent / 100 * double(mc.samples);
     total8 += m.rmse_srgb8 * m.rmse_srgb8 * double(m.samples);
     total8_common += mc.rmse_srgb8 * mc.rmse_srgb8 * double(mc.samples);

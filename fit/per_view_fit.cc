@@ -125,7 +125,7 @@ StackScore ScoreFit(const LightStack& s, const std::vector<int>& images, const F
     r.rss.assign(T, 0.0), r.level.assign(T, 0.0), r.samples.assign(T, 0),
         r.used_lights.assign(T, 0);
   }
-  ReconstructionSums sums;
+  ReconstructionSums sums, sums_common;
   int64_t done = 0;
   for (const auto& [key, part] : split) {
     // Display only under MPI (each part is collective: every rank scores every part).
@@ -140,6 +140,7 @@ StackScore ScoreFit(const LightStack& s, const std::vector<int>& images, const F
     }
     const StackScore sc = ScoreStack(s, part, v.maps, *status, {}, parts);
     if (parts.reconstruction) sums.Add(sc.reconstruction, key.second);
+    if (parts.reconstruction && parts.common) sums_common.Add(sc.reconstruction_common, key.second);
     if (parts.residuals) {
       TexelResiduals& r = out.residuals;
       const TexelResiduals& p = sc.residuals;
@@ -154,6 +155,7 @@ StackScore ScoreFit(const LightStack& s, const std::vector<int>& images, const F
     for (size_t t = 0; t < T; ++t)
       if (out.residuals.samples[t] > 0) out.residuals.level[t] /= out.residuals.samples[t];
   if (parts.reconstruction) out.reconstruction = sums.Metrics();
+  if (parts.reconstruction && parts.common) out.reconstruction_common = sums_common.Metrics();
   return out;
 }
 

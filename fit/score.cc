@@ -145,12 +145,15 @@ std::vector<uint8_t> Srgb8OfCodes(const LightStack& s) {
 // Σ over scored texels and channels of (code(raw) − code(I · pred))², codes by LinearToSrgb8Fast:
 // an integer, so the sum is exact in any order. Raw samples of an integer stack take their code
 // from `srgb8_of_code` (Srgb8OfCodes) by their stored code: no float conversion per sample.
-int64_t Srgb8SquaredError(const LightStack& s, int image, int64_t p0,
-                          const std::vector<uint8_t>& srgb8_of_code, const LightChannels& l,
-                          int channels, const float* ok, int n) {
+// Texels scored: ok[t] ≠ 0 into *sum; with `ok_common`, ok_common[t] ≠ 0 into *sum_common too.
+void Srgb8SquaredError(const LightStack& s, int image, int64_t p0,
+                       const std::vector<uint8_t>& srgb8_of_code, const LightChannels& l,
+                       int channels, const float* ok, const float* ok_common, int n, int64_t* sum,
+                       int64_t* sum_common) {
   constexpr int kBlock = 256;
   uint8_t a[kBlock], b[kBlock];
-  int64_t sum = 0;
+  *sum = 0;
+  if (ok_common) *sum_common = 0;
   for (int c = 0; c < channels; ++c) {
     const uint8_t* u8 =
         s.sample_type() == SampleType::kUint8 ? s.Codes<uint8_t>(image, c).data() + p0 : nullptr;
@@ -165,15 +168,20 @@ int64_t Srgb8SquaredError(const LightStack& s, int image, int64_t p0,
       else
         LinearToSrgb8Batch(l.raw[c] + t0, 1.0f, m, a);
       LinearToSrgb8Batch(l.pred[c] + t0, l.intensity[c], m, b);
-      int32_t block = 0;  // ≤ 256 · 255² < 2^31
+      int32_t block = 0, block_common = 0;  // ≤ 256 · 255² < 2^31
       for (int t = 0; t < m; ++t) {
         const int d = int(a[t]) - int(b[t]);
         block += ok[t0 + t] != 0 ? d * d : 0;
       }
-      sum += block;
+      if (ok_common)
+        for (int t = 0; t < m; ++t) {
+          const int d = int(a[t]) - int(b[t]);
+          block_common += ok_common[t0 + t] != 0 ? d * d : 0;
+        }
+      *sum += block;
+      if (ok_common) *sum_common += block_common;
     }
   }
-  return sum;
 }
 
 ReconstructionMetrics ReduceReconstruction(const LightStack& s, const std::vector<int>& images,
@@ -251,6 +259,11 @@ StackScore ScoreStack(const LightStack& s, const std::vector<int>& images, const
   std::vector<int64_t> run_count(reconstruction ? size_t(runs * n) : 0, 0);
   const bool srgb8 = reconstruction && parts.srgb8;
   std::vector<int64_t> run_srgb8(srgb8 ? size_t(runs * n) : 0, 0);
+  // The same three over the common texel set (parts.common).
+  const bool common = reconstruction && parts.common;
+  std::vector<double> run_sum_c(common ? run_sum.size() : 0, 0.0);
+  std::vector<int64_t> run_count_c(common ? run_count.size() : 0, 0);
+  std::vector<int64_t> run_srgb8_c(common ? run_srgb8.size() : 0, 0);
   const std::vector<uint8_t> srgb8_of_code = srgb8 ? Srgb8OfCodes(s) : std::vector<uint8_t>{};
   std::atomic<int64_t> done{0};
   std::mutex progress_mutex;
@@ -264,16 +277,17 @@ StackScore ScoreStack(const LightStack& s, const std::vector<int>& images, const
         std::unique_ptr<NearRun> near_run(near ? new NearRun : nullptr);
         std::unique_ptr<NearLightEvaluator> near_eval(
             near ? new NearLightEvaluator(maps, Vec3f(s.view_direction)) : nullptr);
-        float ok[kEvalRun];
+        float ok[kEvalRun], ok_common[kEvalRun];
         for (int64_t r = r0; r < r1; ++r) {
           const int64_t p0 = r * kEvalRun;
           const int len = int(std::min<int64_t>(kEvalRun, T - p0));
-          int ok_count = 0;
+          int ok_count = 0, common_count = 0;
           for (int t = 0; t < len; ++t) {
-            const bool use = status.empty() || status[size_t(p0 + t)] == kTexelOk;
-            ok[t] = use ? 1.0f : 0.0f, ok_count += use;
+            const uint8_t st = status.empty() ? uint8_t(kTexelOk) : status[size_t(p0 + t)];
+            ok[t] = st == kTexelOk ? 1.0f : 0.0f, ok_count += st == kTexelOk;
+            ok_common[t] = st != kTexelMasked ? 1.0f : 0.0f, common_count += st != kTexelMasked;
           }
-          if (ok_count == 0) continue;
+          if (ok_count == 0 && (!common || common_count == 0)) continue;
           if (residuals) {
             std::fill_n(acc.begin(), len, 0.0), std::fill_n(sum.begin(), len, 0.0);
             std::fill_n(k.begin(), len, 0), std::fill_n(m.begin(), len, 0);
@@ -300,13 +314,20 @@ StackScore ScoreStack(const LightStack& s, const std::vector<int>& images, const
                                             acc.data(), sum.data(), k.data(), m.data())
                        : ScoreLightParts<3>(residuals, reconstruction, l, clip_level, ok, len,
                                             acc.data(), sum.data(), k.data(), m.data());
-            if (reconstruction) {
-              run_sum[size_t(r * n + j)] = d2;
-              run_count[size_t(r * n + j)] = int64_t(ok_count) * C;
+            const size_t at = size_t(r * n + j);
+            if (reconstruction) run_sum[at] = d2, run_count[at] = int64_t(ok_count) * C;
+            if (common) {
+              // The reconstruction part alone with the common weights: the pass a common status
+              // would make.
+              run_sum_c[at] = C == 1 ? ScoreLightParts<1>(false, true, l, clip_level, ok_common,
+                                                          len, nullptr, nullptr, nullptr, nullptr)
+                                     : ScoreLightParts<3>(false, true, l, clip_level, ok_common,
+                                                          len, nullptr, nullptr, nullptr, nullptr);
+              run_count_c[at] = int64_t(common_count) * C;
             }
             if (srgb8)
-              run_srgb8[size_t(r * n + j)] =
-                  Srgb8SquaredError(s, i, p0, srgb8_of_code, l, C, ok, len);
+              Srgb8SquaredError(s, i, p0, srgb8_of_code, l, C, ok, common ? ok_common : nullptr,
+                                len, &run_srgb8[at], common ? &run_srgb8_c[at] : nullptr);
           }
           for (int t = 0; t < len && residuals; ++t) {
             if (ok[t] == 0) continue;
@@ -330,9 +351,16 @@ StackScore ScoreStack(const LightStack& s, const std::vector<int>& images, const
       // (fit/fit_job.cc), the same runs and the same sums as the whole stack's.
       run_sum = ConcatOverBands(s, run_sum), run_count = ConcatOverBands(s, run_count);
       if (srgb8) run_srgb8 = ConcatOverBands(s, run_srgb8);
+      if (common) {
+        run_sum_c = ConcatOverBands(s, run_sum_c), run_count_c = ConcatOverBands(s, run_count_c);
+        if (srgb8) run_srgb8_c = ConcatOverBands(s, run_srgb8_c);
+      }
       all_runs = n > 0 ? int64_t(run_sum.size()) / n : 0;
     }
     out.reconstruction = ReduceReconstruction(s, images, run_sum, run_count, run_srgb8, all_runs);
+    if (common)
+      out.reconstruction_common =
+          ReduceReconstruction(s, images, run_sum_c, run_count_c, run_srgb8_c, all_runs);
   }
   return out;
 }

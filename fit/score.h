@@ -24,7 +24,9 @@ struct TexelResiduals {
 
 struct StackScore {
   ReconstructionMetrics reconstruction;  // empty unless asked for
-  TexelResiduals residuals;              // empty unless asked for
+  // ScoreParts::common: the reconstruction over CommonTexelStatus(status) (fit/metrics.h).
+  ReconstructionMetrics reconstruction_common;
+  TexelResiduals residuals;  // empty unless asked for
 };
 
 struct ScoreParts {
@@ -34,6 +36,11 @@ struct ScoreParts {
   // both the sample and I · prediction encoded as LinearToSrgb8Fast does (batched); a table pass
   // per sample, so only held-out scoring asks for it.
   bool srgb8 = false;
+  // With reconstruction: also its figures over the common texel set, CommonTexelStatus(status)
+  // (every texel but the masked ones), in the same pass: each light's samples and predictions
+  // are summed a second time with the other weights, so the figures are those of a pass with
+  // that status (the same sums in the same order), without predicting and decoding again.
+  bool common = false;
 };
 
 // Over images `images` of the stack (held-out folds score their test images in place). Texels

@@ -199,6 +199,52 @@ TEST(BatchedMetrics, FusedScoreEqualsTheSeparatePasses) {
     }
 }
 
+// ScoreParts::common: the common texel set's figures from the same pass equal a pass with
+// CommonTexelStatus (bit for bit, 8-bit sRGB codes included), and the ok set's figures and the
+// residual sums are those of a pass without it; flagged texels, masked ones and a run whose
+// texels are all flagged (ok set empty there, common set not), float and 8-bit, 1 and 2 threads.
+TEST(BatchedMetrics, CommonSetFromTheSamePassEqualsItsOwnPass) {
+  for (const char* name : {"lambert", "ptm"})
+    for (int channels : {1, 3}) {
+      const MaterialMaps m =
+          testing::RandomModelMaps(ModelId(name), 97, 41, 6, /*grey=*/channels == 1);
+      const LightStack noisy = NoisyStack(m, channels, 5);
+      std::vector<uint8_t> status(size_t(noisy.plane_size()), kTexelOk);
+      for (size_t p = 0; p < status.size(); p += 5) status[p] = 3;
+      for (size_t p = 1; p < status.size(); p += 11) status[p] = kTexelMasked;
+      for (size_t p = 1024; p < 2048; ++p) status[p] = p % 3 ? 2 : kTexelMasked;  // run 2: no ok
+      const std::vector<uint8_t> common = CommonTexelStatus(status);
+      const std::vector<int> images = {0, 3, 4, 9, 17, 28};
+      for (const LightStack& s : {noisy, QuantiseStack(noisy, 8)})
+        for (int threads : {1, 2}) {
+          SetNumThreads(threads);
+          const std::string what = std::string(name) + " " + std::to_string(channels) + " ch " +
+                                   std::to_string(threads) + " threads" +
+                                   (s.is_float() ? " float" : " 8-bit");
+          const ScoreParts parts{.reconstruction = true, .residuals = true, .srgb8 = true};
+          ScoreParts fused = parts;
+          fused.common = true;
+          const StackScore got = ScoreStack(s, images, m, status, {}, fused);
+          const StackScore ok = ScoreStack(s, images, m, status, {}, parts);
+          const StackScore all = ScoreStack(s, images, m, common, {}, parts);
+          for (const auto& [a, b] : {std::pair(&got.reconstruction, &ok.reconstruction),
+                                     std::pair(&got.reconstruction_common, &all.reconstruction)}) {
+            EXPECT_EQ(a->samples, b->samples) << what;
+            EXPECT_EQ(a->deviation_percent, b->deviation_percent) << what;
+            EXPECT_EQ(a->rmse_srgb8, b->rmse_srgb8) << what;
+            EXPECT_EQ(a->deviation_percent_by_theta, b->deviation_percent_by_theta) << what;
+          }
+          EXPECT_GT(got.reconstruction_common.samples, got.reconstruction.samples) << what;
+          EXPECT_NE(got.reconstruction_common.deviation_percent,
+                    got.reconstruction.deviation_percent)
+              << what;
+          EXPECT_EQ(got.residuals.rss, ok.residuals.rss) << what;
+          EXPECT_EQ(got.residuals.samples, ok.residuals.samples) << what;
+        }
+      SetNumThreads(0);
+    }
+}
+
 // The residual sums of the error bound against their definition, sample by sample: q = raw / I,
 // r = q − pred over samples that are finite, below the clip level, with a finite q and r. The
 // stack holds NaN and ±∞ samples and a light of zero intensity (1 / I = ∞: none of its samples
