@@ -172,12 +172,8 @@ void Srgb8SquaredError(const LightStack& s, int image, int64_t p0,
       for (int t = 0; t < m; ++t) {
         const int d = int(a[t]) - int(b[t]);
         block += ok[t0 + t] != 0 ? d * d : 0;
+        if (ok_common) block_common += ok_common[t0 + t] != 0 ? d * d : 0;
       }
-      if (ok_common)
-        for (int t = 0; t < m; ++t) {
-          const int d = int(a[t]) - int(b[t]);
-          block_common += ok_common[t0 + t] != 0 ? d * d : 0;
-        }
       *sum += block;
       if (ok_common) *sum_common += block_common;
     }
