@@ -39,7 +39,7 @@ double Percentile(std::vector<float> v, double q) {
 // The mean luminance as 8-bit: √(v / p90) clipped (highlights saturate, the dim background
 // and the sphere's silhouette keep their contrast), blurred (σ `sigma` pixels).
 cv::Mat Stretched(const Image& mean, double sigma) {
-  const double top = std::max(1e-9, Percentile(mean.data(), 0.90));
+  const double top = std::max(1e-9, Percentile({mean.data().begin(), mean.data().end()}, 0.90));
   cv::Mat m(mean.height(), mean.width(), CV_8U);
   for (int y = 0; y < mean.height(); ++y)
     for (int x = 0; x < mean.width(); ++x)

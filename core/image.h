@@ -8,12 +8,19 @@
 #include <vector>
 
 #include "core/check.h"
+#include "core/large_page_allocator.h"
 
 namespace matfit {
 
 class Image {
  public:
+  // The samples. Big buffers are 2 MiB-aligned and advised for huge pages; the constructor
+  // fills a big one on every thread (each page first touched by the thread that fills it), so
+  // fitted maps and coefficient planes are not zero-filled by one thread while the other waits.
+  using Buffer = std::vector<float, LargePageAllocator<float>>;
+
   Image() = default;
+  // Every sample = fill.
   Image(int width, int height, int channels, float fill = 0.0f);
 
   int width() const { return width_; }
@@ -38,13 +45,13 @@ class Image {
     MATFIT_DCHECK(c >= 0 && c < channels_ && y >= 0 && y < height_ && x >= 0 && x < width_);
     return data_[(int64_t(c) * height_ + y) * width_ + x];
   }
-  std::vector<float>& data() { return data_; }
-  const std::vector<float>& data() const { return data_; }
+  Buffer& data() { return data_; }
+  const Buffer& data() const { return data_; }
   size_t MemoryBytes() const { return data_.size() * sizeof(float); }
 
  private:
   int width_ = 0, height_ = 0, channels_ = 0;
-  std::vector<float> data_;
+  Buffer data_;
 };
 
 }  // namespace matfit

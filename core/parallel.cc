@@ -15,6 +15,7 @@ namespace matfit {
 namespace {
 
 std::atomic<int> g_threads{0};  // 0 = hardware default
+thread_local int t_depth = 0;   // ParallelFor ranges this thread is running (nested)
 std::mutex g_arena_mutex;
 std::shared_ptr<tbb::task_arena> g_arena;
 int g_arena_threads = 0;
@@ -61,9 +62,34 @@ void ParallelFor(int64_t begin, int64_t end, const std::function<void(int64_t, i
   }
   // More threads than cores only adds contention (and TBB caps it anyway).
   auto arena = Arena(std::min(threads, HardwareThreads()));
+  // Isolated: while it waits for its ranges, a thread runs only ranges of this loop (and loops
+  // nested in them), never one of another caller's loop in the shared arena, which could wait
+  // on a lock or a function-local static's initialisation this thread holds.
   arena->execute([&] {
-    tbb::parallel_for(tbb::blocked_range<int64_t>(begin, end, grain),
-                      [&](const tbb::blocked_range<int64_t>& r) { fn(r.begin(), r.end()); });
+    tbb::this_task_arena::isolate([&] {
+      tbb::parallel_for(tbb::blocked_range<int64_t>(begin, end, grain),
+                        [&](const tbb::blocked_range<int64_t>& r) {
+                          struct Depth {  // restored however fn leaves
+                            Depth() { ++t_depth; }
+                            ~Depth() { --t_depth; }
+                          } depth;
+                          fn(r.begin(), r.end());
+                        });
+    });
+  });
+}
+
+bool InParallelRegion() { return t_depth > 0; }
+
+void ParallelFill(float* p, std::size_t n, float value) {
+  constexpr std::size_t kBlock = std::size_t(1) << 18;  // floats: 1 MiB
+  if (n < 2 * kBlock || NumThreads() == 1 || InParallelRegion()) {
+    std::fill_n(p, n, value);
+    return;
+  }
+  ParallelFor(0, int64_t((n + kBlock - 1) / kBlock), [&](int64_t b0, int64_t b1) {
+    const std::size_t s = std::size_t(b0) * kBlock, e = std::min(n, std::size_t(b1) * kBlock);
+    std::fill(p + s, p + e, value);
   });
 }
 

@@ -1,6 +1,7 @@
 // The one parallel-for of the project. Kernels receive half-open index ranges [begin, end).
 #pragma once
 
+#include <cstddef>
 #include <cstdint>
 #include <functional>
 
@@ -16,5 +17,14 @@ void SetNumThreads(int n);
 // range is no longer than grain (the serial fast path). Blocks until all ranges are done.
 void ParallelFor(int64_t begin, int64_t end, const std::function<void(int64_t, int64_t)>& fn,
                  int64_t grain = 1);
+
+// Whether the calling thread is running a ParallelFor range (any level of nesting).
+bool InParallelRegion();
+
+// p[0, n) = value. Buffers of 2 MiB or more are filled in 1 MiB blocks on every thread, unless
+// the caller is already inside a ParallelFor (the other threads are busy there; a nested fill
+// would only add tasks): fresh pages are then first touched — faulted in and zeroed by the
+// kernel — by both threads instead of one.
+void ParallelFill(float* p, std::size_t n, float value);
 
 }  // namespace matfit

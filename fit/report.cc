@@ -1,6 +1,7 @@
 #include "fit/report.h"
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <map>
 #include <nlohmann/json.hpp>
@@ -24,8 +25,12 @@ json ByTheta(const std::map<int, double>& m) {
 
 std::string MakeReportJson(const FitReportInputs& in) {
   const FitResult& r = *in.result;
+  // Counted per code, then named: a name lookup per texel was a serial ~5 ms per report.
+  std::array<int64_t, 256> per_code{};
+  for (uint8_t s : r.status) ++per_code[s];
   std::map<std::string, int64_t> counts;
-  for (uint8_t s : r.status) counts[TexelStatusName(s)]++;
+  for (int s = 0; s < 256; ++s)
+    if (per_code[size_t(s)] > 0) counts[TexelStatusName(uint8_t(s))] += per_code[size_t(s)];
   json params = json::object();
   for (const auto& [k, v] : r.parameters) params[k] = v;
   json j = {

@@ -109,7 +109,7 @@ StatusOr<SheetAnalysis> Analyze(const LeafScan& scan, LightStack top, const Shee
       const Image l = Luminance(b);
       for (int64_t i = 0; i < n; ++i) sum.Plane(0)[i] += l.Plane(0)[i];
     }
-    std::vector<float> v(sum.data());
+    std::vector<float> v(sum.data().begin(), sum.data().end());
     std::nth_element(v.begin(), v.begin() + v.size() * 9 / 10, v.end());
     const float p90 = std::max(v[v.size() * 9 / 10], 1e-6f);
     for (int64_t i = 0; i < n; ++i) first.Plane(0)[i] = sum.Plane(0)[i] / p90;

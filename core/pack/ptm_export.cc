@@ -4,9 +4,12 @@
 #include <array>
 #include <cmath>
 #include <cstdio>
+#include <memory>
+#include <mutex>
 #include <vector>
 
 #include "core/model/model.h"
+#include "core/parallel.h"
 
 namespace matfit {
 namespace {
@@ -22,6 +25,10 @@ inline unsigned char ByteOf(double x) {
   return static_cast<unsigned char>(int(f) + (x - f >= 0.5));
 }
 
+// Texels per ParallelFor range of the encoders (every byte depends on its texel alone, and the
+// ranges' minima and maxima merge in any order: the file is the same on any thread count).
+constexpr int64_t kGrain = 16384;
+
 // One scale and bias per term over the values value(s, j), s < count.
 struct Quantiser {
   std::array<double, kTerms> scale{};
@@ -30,11 +37,21 @@ struct Quantiser {
   template <typename Value>
   Quantiser(int64_t count, const Value& value) {
     std::array<double, kTerms> lo{}, hi{};  // the range includes 0: the bias is a code in [0, 255]
-    for (int64_t s = 0; s < count; ++s)
-      for (int j = 0; j < kTerms; ++j) {
-        const double v = value(s, j);
-        lo[size_t(j)] = std::min(lo[size_t(j)], v), hi[size_t(j)] = std::max(hi[size_t(j)], v);
-      }
+    std::mutex merge;
+    ParallelFor(
+        0, count,
+        [&](int64_t s0, int64_t s1) {
+          std::array<double, kTerms> l{}, h{};
+          for (int64_t s = s0; s < s1; ++s)
+            for (int j = 0; j < kTerms; ++j) {
+              const double v = value(s, j);
+              l[size_t(j)] = std::min(l[size_t(j)], v), h[size_t(j)] = std::max(h[size_t(j)], v);
+            }
+          std::lock_guard<std::mutex> lock(merge);
+          for (size_t j = 0; j < size_t(kTerms); ++j)
+            lo[j] = std::min(lo[j], l[j]), hi[j] = std::max(hi[j], h[j]);
+        },
+        kGrain);
     for (int j = 0; j < kTerms; ++j) {
       scale[size_t(j)] =
           hi[size_t(j)] > lo[size_t(j)] ? (hi[size_t(j)] - lo[size_t(j)]) / 255.0 : 1e-6;
@@ -85,47 +102,66 @@ StatusOr<std::string> EncodePtm(const MaterialMaps& m, PtmFormat format) {
     std::string out = Header("PTM_FORMAT_RGB", W, H, q);
     const size_t head = out.size();
     out.resize(head + size_t(3 * n * kTerms));
-    char* o = out.data() + head;
-    for (int c = 0; c < 3; ++c)
-      for (int64_t k = 0; k < n; ++k) {
-        const int64_t p = file_texel(k);
-        for (int j = 0; j < kTerms; ++j) *o++ = char(q.Code(j, a(c, p, j)));
-      }
+    char* const o = out.data() + head;  // channel c's term j of file texel k at (c n + k) 6 + j
+    ParallelFor(
+        0, 3 * n,
+        [&](int64_t s0, int64_t s1) {
+          for (int64_t s = s0; s < s1; ++s) {
+            const int c = int(s / n);
+            const int64_t p = file_texel(s % n);
+            for (int j = 0; j < kTerms; ++j) o[s * kTerms + j] = char(q.Code(j, a(c, p, j)));
+          }
+        },
+        kGrain);
     return out;
   }
   // LRGB: per texel, the common polynomial L (channel mean) and gains k_c = <a_c, L> / <L, L>,
   // rescaled so that the largest gain is at most 1 (a colour byte).
-  std::vector<double> lum(size_t(n * kTerms));
-  std::vector<std::array<double, 3>> gain(static_cast<size_t>(n));
-  for (int64_t p = 0; p < n; ++p) {
-    double* L = &lum[size_t(p * kTerms)];
-    double ll = 0;
-    for (int j = 0; j < kTerms; ++j) {
-      L[j] = 0;
-      for (int c = 0; c < 3; ++c) L[j] += a(c, p, j) / 3;
-      ll += L[j] * L[j];
-    }
-    double kmax = 0;
-    for (int c = 0; c < 3; ++c) {
-      double al = 0;
-      for (int j = 0; j < kTerms; ++j) al += a(c, p, j) * L[j];
-      gain[size_t(p)][c] = ll > 0 ? std::max(0.0, al / ll) : 0.0;
-      kmax = std::max(kmax, gain[size_t(p)][c]);
-    }
-    if (kmax > 1) {
-      for (int j = 0; j < kTerms; ++j) L[j] *= kmax;
-      for (int c = 0; c < 3; ++c) gain[size_t(p)][c] /= kmax;
-    }
-  }
+  // Written in full below, by the threads that read them next: not zero-filled first.
+  const auto lum = std::make_unique_for_overwrite<double[]>(size_t(n * kTerms));
+  const auto gain = std::make_unique_for_overwrite<std::array<double, 3>[]>(size_t(n));
+  ParallelFor(
+      0, n,
+      [&](int64_t p0, int64_t p1) {
+        for (int64_t p = p0; p < p1; ++p) {
+          double* L = &lum[size_t(p * kTerms)];
+          double ll = 0;
+          for (int j = 0; j < kTerms; ++j) {
+            L[j] = 0;
+            for (int c = 0; c < 3; ++c) L[j] += a(c, p, j) / 3;
+            ll += L[j] * L[j];
+          }
+          double kmax = 0;
+          for (int c = 0; c < 3; ++c) {
+            double al = 0;
+            for (int j = 0; j < kTerms; ++j) al += a(c, p, j) * L[j];
+            gain[size_t(p)][c] = ll > 0 ? std::max(0.0, al / ll) : 0.0;
+            kmax = std::max(kmax, gain[size_t(p)][c]);
+          }
+          if (kmax > 1) {
+            for (int j = 0; j < kTerms; ++j) L[j] *= kmax;
+            for (int c = 0; c < 3; ++c) gain[size_t(p)][c] /= kmax;
+          }
+        }
+      },
+      kGrain);
   const Quantiser q(n, [&](int64_t s, int j) { return lum[size_t(s * kTerms + j)]; });
   std::string out = Header("PTM_FORMAT_LRGB", W, H, q);
-  out.reserve(out.size() + size_t(n * (kTerms + 3)));
-  for (int64_t k = 0; k < n; ++k) {
-    const double* L = &lum[size_t(file_texel(k) * kTerms)];
-    for (int j = 0; j < kTerms; ++j) out.push_back(char(q.Code(j, L[j])));
-  }
-  for (int64_t k = 0; k < n; ++k)
-    for (int c = 0; c < 3; ++c) out.push_back(char(ByteOf(255 * gain[size_t(file_texel(k))][c])));
+  const size_t head = out.size();
+  out.resize(head + size_t(n * (kTerms + 3)));
+  char* const o = out.data() + head;  // every texel's 6 terms, then every texel's 3 gains
+  ParallelFor(
+      0, n,
+      [&](int64_t k0, int64_t k1) {
+        for (int64_t k = k0; k < k1; ++k) {
+          const int64_t p = file_texel(k);
+          const double* L = &lum[size_t(p * kTerms)];
+          for (int j = 0; j < kTerms; ++j) o[k * kTerms + j] = char(q.Code(j, L[j]));
+          for (int c = 0; c < 3; ++c)
+            o[n * kTerms + k * 3 + c] = char(ByteOf(255 * gain[size_t(p)][size_t(c)]));
+        }
+      },
+      kGrain);
   return out;
 }
 

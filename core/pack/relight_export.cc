@@ -3,9 +3,11 @@
 #include <algorithm>
 #include <cmath>
 #include <nlohmann/json.hpp>
+#include <vector>
 
 #include "core/model/model.h"
 #include "core/pack/rti_export.h"
+#include "core/parallel.h"
 #include "core/shading/relight_basis.h"
 
 namespace matfit {
@@ -51,29 +53,38 @@ StatusOr<RelightWeb> EncodeRelightWeb(const MaterialMaps& m) {
   auto plane_of = [&](int p) {  // the fit's plane for layout plane p = 3·term + channel
     return m.coefficients.Plane((ch == 3 ? p % 3 : 0) * terms + from[p / 3]);
   };
-  nlohmann::json scale = nlohmann::json::array(), bias = nlohmann::json::array();
+  // One image of 3 planes per term, each made and filled by one thread (the images in parallel).
   RelightWeb out;
-  for (int i = 0; 3 * i < nplanes; ++i) out.planes.emplace_back(W, H, 3);
-  for (int p = 0; p < nplanes; ++p) {
-    const auto src = plane_of(p);
-    const double s = sign[p / 3];
-    double lo = 0, hi = 0;
-    bool any = false;
-    for (int64_t t = 0; t < n; ++t)
-      if (std::isfinite(src[t])) {
-        const double v = s * src[t];
-        lo = any ? std::min(lo, v) : v, hi = any ? std::max(hi, v) : v, any = true;
+  out.planes.resize(size_t(nplanes / 3));
+  std::vector<double> scales(static_cast<size_t>(nplanes)), biases(scales);
+  ParallelFor(0, nplanes / 3, [&](int64_t i0, int64_t i1) {
+    for (int64_t i = i0; i < i1; ++i) {
+      out.planes[size_t(i)] = Image(W, H, 3);
+      for (int p = int(3 * i); p < 3 * i + 3; ++p) {
+        const auto src = plane_of(p);
+        const double s = sign[p / 3];
+        double lo = 0, hi = 0;
+        bool any = false;
+        for (int64_t t = 0; t < n; ++t)
+          if (std::isfinite(src[t])) {
+            const double v = s * src[t];
+            lo = any ? std::min(lo, v) : v, hi = any ? std::max(hi, v) : v, any = true;
+          }
+        // coefficient = (code / 255 − bias) × scale: code 0 is lo, code 255 is hi.
+        const double sc = hi > lo ? hi - lo : 1.0, bi = -lo / sc;
+        scales[size_t(p)] = sc, biases[size_t(p)] = bi;
+        auto dst = out.planes[size_t(i)].Plane(p % 3);
+        for (int64_t t = 0; t < n; ++t) {
+          const double v = std::isfinite(src[t]) ? s * src[t] : 0.0;
+          const long code = std::clamp(std::lround(255.0 * (v / sc + bi)), 0L, 255L);
+          dst[t] = float(code) / 255.0f;
+        }
       }
-    // coefficient = (code / 255 − bias) × scale: code 0 is lo, code 255 is hi.
-    const double sc = hi > lo ? hi - lo : 1.0, bi = -lo / sc;
-    scale.push_back(sc), bias.push_back(bi);
-    auto dst = out.planes[size_t(p / 3)].Plane(p % 3);
-    for (int64_t t = 0; t < n; ++t) {
-      const double v = std::isfinite(src[t]) ? s * src[t] : 0.0;
-      const long code = std::clamp(std::lround(255.0 * (v / sc + bi)), 0L, 255L);
-      dst[t] = float(code) / 255.0f;
     }
-  }
+  });
+  nlohmann::json scale = nlohmann::json::array(), bias = nlohmann::json::array();
+  for (int p = 0; p < nplanes; ++p)
+    scale.push_back(scales[size_t(p)]), bias.push_back(biases[size_t(p)]);
   const nlohmann::json info = {
       {"width", W},
       {"height", H},

@@ -3,10 +3,12 @@
 #include <algorithm>
 #include <cmath>
 #include <cstring>
+#include <mutex>
 #include <numbers>
 #include <vector>
 
 #include "core/model/model.h"
+#include "core/parallel.h"
 #include "core/shading/relight_basis.h"
 
 namespace matfit {
@@ -67,14 +69,30 @@ StatusOr<std::string> EncodeRti(const MaterialMaps& m) {
   };
   // Per term: bias = the smallest coefficient, scale = the range (bytes 0 … 255 span it).
   std::vector<float> scale(static_cast<size_t>(terms)), bias(static_cast<size_t>(terms));
+  // Ranges of texels in parallel (minima and maxima merge in any order: the same file on any
+  // thread count).
+  constexpr int64_t kGrain = 16384;
+  double lo[9], hi[9];
+  std::fill_n(lo, 9, 1e300), std::fill_n(hi, 9, -1e300);
+  std::mutex merge;
+  ParallelFor(
+      0, n,
+      [&](int64_t p0, int64_t p1) {
+        double l[9], h[9];
+        std::fill_n(l, 9, 1e300), std::fill_n(h, 9, -1e300);
+        for (int64_t p = p0; p < p1; ++p)
+          for (int i = 0; i < terms; ++i)
+            for (int b = 0; b < 3; ++b)
+              l[i] = std::min(l[i], coef(p, b, i)), h[i] = std::max(h[i], coef(p, b, i));
+        std::lock_guard<std::mutex> lock(merge);
+        for (int i = 0; i < terms; ++i)
+          lo[i] = std::min(lo[i], l[i]), hi[i] = std::max(hi[i], h[i]);
+      },
+      kGrain);
   for (int i = 0; i < terms; ++i) {
-    double lo = 1e300, hi = -1e300;
-    for (int64_t p = 0; p < n; ++p)
-      for (int b = 0; b < 3; ++b)
-        lo = std::min(lo, coef(p, b, i)), hi = std::max(hi, coef(p, b, i));
-    if (n == 0) lo = hi = 0;
-    bias[size_t(i)] = float(lo);
-    scale[size_t(i)] = hi > lo ? float(hi - lo) : 1e-6f;
+    if (n == 0) lo[i] = hi[i] = 0;
+    bias[size_t(i)] = float(lo[i]);
+    scale[size_t(i)] = hi[i] > lo[i] ? float(hi[i] - lo[i]) : 1e-6f;
   }
   std::string out = "#HSH1.2\n#written by matfit\n3\n" + std::to_string(W) + " " +
                     std::to_string(H) + " 3\n" + std::to_string(terms) + " 2 1\n";
@@ -83,19 +101,24 @@ StatusOr<std::string> EncodeRti(const MaterialMaps& m) {
   static_assert(sizeof(float) == 4, "float32");
   std::memcpy(&out[header], scale.data(), 4 * size_t(terms));  // little-endian hosts only
   std::memcpy(&out[header + 4 * size_t(terms)], bias.data(), 4 * size_t(terms));
-  out.reserve(out.size() + size_t(n) * 3 * size_t(terms));
-  for (int fy = 0; fy < H; ++fy) {
-    const int y = H - 1 - fy;  // the bottom row first
-    for (int x = 0; x < W; ++x)
-      for (int b = 0; b < 3; ++b)
-        for (int i = 0; i < terms; ++i) {
-          const double a = coef(int64_t(y) * W + x, b, i);
-          // The float32 scale and bias are what a reader has: quantise against those.
-          const long code =
-              std::lround((a - double(bias[size_t(i)])) / double(scale[size_t(i)]) * 255.0);
-          out.push_back(char(std::clamp(code, 0L, 255L)));
+  const size_t head = out.size();
+  out.resize(head + size_t(n) * 3 * size_t(terms));
+  char* const o = out.data() + head;  // file texel k's band b, term i at (3 k + b) terms + i
+  ParallelFor(
+      0, n,
+      [&](int64_t k0, int64_t k1) {
+        for (int64_t k = k0; k < k1; ++k) {
+          const int64_t p = int64_t(H - 1 - k / W) * W + k % W;  // the bottom row first
+          for (int b = 0; b < 3; ++b)
+            for (int i = 0; i < terms; ++i) {
+              // The float32 scale and bias are what a reader has: quantise against those.
+              const long code = std::lround((coef(p, b, i) - double(bias[size_t(i)])) /
+                                            double(scale[size_t(i)]) * 255.0);
+              o[(3 * k + b) * terms + i] = char(std::clamp(code, 0L, 255L));
+            }
         }
-  }
+      },
+      kGrain);
   return out;
 }
 

@@ -88,7 +88,8 @@ StatusOr<ShaderParams> PackShaderParams(const MaterialMaps& m) {
   const size_t n_texels = size_t(std::max(0, m.width)) * size_t(std::max(0, m.height));
   const std::vector<float> ones(n_texels, 1.0f), zeros(n_texels, 0.0f);
   if (Status st = CollectPlanes(m, ones.data(), zeros.data(), &g, &planes); !st.ok()) return st;
-  if (g.table_size > 0) g.basis_table = m.basis_table.data();
+  if (g.table_size > 0)
+    g.basis_table.assign(m.basis_table.data().begin(), m.basis_table.data().end());
   const int w = m.width, h = m.height;
   const int64_t n = int64_t(w) * h;
   g.texels.resize(size_t(g.layers) * size_t(n) * 4);  // every element written below

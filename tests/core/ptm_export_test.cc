@@ -12,6 +12,7 @@
 #include <vector>
 
 #include "core/pack/ptm_export.h"
+#include "core/parallel.h"
 #include "core/shading/relight_basis.h"
 
 namespace matfit {
@@ -157,6 +158,35 @@ TEST(PtmExport, OtherModelsAreRefused) {
   m = RandomPtm(4, 4, 3, false, 6);
   m.coefficients = Image(4, 4, 12);
   EXPECT_FALSE(EncodePtm(m, PtmFormat::kRgb).ok());
+}
+
+// The encoders split the texels over threads (ranges of 16384): a map of several ranges, with a
+// non-finite coefficient, gives the same bytes on one and on two threads, and reads back as the
+// fit within quantisation on two.
+TEST(PtmExport, TheSameFileOnOneAndTwoThreads) {
+  MaterialMaps m = RandomPtm(300, 170, 3, true, 11);
+  const float kept = m.coefficients.Plane(4)[777];
+  m.coefficients.Plane(4)[777] = NAN;
+  for (PtmFormat f : {PtmFormat::kRgb, PtmFormat::kLrgb}) {
+    SetNumThreads(1);
+    const auto one = EncodePtm(m, f);
+    SetNumThreads(2);
+    const auto two = EncodePtm(m, f);
+    SetNumThreads(0);
+    ASSERT_TRUE(one.ok() && two.ok());
+    EXPECT_EQ(*one, *two) << (f == PtmFormat::kRgb ? "RGB" : "LRGB");
+  }
+  m.coefficients.Plane(4)[777] = kept;  // constant chroma again: LRGB is exact to quantisation
+  SetNumThreads(2);
+  {
+    SCOPED_TRACE("RGB");
+    Check(m, PtmFormat::kRgb);
+  }
+  {
+    SCOPED_TRACE("LRGB");
+    Check(m, PtmFormat::kLrgb);
+  }
+  SetNumThreads(0);
 }
 
 }  // namespace

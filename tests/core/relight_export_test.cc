@@ -21,6 +21,7 @@
 #include "core/image_io.h"
 #include "core/pack/pack_exports.h"
 #include "core/pack/relight_export.h"
+#include "core/parallel.h"
 #include "core/shading/relight_basis.h"
 #include "tests/core/test_util.h"
 
@@ -233,6 +234,26 @@ TEST(RelightExport, OtherFitsAreRefused) {
   MaterialMaps m = RandomFit(ShadingModel::kPtm, 4, 4, 3, 6, 1);
   m.model = ShadingModel::kLambert;
   EXPECT_FALSE(EncodeRelightWeb(m).ok());
+}
+
+// Each term's image is made on its own thread: one and two threads give the same planes and
+// the same info.json.
+TEST(RelightExport, TheSamePlanesOnOneAndTwoThreads) {
+  for (auto [model, terms] : {std::pair{ShadingModel::kPtm, 6}, std::pair{ShadingModel::kHsh, 9}}) {
+    MaterialMaps m = RandomFit(model, 300, 170, 3, terms, 9);
+    m.coefficients.Plane(2)[99] = NAN;
+    SetNumThreads(1);
+    const auto one = EncodeRelightWeb(m);
+    SetNumThreads(2);
+    const auto two = EncodeRelightWeb(m);
+    SetNumThreads(0);
+    ASSERT_TRUE(one.ok() && two.ok());
+    EXPECT_EQ(one->info_json, two->info_json);
+    ASSERT_EQ(one->planes.size(), size_t(terms));
+    ASSERT_EQ(two->planes.size(), size_t(terms));
+    for (size_t i = 0; i < one->planes.size(); ++i)
+      EXPECT_EQ(one->planes[i].data(), two->planes[i].data()) << "plane image " << i;
+  }
 }
 
 }  // namespace
