@@ -33,6 +33,13 @@ inline std::string RequiredUnless(const std::string& other) {
   return "[REQUIRED unless " + other + "]";
 }
 
+// `matfit --help`'s first line.
+inline constexpr char kAppDescription[] =
+    "matfit: fit materials (normals, albedo, specular, translucency) to multi-light measurements";
+// Parses the command line and runs the chosen subcommand: its exit code, or CLI11's for a bad
+// command line; an exception that escapes a subcommand is printed and gives 1.
+int ParseAndRun(CLI::App& app, int argc, char** argv, const int& exit_code);
+
 // Shared helpers.
 bool ParseViewArg(const char* text, double* theta, double* phi);  // "THETA,PHI" in degrees
 int Fail(const char* command, const char* message);  // prints "matfit CMD: error: ..." → 1
