@@ -62,20 +62,15 @@ void ParallelFor(int64_t begin, int64_t end, const std::function<void(int64_t, i
   }
   // More threads than cores only adds contention (and TBB caps it anyway).
   auto arena = Arena(std::min(threads, HardwareThreads()));
-  // Isolated: while it waits for its ranges, a thread runs only ranges of this loop (and loops
-  // nested in them), never one of another caller's loop in the shared arena, which could wait
-  // on a lock or a function-local static's initialisation this thread holds.
   arena->execute([&] {
-    tbb::this_task_arena::isolate([&] {
-      tbb::parallel_for(tbb::blocked_range<int64_t>(begin, end, grain),
-                        [&](const tbb::blocked_range<int64_t>& r) {
-                          struct Depth {  // restored however fn leaves
-                            Depth() { ++t_depth; }
-                            ~Depth() { --t_depth; }
-                          } depth;
-                          fn(r.begin(), r.end());
-                        });
-    });
+    tbb::parallel_for(tbb::blocked_range<int64_t>(begin, end, grain),
+                      [&](const tbb::blocked_range<int64_t>& r) {
+                        struct Depth {  // restored however fn leaves
+                          Depth() { ++t_depth; }
+                          ~Depth() { --t_depth; }
+                        } depth;
+                        fn(r.begin(), r.end());
+                      });
   });
 }
 

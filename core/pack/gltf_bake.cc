@@ -4,6 +4,7 @@
 #include <array>
 #include <atomic>
 #include <cmath>
+#include <memory>
 #include <mutex>
 #include <numbers>
 #include <vector>
@@ -71,6 +72,20 @@ struct MsTable {
     return c[i] + (x - i) * (c[i + 1] - c[i]);
   }
 };
+
+// The process's table, computed on first use. Not a function-local static: its initialisation
+// would hold a lock while its ParallelFor runs, and a thread waiting there may run another
+// caller's range that needs the table (a recursive initialisation). Instead each first caller
+// computes one with no lock held and the first to finish publishes it (kept for the process).
+const MsTable& SharedMsTable() {
+  static std::atomic<const MsTable*> shared{nullptr};  // constant-initialised: no guard
+  if (const MsTable* t = shared.load(std::memory_order_acquire)) return *t;
+  auto fresh = std::make_unique<const MsTable>();
+  const MsTable* expected = nullptr;
+  if (shared.compare_exchange_strong(expected, fresh.get(), std::memory_order_acq_rel))
+    return *fresh.release();
+  return *expected;  // another thread published first
+}
 
 // The cap's lights in SoA, padded to a multiple of 8 with lights below the horizon (zero
 // diffuse and lobe: they add nothing to any sum).
@@ -353,7 +368,7 @@ GltfBake BakeBasisAsGgx(const MaterialMaps& m, const ProgressFn& progress) {
   const CapLights lights(dirs);
   const int K = int(dirs.size()), ch = m.albedo.channels() == 3 ? 3 : 1;
   const Mat3 inv = InverseScatter(dirs);
-  static const MsTable ms_table;
+  const MsTable& ms_table = SharedMsTable();
   const BatchEvaluator eval(m, dirs, Vec3f(0, 0, 1));
   const int64_t n = int64_t(m.width) * m.height;
   constexpr int kRun = 256;

@@ -91,7 +91,7 @@ StatusOr<std::string> EncodeRti(const MaterialMaps& m) {
       kGrain);
   for (int i = 0; i < terms; ++i) {
     if (n == 0) lo[i] = hi[i] = 0;
-    bias[size_t(i)] = float(lo[i]);
+    bias[size_t(i)] = float(lo[i] + 0.0);  // −0 and +0 merge in any order: always write +0
     scale[size_t(i)] = hi[i] > lo[i] ? float(hi[i] - lo[i]) : 1e-6f;
   }
   std::string out = "#HSH1.2\n#written by matfit\n3\n" + std::to_string(W) + " " +
