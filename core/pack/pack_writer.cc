@@ -113,55 +113,34 @@ Status ZipFolder(const std::string& folder, const std::string& zip_path) {
 // from its minimum (0) to its maximum (65535), the range in material.json.
 constexpr int64_t kMaxHeightTexels = int64_t(4096) * 4096;
 
-// A file of the pack to make: its task and an estimate of its cost (ns on one thread of the test
-// VM, measured per texel and channel: PNG 16-bit ~55, PNG 8-bit ~15, uncompressed EXR ~7), so the
-// costliest start first and the last to finish are short.
-struct FileTask {
-  std::function<Status()> run;
-  double cost = 0;
-  bool alone = false;  // run before the others, not beside them (memory)
-};
-
-double WriteCost(const Image& img, const ImageWriteOptions& wo) {
-  const double per = wo.format == PixelFormat::kUint16  ? 55
-                     : wo.format == PixelFormat::kUint8 ? 15
-                                                        : 7;
-  return per * double(img.plane_size()) * img.channels();
-}
-
-struct HeightOutcome {
-  bool made = false;
-  double min = 0, max = 0;
-};
-
-// The solve and both files as one task (the solve's loops are parallel inside it; the other
-// files are written beside it instead of after it). `out` says whether it made them.
-FileTask HeightTask(const MaterialMaps& m, const std::vector<uint8_t>& status,
-                    const std::string& exr_path, const std::string& png_path,
-                    const ImageWriteOptions& exr, const ImageWriteOptions& lin16,
-                    HeightOutcome* out) {
+template <typename Put, typename Keep>
+Status PutHeightMaps(const MaterialMaps& m, const std::vector<uint8_t>& status, Put& put,
+                     Keep& keep, const ImageWriteOptions& exr, const ImageWriteOptions& lin16,
+                     json* maps) {
   const int64_t n = int64_t(m.width) * m.height;
-  auto run = [&m, &status, exr_path, png_path, exr, lin16, out, n]() -> Status {
-    std::vector<uint8_t> trusted(size_t(n), 1);
-    for (int64_t p = 0; p < n; ++p) {
-      const uint8_t st = size_t(p) < status.size() ? status[p] : 0;
-      const bool fitted = st == 0 || st == 7 || st == 8;
-      trusted[p] = fitted && (m.mask.empty() || m.mask.Plane(0)[p] > 0.5f);
-    }
-    HeightResult h = IntegrateNormals(m.normal, trusted);
-    if (h.height.empty()) return Status::Ok();
-    Image png(m.width, m.height, 1);
-    const double span = h.max - h.min;
-    for (int64_t p = 0; p < n; ++p)
-      png.Plane(0)[p] = span > 0 ? float((h.height.Plane(0)[p] - h.min) / span) : 0.5f;
-    MATFIT_RETURN_IF_ERROR(WriteImage(exr_path, h.height, exr));
-    MATFIT_RETURN_IF_ERROR(WriteImage(png_path, png, lin16));
-    out->made = true, out->min = h.min, out->max = h.max;
-    return Status::Ok();
-  };
-  // The solve ~250 ns a texel, its two files ~70. It holds ~70 bytes a texel: past 2048² (290 MB)
-  // it runs alone, as the other files' buffers would add to that peak.
-  return {run, 320.0 * double(n), n > int64_t(2048) * 2048};
+  // The solve holds about 70 bytes per texel: beyond 4096² (1.2 GB) the pack has no height map.
+  if (n > kMaxHeightTexels) return Status::Ok();
+  std::vector<uint8_t> trusted(size_t(n), 1);
+  for (int64_t p = 0; p < n; ++p) {
+    const uint8_t st = size_t(p) < status.size() ? status[p] : 0;
+    const bool fitted = st == 0 || st == 7 || st == 8;
+    trusted[p] = fitted && (m.mask.empty() || m.mask.Plane(0)[p] > 0.5f);
+  }
+  HeightResult h = IntegrateNormals(m.normal, trusted);
+  if (h.height.empty()) return Status::Ok();
+  const Image& exact = keep(std::move(h.height));
+  Image png(m.width, m.height, 1);
+  const double span = h.max - h.min;
+  for (int64_t p = 0; p < n; ++p)
+    png.Plane(0)[p] = span > 0 ? float((exact.Plane(0)[p] - h.min) / span) : 0.5f;
+  MATFIT_RETURN_IF_ERROR(put("height_exact", "height.exr", exact, exr,
+                             "height from the normals in texel units, mean 0 over the fitted "
+                             "texels (least-squares integration, docs/pack.md)"));
+  MATFIT_RETURN_IF_ERROR(put("height", "height.png", keep(std::move(png)), lin16,
+                             "the same height, 0 = range[0], 65535 = range[1] (texel units)"));
+  for (auto& e : *maps)
+    if (e["name"] == "height" || e["name"] == "height_exact") e["range_texels"] = {h.min, h.max};
+  return Status::Ok();
 }
 
 double RoughnessFromBlinnPhongExponent(double e) { return std::pow(2.0 / (e + 2.0), 0.25); }
@@ -180,12 +159,15 @@ Status WritePack(const MaterialMaps& m, const std::vector<uint8_t>& status, cons
 
   // Image files are encoded in parallel at the end (PNG and EXR compression dominate the
   // write); material.json lists them in the order they are put here.
-  std::vector<FileTask> tasks;
+  std::vector<std::function<Status()>> tasks;
   std::deque<Image> owned;  // images made for the pack (stable addresses until written)
   auto keep = [&](Image img) -> const Image& { return owned.emplace_back(std::move(img)); };
   json maps = json::array();
-  auto entry = [&](const char* name, const char* file, ImageWriteOptions wo, int channels,
-                   const char* semantic) {
+  auto put = [&](const char* name, const char* file, const Image& img, ImageWriteOptions wo,
+                 const char* semantic) -> Status {
+    if (img.empty()) return Status::Ok();
+    tasks.push_back(
+        [path = (root / "maps" / file).string(), &img, wo] { return WriteImage(path, img, wo); });
     const char* enc = wo.format == PixelFormat::kUint8    ? "png8"
                       : wo.format == PixelFormat::kUint16 ? "png16"
                                                           : "exr32";
@@ -194,15 +176,7 @@ Status WritePack(const MaterialMaps& m, const std::vector<uint8_t>& status, cons
                     {"semantic", semantic},
                     {"encoding", enc},
                     {"color_space", wo.transfer == TransferFunction::kSrgb ? "sRGB" : "linear"},
-                    {"channels", channels}});
-  };
-  auto put = [&](const char* name, const char* file, const Image& img, ImageWriteOptions wo,
-                 const char* semantic) -> Status {
-    if (img.empty()) return Status::Ok();
-    tasks.push_back(
-        {[path = (root / "maps" / file).string(), &img, wo] { return WriteImage(path, img, wo); },
-         WriteCost(img, wo)});
-    entry(name, file, wo, img.channels(), semantic);
+                    {"channels", img.channels()}});
     return Status::Ok();
   };
   const bool compact = options.compact;
@@ -212,7 +186,6 @@ Status WritePack(const MaterialMaps& m, const std::vector<uint8_t>& status, cons
   const ImageWriteOptions exr{PixelFormat::kFloat, TransferFunction::kLinear, compact};
   const ModelDescriptor& model = Model(m.model);
   const bool has_normal = model.writes_normal_map();
-  HeightOutcome height;  // filled by the height task, read after the files are written
   // Progress in thousandths: the glTF bake (most of a relighting basis's write), the files,
   // the view packs; the rest (exports, glTF, material.json) is short.
   // Reported from worker threads: one at a time, and never backwards (two tasks may finish
@@ -236,15 +209,7 @@ Status WritePack(const MaterialMaps& m, const std::vector<uint8_t>& status, cons
                                "tangent-space normal, OpenGL +Y, rgb = n*0.5+0.5"));
     MATFIT_RETURN_IF_ERROR(
         put("normal_exact", "normal.exr", m.normal, exr, "unit normal xyz (float)"));
-    if (int64_t(m.width) * m.height <= kMaxHeightTexels) {  // the solve holds ~70 bytes a texel
-      tasks.push_back(HeightTask(m, status, (root / "maps" / "height.exr").string(),
-                                 (root / "maps" / "height.png").string(), exr, lin16, &height));
-      entry("height_exact", "height.exr", exr, 1,
-            "height from the normals in texel units, mean 0 over the fitted texels "
-            "(least-squares integration, docs/pack.md)");
-      entry("height", "height.png", lin16, 1,
-            "the same height, 0 = range[0], 65535 = range[1] (texel units)");
-    }
+    MATFIT_RETURN_IF_ERROR(PutHeightMaps(m, status, put, keep, exr, lin16, &maps));
   }
   MATFIT_RETURN_IF_ERROR(model.WritePackMaps(m, [&](const PackMap& pm) {
     const ImageWriteOptions wo = pm.encoding == MapEncoding::kSrgb8      ? srgb8
@@ -347,23 +312,19 @@ Status WritePack(const MaterialMaps& m, const std::vector<uint8_t>& status, cons
                      "': " + ec.message());
     if (!e.image.empty())
       tasks.push_back(
-          {[path = (root / rel).string(), &e, &exr] { return WriteImage(path, e.image, exr); },
-           WriteCost(e.image, exr)});
+          [path = (root / rel).string(), &e, &exr] { return WriteImage(path, e.image, exr); });
     else
-      tasks.push_back(
-          {[path = (root / rel).string(), &e] { return WriteFileAtomic(path, e.text); }, 0.0});
+      tasks.push_back([path = (root / rel).string(), &e] { return WriteFileAtomic(path, e.text); });
     extras.push_back({{"file", e.path}, {"role", e.role}});
   }
   tasks.push_back(
-      {[&] { return WriteImage((root / "preview.png").string(), Preview(m, status), srgb8); },
-       15.0 * 3 * double(m.width) * m.height});
+      [&] { return WriteImage((root / "preview.png").string(), Preview(m, status), srgb8); });
   json previews = json::array({"preview.png"});
   for (const auto& extra : info.previews) {  // (clang 14 cannot capture structured bindings)
     const Image* img = &extra.second;
-    tasks.push_back({[path = (root / extra.first).string(), img, &srgb8] {
-                       return WriteImage(path, *img, srgb8);
-                     },
-                     WriteCost(*img, srgb8)});
+    tasks.push_back([path = (root / extra.first).string(), img, &srgb8] {
+      return WriteImage(path, *img, srgb8);
+    });
     previews.push_back(extra.first);
   }
   // The shaders' parameter planes for the web viewer (core/pack/shader_params.h), made and
@@ -371,71 +332,50 @@ Status WritePack(const MaterialMaps& m, const std::vector<uint8_t>& status, cons
   json viewer;
   fs::create_directories(root / "viewer", ec);
   if (ec) return IoError("cannot create '" + (root / "viewer").string() + "': " + ec.message());
-  tasks.push_back(
-      {[&]() -> Status {
-         auto sp = PackShaderParams(m);
-         if (!sp.ok()) return sp.status();
-         static_assert(std::endian::native == std::endian::little, "params.bin is little-endian");
-         MATFIT_RETURN_IF_ERROR(
-             WriteFileAtomic((root / "viewer" / "params.bin").string(),
-                             std::string_view(reinterpret_cast<const char*>(sp->texels.data()),
-                                              sp->texels.size() * sizeof(float))));
-         if (sp->table_size > 0)
-           MATFIT_RETURN_IF_ERROR(WriteFileAtomic(
-               (root / "viewer" / "basis_table.bin").string(),
-               std::string_view(reinterpret_cast<const char*>(sp->basis_table.data()),
-                                sp->basis_table.size() * sizeof(float))));
-         viewer = {{"params", "viewer/params.bin"},
-                   {"encoding", "float32le rgba layers"},
-                   {"width", sp->width},
-                   {"height", sp->height},
-                   {"layers", sp->layers},
-                   {"model_index", sp->model},
-                   {"terms", sp->terms},
-                   {"coef_channels", sp->coef_channels},
-                   {"basis_srgb", sp->basis_srgb},
-                   {"heinrich_specular", sp->heinrich_specular},
-                   {"flat_normal", sp->flat_normal},
-                   {"leaf_base", sp->leaf_base},
-                   {"leaf_hl2", sp->leaf_hl2}};
-         if (sp->table_size > 0)
-           viewer["basis_table"] = "viewer/basis_table.bin", viewer["table_size"] = sp->table_size;
-         return Status::Ok();
-       },
-       50.0 * double(m.width) * m.height});  // ~50 ns a texel (params.bin)
+  tasks.insert(tasks.begin(), [&]() -> Status {  // the largest file: first
+    auto sp = PackShaderParams(m);
+    if (!sp.ok()) return sp.status();
+    static_assert(std::endian::native == std::endian::little, "params.bin is little-endian");
+    MATFIT_RETURN_IF_ERROR(
+        WriteFileAtomic((root / "viewer" / "params.bin").string(),
+                        std::string_view(reinterpret_cast<const char*>(sp->texels.data()),
+                                         sp->texels.size() * sizeof(float))));
+    if (sp->table_size > 0)
+      MATFIT_RETURN_IF_ERROR(
+          WriteFileAtomic((root / "viewer" / "basis_table.bin").string(),
+                          std::string_view(reinterpret_cast<const char*>(sp->basis_table.data()),
+                                           sp->basis_table.size() * sizeof(float))));
+    viewer = {{"params", "viewer/params.bin"},
+              {"encoding", "float32le rgba layers"},
+              {"width", sp->width},
+              {"height", sp->height},
+              {"layers", sp->layers},
+              {"model_index", sp->model},
+              {"terms", sp->terms},
+              {"coef_channels", sp->coef_channels},
+              {"basis_srgb", sp->basis_srgb},
+              {"heinrich_specular", sp->heinrich_specular},
+              {"flat_normal", sp->flat_normal},
+              {"leaf_base", sp->leaf_base},
+              {"leaf_hl2", sp->leaf_hl2}};
+    if (sp->table_size > 0)
+      viewer["basis_table"] = "viewer/basis_table.bin", viewer["table_size"] = sp->table_size;
+    return Status::Ok();
+  });
   {
-    // The costliest first, each thread taking the next when it finishes one (longest processing
-    // time first: the last files to finish are the short ones).
-    std::vector<size_t> order(tasks.size());
-    for (size_t t = 0; t < order.size(); ++t) order[t] = t;
-    std::stable_sort(order.begin(), order.end(),
-                     [&](size_t a, size_t b) { return tasks[a].cost > tasks[b].cost; });
     std::vector<Status> written(tasks.size(), Status::Ok());
-    for (size_t t = 0; t < tasks.size(); ++t)
-      if (tasks[t].alone) MATFIT_RETURN_IF_ERROR(written[t] = tasks[t].run());
-    std::erase_if(order, [&](size_t t) { return tasks[t].alone; });
-    std::atomic<size_t> next{0};
     std::atomic<int64_t> finished{0};
     ParallelFor(
-        0, NumThreads(),
-        [&](int64_t w0, int64_t w1) {
-          for (int64_t w = w0; w < w1; ++w)
-            for (size_t i; (i = next++) < order.size();) {
-              written[order[i]] = tasks[order[i]].run();
-              progress(bake_end + (files_end - bake_end) * ++finished / int64_t(tasks.size()));
-            }
+        0, int64_t(tasks.size()),
+        [&](int64_t t0, int64_t t1) {
+          for (int64_t t = t0; t < t1; ++t) {
+            written[size_t(t)] = tasks[size_t(t)]();
+            progress(bake_end + (files_end - bake_end) * ++finished / int64_t(tasks.size()));
+          }
         },
         1);
     for (const Status& st : written) MATFIT_RETURN_IF_ERROR(st);
   }
-  // The height maps' entries: their range, or none when the solve gave no height.
-  for (size_t i = maps.size(); i-- > 0;)
-    if (maps[i]["name"] == "height" || maps[i]["name"] == "height_exact") {
-      if (height.made)
-        maps[i]["range_texels"] = {height.min, height.max};
-      else
-        maps.erase(i);
-    }
 
   // glTF quad.
   GltfMaterialDesc g;
