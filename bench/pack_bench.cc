@@ -2,8 +2,9 @@
 // (core/height_from_normals.h), against encoding the same normal map as a 16-bit PNG (a cost the
 // pack pays anyway: the ratio is what the height map adds to the write stage). The normal map is
 // a fitted-looking surface: a dome, ripples and texel-scale relief noise, inside a disc mask with
-// a flagged hole. Run: build/bench/pack_bench --benchmark_repetitions=5
-// --benchmark_report_aggregates_only=true
+// a flagged hole. And the glTF stand-in of a relighting basis (core/pack/gltf_bake.h), eight
+// texels at a time against one at a time (the same maps bit for bit), per fitted model.
+// Run: build/bench/pack_bench --benchmark_repetitions=5 --benchmark_report_aggregates_only=true
 #include <benchmark/benchmark.h>
 
 #include <cmath>
@@ -14,7 +15,10 @@
 
 #include "core/height_from_normals.h"
 #include "core/image_io.h"
+#include "core/pack/gltf_bake.h"
 #include "core/parallel.h"
+#include "core/synth/synth.h"
+#include "fit/method.h"
 
 namespace {
 
@@ -81,6 +85,35 @@ void BM_EncodeNormalPng16(benchmark::State& state) {
   for (auto _ : state) benchmark::DoNotOptimize(EncodeImage(mapped, "png", {}));
   SetNumThreads(0);
 }
+
+// A basis fitted to the synthetic plastic (256², 240 dome lights): ptm, hsh3 or rbf.
+const char* const kBakeModels[] = {"ptm", "hsh3", "rbf"};
+const MaterialMaps& BasisMaps(int model) {
+  static std::map<int, MaterialMaps> cache;
+  if (auto it = cache.find(model); it != cache.end()) return it->second;
+  synth::SynthOptions o;
+  o.material = "plastic", o.lights = "dome:240", o.size = 256, o.layout = Layout::kLp;
+  auto data = synth::Synthesize(o);
+  auto fit = fit::MakeMethod(kBakeModels[model])->Fit(data->stack, {});
+  return cache[model] = std::move(fit->maps);
+}
+
+// Args: model (0 ptm, 1 hsh3, 2 rbf), batched (1) or one texel at a time (0). One thread.
+void BM_BakeBasisAsGgx(benchmark::State& state) {
+  const MaterialMaps& m = BasisMaps(int(state.range(0)));
+  const BakeLanes lanes = state.range(1) ? BakeLanes::kBatched : BakeLanes::kOneByOne;
+  SetNumThreads(1);
+  for (auto _ : state) benchmark::DoNotOptimize(BakeBasisAsGgx(m, {}, lanes).f0.Plane(0));
+  SetNumThreads(0);
+  state.SetLabel(std::string(kBakeModels[state.range(0)]) +
+                 (state.range(1) ? " batched" : " one by one"));
+  state.SetItemsProcessed(int64_t(state.iterations()) * m.width * m.height);
+}
+
+BENCHMARK(BM_BakeBasisAsGgx)
+    ->ArgsProduct({{0, 1, 2}, {0, 1}})
+    ->ArgNames({"model", "batched"})
+    ->Unit(benchmark::kMillisecond);
 
 // Args: width, height, threads.
 BENCHMARK(BM_EncodeNormalPng16)

@@ -32,10 +32,14 @@ struct GltfBake {
   Image f0;         // Fresnel reflectance at normal incidence, 1 plane
   Image roughness;  // GGX perceptual roughness r (α = r²), 1 plane
 };
+// How the texels are fitted: eight at a time (the default: the per-texel arithmetic across the
+// texels) or one at a time; the maps are the same bit for bit.
+enum class BakeLanes { kBatched, kOneByOne };
 // `progress` (optional, called from worker threads one at a time) counts runs of texels done;
 // its return value is ignored (the bake is a part of the pack write, which is not cancelled
 // midway).
-GltfBake BakeBasisAsGgx(const MaterialMaps& m, const ProgressFn& progress = {});
+GltfBake BakeBasisAsGgx(const MaterialMaps& m, const ProgressFn& progress = {},
+                        BakeLanes lanes = BakeLanes::kBatched);
 
 // E(r): the directional albedo of the Cook–Torrance lobe at F0 = 1 seen along the normal,
 // (1/π) ∫ R_s dω by quadrature, r clamped to [1/64, 1]; the multiple-scattering compensation of

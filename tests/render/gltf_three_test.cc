@@ -10,6 +10,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstring>
 #include <filesystem>
 #include <fstream>
 #include <map>
@@ -404,6 +405,60 @@ TEST(GltfBake, TheSurfaceDrawsAsTheBasisInMatfit) {
       EXPECT_LE(mad, b.levels) << b.c.material << "-" << b.c.model << " at θ " << theta;
     }
   }
+}
+
+// The bake's main pass fits eight texels at a time (gltf::BatchFit); each lane must make the
+// operations of the one-texel fit on its texel, so the maps are the same bit for bit: fitted
+// bases on an odd size (runs of 256 with a tail, batches cut short), a mask with holes (lanes
+// loaded one at a time between them), a texel without an estimate and one with hostile values,
+// and a one-channel Lambertian (the grey path, next to no lobe).
+TEST(GltfBake, EightTexelsAtATimeBakeWhatOneAtATimeBakes) {
+  auto same = [](const Image& a, const Image& b) {
+    return a.data().size() == b.data().size() &&
+           std::memcmp(a.data().data(), b.data().data(), a.data().size() * sizeof(float)) == 0;
+  };
+  auto check = [&](const MaterialMaps& m, const std::string& what) {
+    const GltfBake one = BakeBasisAsGgx(m, {}, BakeLanes::kOneByOne);
+    const GltfBake eight = BakeBasisAsGgx(m, {}, BakeLanes::kBatched);
+    EXPECT_TRUE(same(one.base, eight.base)) << what << ": base colour";
+    EXPECT_TRUE(same(one.normal, eight.normal)) << what << ": normal";
+    EXPECT_TRUE(same(one.f0, eight.f0)) << what << ": F0";
+    EXPECT_TRUE(same(one.roughness, eight.roughness)) << what << ": roughness";
+    int lobed = 0;  // texels with a visible lobe
+    for (float f : eight.f0.data()) lobed += f > 0.01f;
+    return lobed;
+  };
+  for (const char* model : {"ptm", "hsh3", "rbf"}) {
+    synth::SynthOptions so;
+    so.material = "plastic", so.lights = "dome:60", so.size = 37, so.layout = Layout::kLp;
+    auto data = synth::Synthesize(so);
+    ASSERT_TRUE(data.ok());
+    auto fit = fit::MakeMethod(model)->Fit(data->stack, {});
+    ASSERT_TRUE(fit.ok()) << model;
+    MaterialMaps m = fit->maps;
+    // The glossy plastic: most texels get a lobe, so the Gauss–Newton steps run in every batch.
+    EXPECT_GT(check(m, model), int(m.albedo.plane_size()) / 2) << model;
+    m.mask = Image(m.width, m.height, 1);
+    for (int64_t p = 0; p < m.mask.plane_size(); ++p)
+      m.mask.Plane(0)[p] = p % 11 == 3 || (p / 40) % 7 == 2 ? 0.0f : 1.0f;
+    (void)check(m, std::string(model) + ", masked");
+    m.mask = Image();
+    m.albedo.Plane(1)[100] = std::nanf("");
+    if (!m.coefficients.empty()) m.coefficients.Plane(0)[300] = 3e38f;
+    (void)check(m, std::string(model) + ", a NaN and a huge value");
+  }
+  MaterialMaps grey;
+  grey.model = ModelId("lambert");
+  grey.width = 19, grey.height = 7;
+  grey.albedo = Image(grey.width, grey.height, 1);
+  grey.normal = Image(grey.width, grey.height, 3);
+  for (int64_t p = 0; p < grey.albedo.plane_size(); ++p) {
+    const double t = 0.5 * double(p % 7) / 7, ph = 0.9 * double(p);
+    const Vec3f n = Normalize(Vec3f(float(t * std::cos(ph)), float(t * std::sin(ph)), 1.0f));
+    grey.normal.Plane(0)[p] = n.x, grey.normal.Plane(1)[p] = n.y, grey.normal.Plane(2)[p] = n.z;
+    grey.albedo.Plane(0)[p] = float(0.2 + 0.02 * double(p % 11));
+  }
+  EXPECT_EQ(check(grey, "grey lambert"), 0);
 }
 
 // The lobe's F0 solves F0 = u / (1 + c F0) − v (its multiple-scattering factor held

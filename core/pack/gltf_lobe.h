@@ -1,0 +1,64 @@
+// The glTF bake's light-side building blocks (core/pack/gltf_bake.h): the cap of directions the
+// stand-in is fitted over, the GGX lobe split for the linear least squares, and the sums and
+// residuals of one texel over those lights. Internal to the bake (compute only).
+#pragma once
+
+#include <array>
+#include <vector>
+
+#include "core/vec3.h"
+
+namespace matfit::gltf {
+
+using Mat3 = std::array<std::array<double, 3>, 3>;
+
+// Rings every 12° from the zenith to θ = 60°, each with its directions about 12° apart (85).
+std::vector<Vec3f> CapDirections();
+
+// (Σ_k l_k l_kᵀ)⁻¹ by cofactors: the directions span the cap, so it is well conditioned.
+Mat3 InverseScatter(const std::vector<Vec3f>& dirs);
+
+// 1/E − 1 on r = 0, 1/64, …, 1 (linear in between; r = 0 repeats r = 1/64).
+struct MsTable {
+  static constexpr int kSteps = 64;
+  double c[kSteps + 1];
+  MsTable();  // 65 quadratures of 4096 steps (≈ 10 ms on one thread): the entries in parallel
+  double operator()(double r) const;
+};
+// The process's table, computed on first use and kept.
+const MsTable& SharedMsTable();
+
+// The cap's lights in SoA, padded to a multiple of 8 with lights below the horizon (zero
+// diffuse and lobe: they add nothing to any sum).
+struct CapLights {
+  int K = 0, padded = 0;
+  std::vector<float> lx, ly, lz, hx, hy, hz, w;  // direction, half vector, (1 − v·h)^5
+  std::vector<float> sw;                         // √ of the light's weight in the fit
+  explicit CapLights(const std::vector<Vec3f>& dirs);
+};
+
+// Σ_k of the products the least squares need (y the samples, d the diffuse shape, a and b the
+// lobe's F0 part and rest).
+struct LobeSums {
+  double dd = 0, ad = 0, aa = 0, bd = 0, ba = 0, bb = 0;
+  double yd[3] = {}, ya[3] = {}, yb[3] = {};
+};
+
+// The lobe of shading::CookTorranceSpecularHalf at F0 = 1 (GgxD, GgxG1 and the Fresnel weight)
+// for normal n (n_z > 0) and α = r², split into a = lobe (1 − w) and b = lobe w, the diffuse
+// shape d = (1 − w) max(0, n·l), each times √weight, per padded light; and their sums with the
+// samples y (channel c at y + c · padded; channels past the texel's are zero). Vectorised over
+// the lights; the sums in double, eight partial sums (light k into k mod 8) added in order.
+void LobeRun(const CapLights& L, const float* y, float nx, float ny, float nz, float alpha,
+             float* a, float* b, float* d, LobeSums* s);
+
+// g = (Σ jx², Σ jx jy, Σ jy², Σ jx e0, Σ jy e0) with jx = (ex − e0) · inv_delta (jy alike),
+// over m residuals (a multiple of 8), in eight float partial sums (i into i mod 8).
+void GaussNewtonSums(const float* e0, const float* ex, const float* ey, int m, float inv_delta,
+                     double* g);
+
+// e = y − rp d − fa a − fb b over n lights (float, elementwise).
+void LobeResiduals(const float* y, const float* d, const float* a, const float* b, int n, float rp,
+                   float fa, float fb, float* e);
+
+}  // namespace matfit::gltf
