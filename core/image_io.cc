@@ -448,6 +448,15 @@ std::string Extension(const std::string& path) {
   return ext == "jpeg" ? "jpg" : ext == "tiff" ? "tif" : ext;
 }
 
+// std::lround(x) for the integer formats' codes x ∈ [0, 65535], without the libm call: the same
+// integer (ties away from zero; x − ⌊x⌋ is exact), and 0 for NaN, as the cast of lround's
+// LONG_MIN gives.
+inline float RoundCode(float x) {
+  if (!(x >= 0.5f)) return 0.0f;
+  const float i = float(int(x));
+  return i + (x - i >= 0.5f ? 1.0f : 0.0f);
+}
+
 // Encodes `image` as a `format` file at `path`, or into *memory: quantised as `options` say,
 // through the native codecs when they write this format, else OpenImageIO. false with *error.
 bool Encode(const Image& image, const std::string& format, const ImageWriteOptions& options,
@@ -473,7 +482,7 @@ bool Encode(const Image& image, const std::string& format, const ImageWriteOptio
   // the image.
   spec.strip_rows =
       std::max(1, std::min(H, int((1 << 20) / std::max<int64_t>(1, int64_t(W) * ch))));
-  std::vector<uint8_t> q8;
+  std::vector<uint8_t> q8, codes;
   std::vector<uint16_t> q16;
   std::vector<float> f32;
   auto encoded = [&](int c, int64_t p) {
@@ -490,12 +499,14 @@ bool Encode(const Image& image, const std::string& format, const ImageWriteOptio
       for (int c = 0; c < ch; ++c) {
         const float* v = image.Plane(c).data() + p0;
         if (sizeof(T) == 1 && srgb && !(ch == 4 && c == 3)) {
-          // LinearToSrgb8Fast is round(255 · LinearToSrgb(clamp(v))) exactly, without a pow.
-          for (int64_t p = 0; p < n; ++p) q[p * ch + c] = T(LinearToSrgb8Fast(v[p]));
+          // LinearToSrgb8Batch is round(255 · LinearToSrgb(clamp(v))) exactly, without a pow.
+          codes.resize(size_t(n));
+          LinearToSrgb8Batch(v, 1.0f, int(n), codes.data());
+          for (int64_t p = 0; p < n; ++p) q[p * ch + c] = T(codes[size_t(p)]);
           continue;
         }
         for (int64_t p = 0; p < n; ++p)
-          q[p * ch + c] = T(std::lround(std::clamp(encoded(c, p0 + p), 0.0f, 1.0f) * top));
+          q[p * ch + c] = T(RoundCode(std::clamp(encoded(c, p0 + p), 0.0f, 1.0f) * top));
       }
       return q.data();
     };

@@ -12,9 +12,11 @@
 #include <filesystem>
 #include <fstream>
 #include <iterator>
+#include <limits>
 #include <string>
 #include <vector>
 
+#include "core/color.h"
 #include "core/image_io.h"
 #include "tests/core/test_util.h"
 
@@ -354,6 +356,48 @@ TEST(ImageCodec, EncodedPngInMemoryIsTheFile) {
   ASSERT_TRUE(WriteImage(tmp / "f.png", img, o).ok());
   const std::vector<unsigned char> file = Bytes(tmp / "f.png");
   EXPECT_EQ(*bytes, std::string(file.begin(), file.end()));
+}
+
+// The integer formats' codes: round(v · max) with ties away from zero (std::lround) for linear
+// 8- and 16-bit files, round(255 · sRGB(v)) for 8-bit sRGB, clamped; NaN gives 0. Values on
+// every tie of both ranges, just beside them, outside [0, 1] and NaN, read back code by code.
+TEST(ImageCodec, IntegerCodesRoundAsLroundDoes) {
+  TempDir tmp;
+  std::vector<float> values = {
+      -1.0f, -0.0f, 0.0f, 1.0f, 2.0f, std::nanf(""), std::numeric_limits<float>::infinity()};
+  for (int k = 0; k < 256; ++k)
+    for (float top : {255.0f, 65535.0f})
+      for (float d : {-1e-4f, 0.0f, 1e-4f}) values.push_back((float(k) + 0.5f + d) / top);
+  for (int k = 0; k < 4096; ++k) values.push_back(float(k) * 37.0f / 65535.0f / 3.0f);
+  const int w = int(values.size());
+  Image img(w, 1, 1);
+  for (int x = 0; x < w; ++x) img.Plane(0)[x] = values[size_t(x)];
+  struct Case {
+    PixelFormat format;
+    TransferFunction transfer;
+    float top;
+  };
+  for (const Case& c : {Case{PixelFormat::kUint8, TransferFunction::kLinear, 255.0f},
+                        Case{PixelFormat::kUint16, TransferFunction::kLinear, 65535.0f},
+                        Case{PixelFormat::kUint8, TransferFunction::kSrgb, 255.0f}}) {
+    const fs::path f = tmp / "codes.png";
+    ASSERT_TRUE(WriteImage(f, img, {c.format, c.transfer}).ok());
+    ImageReadOptions ro;
+    ro.color_space = ColorSpaceChoice::kLinear;  // the stored codes / max, undecoded
+    auto back = ReadImage(f, ro);
+    ASSERT_TRUE(back.ok()) << back.status().ToString();
+    for (int x = 0; x < w; ++x) {
+      const float v = values[size_t(x)];
+      long want;
+      if (c.transfer == TransferFunction::kSrgb)
+        want = LinearToSrgb8(v);
+      else
+        want = std::isnan(v) ? 0 : std::lround(std::clamp(v, 0.0f, 1.0f) * c.top);
+      const long got = std::lround(back->Plane(0)[x] * c.top);
+      ASSERT_EQ(got, want) << "value " << v << " (x " << x << "), top " << c.top
+                           << (c.transfer == TransferFunction::kSrgb ? ", sRGB" : "");
+    }
+  }
 }
 
 }  // namespace
