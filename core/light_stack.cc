@@ -1,11 +1,16 @@
 #include "core/light_stack.h"
 
 #include <algorithm>
+#include <cstdint>
 #include <cstring>
 #include <type_traits>
 #include <utility>
 
 #include "core/parallel.h"
+
+#if defined(__x86_64__) && defined(__GNUC__)
+#include <immintrin.h>
+#endif
 
 namespace matfit {
 namespace {
@@ -26,6 +31,55 @@ void DecodeRun(const uint8_t* src, int n, const float* __restrict lut, float* __
   }
   for (; x < n; ++x) out[x] = lut[src[x]];
 }
+
+#if defined(__x86_64__) && defined(__GNUC__)
+// The same lookup 64 codes at a time with AVX-512 VBMI: each byte of the 256 floats is a 256-byte
+// table (lut_bytes[q · 256 + code] = byte q of lut[code]), looked up by two 128-entry byte
+// permutes and a blend on the code's top bit; the four byte planes are then interleaved into
+// floats (bytes → words → dwords within 128-bit lanes, then the lanes transposed). Every bit of
+// every float is the table's (NaN payloads and −0 included). ≈ 0.12 ns a sample on runs of 512+
+// on the 2-core test machine, 0.23 on runs of 64, against 0.44 for DecodeRun above.
+// (GCC 12's _mm512_shuffle_i64x2 passes _mm512_undefined_epi32() as its unused merge source, which
+// -Wmaybe-uninitialized reports when inlined.)
+#pragma GCC diagnostic push
+#pragma GCC diagnostic ignored "-Wmaybe-uninitialized"
+__attribute__((target("avx512f,avx512bw,avx512vbmi"))) void DecodeRunVbmi(const uint8_t* src, int n,
+                                                                          const uint8_t* lut_bytes,
+                                                                          const float* lut,
+                                                                          float* out) {
+  __m512i t[4][4];
+  for (int q = 0; q < 4; ++q)
+    for (int h = 0; h < 4; ++h) t[q][h] = _mm512_loadu_si512(lut_bytes + 256 * q + 64 * h);
+  int x = 0;
+  for (; x + 64 <= n; x += 64) {
+    const __m512i c = _mm512_loadu_si512(src + x);
+    const __mmask64 upper = _mm512_movepi8_mask(c);  // codes 128 … 255
+    __m512i b[4];
+    for (int q = 0; q < 4; ++q)
+      b[q] = _mm512_mask_blend_epi8(upper, _mm512_permutex2var_epi8(t[q][0], c, t[q][1]),
+                                    _mm512_permutex2var_epi8(t[q][2], c, t[q][3]));
+    const __m512i w01l = _mm512_unpacklo_epi8(b[0], b[1]), w01h = _mm512_unpackhi_epi8(b[0], b[1]);
+    const __m512i w23l = _mm512_unpacklo_epi8(b[2], b[3]), w23h = _mm512_unpackhi_epi8(b[2], b[3]);
+    // f_i: in 128-bit lane L, the floats of codes 16 L + 4 i … 16 L + 4 i + 3.
+    const __m512i f0 = _mm512_unpacklo_epi16(w01l, w23l), f1 = _mm512_unpackhi_epi16(w01l, w23l);
+    const __m512i f2 = _mm512_unpacklo_epi16(w01h, w23h), f3 = _mm512_unpackhi_epi16(w01h, w23h);
+    const __m512i t0 = _mm512_shuffle_i64x2(f0, f1, 0x44), t1 = _mm512_shuffle_i64x2(f0, f1, 0xee);
+    const __m512i t2 = _mm512_shuffle_i64x2(f2, f3, 0x44), t3 = _mm512_shuffle_i64x2(f2, f3, 0xee);
+    _mm512_storeu_si512(out + x, _mm512_shuffle_i64x2(t0, t2, 0x88));
+    _mm512_storeu_si512(out + x + 16, _mm512_shuffle_i64x2(t0, t2, 0xdd));
+    _mm512_storeu_si512(out + x + 32, _mm512_shuffle_i64x2(t1, t3, 0x88));
+    _mm512_storeu_si512(out + x + 48, _mm512_shuffle_i64x2(t1, t3, 0xdd));
+  }
+  DecodeRun(src + x, n - x, lut, out + x);
+}
+#pragma GCC diagnostic pop
+
+bool HasVbmi() {
+  static const bool has = __builtin_cpu_supports("avx512f") && __builtin_cpu_supports("avx512bw") &&
+                          __builtin_cpu_supports("avx512vbmi");
+  return has;
+}
+#endif
 
 void DecodeRun(const uint16_t* src, int n, const float* __restrict lut, float* __restrict out) {
   int x = 0;
@@ -64,6 +118,7 @@ LightStack::LightStack(int width, int height, int channels, int num_images, Samp
   MATFIT_CHECK(channels == 1 || channels == 3, "stacks hold 1 or 3 channels");
   MATFIT_CHECK(lut_.size() == size_t(SampleCodes(type)),
                "an integer stack needs one table entry per code, a float stack none");
+  IndexLut();
   const size_t samples = size_t(plane_size()) * channels * num_images;
   switch (type) {  // default-initialised (LargePageAllocator): no value written yet
     case SampleType::kFloat32: f32_.resize(samples); break;
@@ -102,6 +157,10 @@ template std::span<const uint8_t> LightStack::Codes<uint8_t>(int, int) const;
 template std::span<const uint16_t> LightStack::Codes<uint16_t>(int, int) const;
 
 void LightStack::Decode(int64_t k, int n, float* out) const {
+#if defined(__x86_64__) && defined(__GNUC__)
+  if (type_ == SampleType::kUint8 && n >= 64 && !lut_bytes_.empty() && HasVbmi())
+    return DecodeRunVbmi(U8() + k, n, lut_bytes_.data(), lut_.data(), out);
+#endif
   if (type_ == SampleType::kUint8)
     DecodeRun(U8() + k, n, lut_.data(), out);
   else
@@ -158,9 +217,21 @@ int64_t LightStack::MaskedTexels() const {
   return std::count_if(mask.begin(), mask.end(), [](uint8_t m) { return m != 0; });
 }
 
+void LightStack::IndexLut() {
+  lut_bytes_.clear();
+  if (type_ != SampleType::kUint8) return;
+  lut_bytes_.resize(4 * 256);
+  for (int code = 0; code < 256; ++code) {
+    uint32_t bits;
+    std::memcpy(&bits, &lut_[size_t(code)], sizeof bits);
+    for (int q = 0; q < 4; ++q) lut_bytes_[size_t(256 * q + code)] = uint8_t(bits >> (8 * q));
+  }
+}
+
 void LightStack::Relinearise(const ColorEncoding& enc, const std::string& reason) {
   MATFIT_CHECK(!is_float(), "LightStack::Relinearise: a float stack has no codes to re-decode");
   lut_ = LinearDecodeTable(enc, type_ == SampleType::kUint8 ? 8 : 16);
+  IndexLut();
   encodings.assign(size_t(num_images_), enc);
   encoding_reasons.assign(size_t(num_images_), reason);
 }

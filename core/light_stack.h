@@ -268,6 +268,8 @@ class LightStack {
   }
   // lut[code] for n samples from sample index k into out.
   void Decode(int64_t k, int n, float* out) const;
+  // lut_bytes_ from lut_ (after every change of lut_).
+  void IndexLut();
 
   int width_ = 0, height_ = 0, channels_ = 0, num_images_ = 0;
   SampleType type_ = SampleType::kFloat32;
@@ -277,6 +279,8 @@ class LightStack {
   std::vector<uint8_t, LargePageAllocator<uint8_t>> u8_;
   std::vector<uint16_t, LargePageAllocator<uint16_t>> u16_;
   std::vector<float> lut_;
+  // 8-bit stacks: lut_ as four 256-byte tables, byte q of every entry (the AVX-512 decode).
+  std::vector<uint8_t> lut_bytes_;
   std::vector<LightSample> lights_;
   // A view: the source's first sample and, for each of this stack's images, the source's image
   // (its planes). Null for a stack that holds its samples.

@@ -4,6 +4,7 @@
 
 #include <cmath>
 #include <cstring>
+#include <limits>
 #include <span>
 
 #include "core/color.h"
@@ -79,6 +80,32 @@ TEST(NativeStack, RowAndTexelsDecodeThroughTheTable) {
       // The maximum code decodes to 1 (the fits' clip level).
       EXPECT_EQ(s.Sample(0, 0, 4), 1.0f);
     }
+}
+
+// Runs of 64 codes and more take the AVX-512 byte-table decode where the CPU has it (every run
+// length and start here, so both the vector body and the scalar tail are covered, on any CPU
+// the table's floats bit for bit): a table with NaN, −0 and infinities, a plane of every code
+// in a shuffled order, then the same stack relinearised (its byte tables rebuilt).
+TEST(NativeStack, LongRunsDecodeEveryCodeBitForBit) {
+  std::vector<float> lut(256);
+  for (int k = 0; k < 256; ++k) lut[size_t(k)] = float(k) / 255.0f * (k % 2 ? 1.0f : -3.5f);
+  lut[3] = std::nanf(""), lut[130] = -0.0f, lut[200] = std::numeric_limits<float>::infinity();
+  lut[255] = std::numeric_limits<float>::denorm_min();
+  LightStack s(700, 1, 1, 1, SampleType::kUint8, lut);
+  for (int64_t p = 0; p < s.plane_size(); ++p) s.Codes<uint8_t>(0, 0)[p] = uint8_t(p * 167 % 256);
+  auto check = [&](const std::vector<float>& table) {
+    std::vector<float> out(700);
+    for (int start : {0, 1, 5, 63, 64, 100})
+      for (int n = 1; start + n <= 700; n += n < 140 ? 1 : 37) {
+        const float* run = s.Texels(0, 0, start, n, out.data());
+        for (int k = 0; k < n; ++k)
+          ASSERT_EQ(Bits(run[k]), Bits(table[s.Codes<uint8_t>(0, 0)[size_t(start + k)]]))
+              << "start " << start << ", length " << n << ", sample " << k;
+      }
+  };
+  check(lut);
+  s.Relinearise({TransferFunction::kSrgb, 1.0f}, "test");
+  check(LinearDecodeTable({TransferFunction::kSrgb, 1.0f}, 8));
 }
 
 TEST(NativeStack, MemoryBytesCountsTheNativeSize) {
