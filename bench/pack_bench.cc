@@ -5,6 +5,7 @@
 // a flagged hole. And the glTF stand-in of a relighting basis (core/pack/gltf_bake.h), eight
 // texels at a time against one at a time (the same maps bit for bit), per fitted model.
 // Run: build/bench/pack_bench --benchmark_repetitions=5 --benchmark_report_aggregates_only=true
+// (add --benchmark_enable_random_interleaving=true on a noisy machine).
 #include <benchmark/benchmark.h>
 
 #include <cmath>
@@ -111,7 +112,12 @@ void BM_BakeBasisAsGgx(benchmark::State& state) {
 }
 
 BENCHMARK(BM_BakeBasisAsGgx)
-    ->ArgsProduct({{0, 1, 2}, {0, 1}})
+    ->Args({0, 0})
+    ->Args({0, 1})
+    ->Args({1, 0})
+    ->Args({1, 1})
+    ->Args({2, 0})
+    ->Args({2, 1})
     ->ArgNames({"model", "batched"})
     ->Unit(benchmark::kMillisecond);
 
