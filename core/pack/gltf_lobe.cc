@@ -136,22 +136,8 @@ MATFIT_CLONES_V4 void LobeRun(const CapLights& L, const float* y, float nx, floa
   for (int block = 0; block < 2; ++block) {
     V8d r[8];
     for (int i = 0; i < 8; ++i) r[i] = 8 * block + i < kTerms ? acc[8 * block + i] : V8d{};
-    V8d u[8], v[8];
-    for (int i = 0; i < 8; i += 2) {
-      u[i] = __builtin_shufflevector(r[i], r[i + 1], 0, 8, 2, 10, 4, 12, 6, 14);
-      u[i + 1] = __builtin_shufflevector(r[i], r[i + 1], 1, 9, 3, 11, 5, 13, 7, 15);
-    }
-    for (int i = 0; i < 8; i += 4)
-      for (int h = 0; h < 2; ++h) {
-        v[i + h] = __builtin_shufflevector(u[i + h], u[i + h + 2], 0, 1, 8, 9, 4, 5, 12, 13);
-        v[i + h + 2] = __builtin_shufflevector(u[i + h], u[i + h + 2], 2, 3, 10, 11, 6, 7, 14, 15);
-      }
     V8d col[8];  // col[j][i] = r[i][j]
-    for (int h = 0; h < 4; ++h) {
-      const int j = (h & 1) + 2 * (h >> 1);
-      col[j] = __builtin_shufflevector(v[h], v[h + 4], 0, 1, 2, 3, 8, 9, 10, 11);
-      col[j + 4] = __builtin_shufflevector(v[h], v[h + 4], 4, 5, 6, 7, 12, 13, 14, 15);
-    }
+    Transpose8x8(r, col);
     V8d sum = col[0];
     for (int j = 1; j < 8; ++j) sum += col[j];
     std::memcpy(t + 8 * block, &sum, sizeof sum);

@@ -57,6 +57,29 @@ void LobeRun(const CapLights& L, const float* y, float nx, float ny, float nz, f
 void GaussNewtonSums(const float* e0, const float* ex, const float* ey, int m, float inv_delta,
                      double* g);
 
+// cols[j][i] = rows[i][j] for an 8 × 8 block of 8-element GCC vectors (float or double): three
+// rounds of two-input shuffles. Inlined into the callers' ISA clones.
+template <typename V>
+__attribute__((always_inline)) inline void Transpose8x8(const V* rows, V* cols) {
+  V t[8], u[8];
+  for (int i = 0; i < 8; i += 2) {
+    t[i] = __builtin_shufflevector(rows[i], rows[i + 1], 0, 8, 2, 10, 4, 12, 6, 14);
+    t[i + 1] = __builtin_shufflevector(rows[i], rows[i + 1], 1, 9, 3, 11, 5, 13, 7, 15);
+  }
+  for (int i = 0; i < 8; i += 4)
+    for (int h = 0; h < 2; ++h) {
+      u[i + h] = __builtin_shufflevector(t[i + h], t[i + h + 2], 0, 1, 8, 9, 4, 5, 12, 13);
+      u[i + h + 2] = __builtin_shufflevector(t[i + h], t[i + h + 2], 2, 3, 10, 11, 6, 7, 14, 15);
+    }
+  // u[h] holds column j = (h & 1) + 2 (h >> 1) of rows 0–3 and column j + 4 beside them, and
+  // u[h + 4] the same of rows 4–7.
+  for (int h = 0; h < 4; ++h) {
+    const int j = (h & 1) + 2 * (h >> 1);
+    cols[j] = __builtin_shufflevector(u[h], u[h + 4], 0, 1, 2, 3, 8, 9, 10, 11);
+    cols[j + 4] = __builtin_shufflevector(u[h], u[h + 4], 4, 5, 6, 7, 12, 13, 14, 15);
+  }
+}
+
 // e = y − rp d − fa a − fb b over n lights (float, elementwise).
 void LobeResiduals(const float* y, const float* d, const float* a, const float* b, int n, float rp,
                    float fa, float fb, float* e);

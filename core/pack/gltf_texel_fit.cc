@@ -280,26 +280,10 @@ MATFIT_CLONES_V4 void LoadEightLanes(const CapLights& L, int ch, const float* pr
       V8f row[8];
       for (int i = 0; i < 8; ++i)
         std::memcpy(&row[i], ylane + size_t(c * P + k0 + std::min(i, n - 1)) * kB, sizeof row[i]);
-      // row[i][j]: light k0 + i, lane j → col[j][i].
-      V8f t[8], u[8];
-      for (int i = 0; i < 8; i += 2) {
-        t[i] = __builtin_shufflevector(row[i], row[i + 1], 0, 8, 2, 10, 4, 12, 6, 14);
-        t[i + 1] = __builtin_shufflevector(row[i], row[i + 1], 1, 9, 3, 11, 5, 13, 7, 15);
-      }
-      for (int i = 0; i < 8; i += 4)
-        for (int h = 0; h < 2; ++h) {
-          u[i + h] = __builtin_shufflevector(t[i + h], t[i + h + 2], 0, 1, 8, 9, 4, 5, 12, 13);
-          u[i + h + 2] =
-              __builtin_shufflevector(t[i + h], t[i + h + 2], 2, 3, 10, 11, 6, 7, 14, 15);
-        }
-      for (int h = 0; h < 4; ++h) {
-        const V8f lo = __builtin_shufflevector(u[h], u[h + 4], 0, 1, 2, 3, 8, 9, 10, 11);
-        const V8f hi = __builtin_shufflevector(u[h], u[h + 4], 4, 5, 6, 7, 12, 13, 14, 15);
-        // lo holds lane (h's lane), hi lane + 4: see the index bookkeeping below.
-        const int lane = (h & 1) + 2 * (h >> 1);
-        std::memcpy(y + size_t(lane) * y_stride + size_t(c * P + k0), &lo, sizeof(float) * n);
-        std::memcpy(y + size_t(lane + 4) * y_stride + size_t(c * P + k0), &hi, sizeof(float) * n);
-      }
+      V8f col[8];  // col[j][i]: lane j, light k0 + i
+      Transpose8x8(row, col);
+      for (int j = 0; j < 8; ++j)
+        std::memcpy(y + size_t(j) * y_stride + size_t(c * P + k0), &col[j], sizeof(float) * n);
     }
 }
 

@@ -407,6 +407,24 @@ TEST(GltfBake, TheSurfaceDrawsAsTheBasisInMatfit) {
   }
 }
 
+// Lambertian maps (w × h, `channels` albedo planes) with normals tilted up to ~25° in every
+// azimuth and albedo 0.2 + 0.1 c + 0.02 (p mod 11).
+MaterialMaps TiltedLambertian(int w, int h, int channels) {
+  MaterialMaps m;
+  m.model = ModelId("lambert");
+  m.width = w, m.height = h;
+  m.albedo = Image(w, h, channels);
+  m.normal = Image(w, h, 3);
+  for (int64_t p = 0; p < m.albedo.plane_size(); ++p) {
+    const double t = 0.5 * double(p % 7) / 7, ph = 0.9 * double(p);
+    const Vec3f n = Normalize(Vec3f(float(t * std::cos(ph)), float(t * std::sin(ph)), 1.0f));
+    m.normal.Plane(0)[p] = n.x, m.normal.Plane(1)[p] = n.y, m.normal.Plane(2)[p] = n.z;
+    for (int c = 0; c < channels; ++c)
+      m.albedo.Plane(c)[p] = float(0.2 + 0.1 * c + 0.02 * double(p % 11));
+  }
+  return m;
+}
+
 // The bake's main pass fits eight texels at a time (gltf::BatchFit); each lane must make the
 // operations of the one-texel fit on its texel, so the maps are the same bit for bit: fitted
 // bases on an odd size (runs of 256 with a tail, batches cut short), a mask with holes (lanes
@@ -447,18 +465,7 @@ TEST(GltfBake, EightTexelsAtATimeBakeWhatOneAtATimeBakes) {
     if (!m.coefficients.empty()) m.coefficients.Plane(0)[300] = 3e38f;
     (void)check(m, std::string(model) + ", a NaN and a huge value");
   }
-  MaterialMaps grey;
-  grey.model = ModelId("lambert");
-  grey.width = 19, grey.height = 7;
-  grey.albedo = Image(grey.width, grey.height, 1);
-  grey.normal = Image(grey.width, grey.height, 3);
-  for (int64_t p = 0; p < grey.albedo.plane_size(); ++p) {
-    const double t = 0.5 * double(p % 7) / 7, ph = 0.9 * double(p);
-    const Vec3f n = Normalize(Vec3f(float(t * std::cos(ph)), float(t * std::sin(ph)), 1.0f));
-    grey.normal.Plane(0)[p] = n.x, grey.normal.Plane(1)[p] = n.y, grey.normal.Plane(2)[p] = n.z;
-    grey.albedo.Plane(0)[p] = float(0.2 + 0.02 * double(p % 11));
-  }
-  EXPECT_EQ(check(grey, "grey lambert"), 0);
+  EXPECT_EQ(check(TiltedLambertian(19, 7, 1), "grey lambert"), 0);
 }
 
 // The lobe's F0 solves F0 = u / (1 + c F0) − v (its multiple-scattering factor held
@@ -497,17 +504,7 @@ TEST(GltfBake, TheLobeF0IsSelfConsistentWithItsCompensation) {
 // A Lambertian prediction bakes to itself: no lobe, the same normal and albedo.
 // (The material roughness comes from a sample of texels; with no lobe anywhere it is unused.)
 TEST(GltfBake, ALambertianSurfaceBakesToItself) {
-  MaterialMaps m;
-  m.model = ModelId("lambert");
-  m.width = 16, m.height = 12;
-  m.albedo = Image(m.width, m.height, 3);
-  m.normal = Image(m.width, m.height, 3);
-  for (int64_t p = 0; p < m.albedo.plane_size(); ++p) {
-    const double t = 0.5 * double(p % 7) / 7, ph = 0.9 * double(p);  // tilts up to ~25°
-    const Vec3f n = Normalize(Vec3f(float(t * std::cos(ph)), float(t * std::sin(ph)), 1.0f));
-    m.normal.Plane(0)[p] = n.x, m.normal.Plane(1)[p] = n.y, m.normal.Plane(2)[p] = n.z;
-    for (int c = 0; c < 3; ++c) m.albedo.Plane(c)[p] = float(0.2 + 0.1 * c + 0.02 * double(p % 11));
-  }
+  MaterialMaps m = TiltedLambertian(16, 12, 3);
   const GltfBake bake = BakeBasisAsGgx(m);
   for (int64_t p = 0; p < m.albedo.plane_size(); ++p) {
     const Vec3f a(m.normal.Plane(0)[p], m.normal.Plane(1)[p], m.normal.Plane(2)[p]),
