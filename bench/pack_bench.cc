@@ -10,6 +10,7 @@
 
 #include <cmath>
 #include <cstdint>
+#include <cstdlib>
 #include <map>
 #include <random>
 #include <vector>
@@ -95,7 +96,9 @@ const MaterialMaps& BasisMaps(int model) {
   synth::SynthOptions o;
   o.material = "plastic", o.lights = "dome:240", o.size = 256, o.layout = Layout::kLp;
   auto data = synth::Synthesize(o);
+  if (!data.ok()) std::abort();
   auto fit = fit::MakeMethod(kBakeModels[model])->Fit(data->stack, {});
+  if (!fit.ok()) std::abort();
   return cache[model] = std::move(fit->maps);
 }
 

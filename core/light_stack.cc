@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cstdint>
+#include <cstdlib>
 #include <cstring>
 #include <type_traits>
 #include <utility>
@@ -40,9 +41,11 @@ void DecodeRun(const uint8_t* src, int n, const float* __restrict lut, float* __
 // every float is the table's (NaN payloads and −0 included). ≈ 0.12 ns a sample on runs of 512+
 // on the 2-core test machine, 0.23 on runs of 64, against 0.44 for DecodeRun above.
 // (GCC 12's _mm512_shuffle_i64x2 passes _mm512_undefined_epi32() as its unused merge source, which
-// -Wmaybe-uninitialized reports when inlined.)
+// -Wmaybe-uninitialized reports when inlined; clang has no such warning.)
+#if !defined(__clang__)
 #pragma GCC diagnostic push
 #pragma GCC diagnostic ignored "-Wmaybe-uninitialized"
+#endif
 __attribute__((target("avx512f,avx512bw,avx512vbmi"))) void DecodeRunVbmi(const uint8_t* src, int n,
                                                                           const uint8_t* lut_bytes,
                                                                           const float* lut,
@@ -72,11 +75,19 @@ __attribute__((target("avx512f,avx512bw,avx512vbmi"))) void DecodeRunVbmi(const 
   }
   DecodeRun(src + x, n - x, lut, out + x);
 }
+#if !defined(__clang__)
 #pragma GCC diagnostic pop
+#endif
 
+// Whether the CPU runs DecodeRunVbmi; MATFIT_KERNELS=generic or =avx2 turns it off, as it caps
+// the fit's row kernels (fit/row_kernels.h; the tests run both decodes).
 bool HasVbmi() {
-  static const bool has = __builtin_cpu_supports("avx512f") && __builtin_cpu_supports("avx512bw") &&
-                          __builtin_cpu_supports("avx512vbmi");
+  static const bool has = [] {
+    const char* cap = std::getenv("MATFIT_KERNELS");
+    if (cap && (std::strcmp(cap, "generic") == 0 || std::strcmp(cap, "avx2") == 0)) return false;
+    return __builtin_cpu_supports("avx512f") && __builtin_cpu_supports("avx512bw") &&
+           __builtin_cpu_supports("avx512vbmi");
+  }();
   return has;
 }
 #endif

@@ -5,6 +5,7 @@
 #include <cmath>
 #include <mutex>
 #include <numbers>
+#include <optional>
 #include <vector>
 
 #include "core/model/model.h"
@@ -83,8 +84,12 @@ GltfBake BakeBasisAsGgx(const MaterialMaps& m, const ProgressFn& progress, BakeL
   std::mutex progress_mutex;
   ParallelFor(0, runs, [&](int64_t r0, int64_t r1) {
     std::vector<float> pred, scratch;
-    TexelFit fit(lights, inv, ms_table, ch);
-    BatchFit batch(lights, inv, ms_table, ch);
+    std::optional<TexelFit> one;
+    std::optional<BatchFit> eight;
+    if (lanes == BakeLanes::kOneByOne)
+      one.emplace(lights, inv, ms_table, ch);
+    else
+      eight.emplace(lights, inv, ms_table, ch);
     int64_t texel[BatchFit::kLanes];
     BatchFit::Result result[BatchFit::kLanes];
     for (int64_t r = r0; r < r1; ++r) {
@@ -94,7 +99,7 @@ GltfBake BakeBasisAsGgx(const MaterialMaps& m, const ProgressFn& progress, BakeL
       // The run's texels inside the mask, kLanes at a time (or one at a time).
       int filled = 0;
       auto flush = [&] {
-        batch.Fit(filled, r_material, result);
+        eight->Fit(filled, r_material, result);
         for (int j = 0; j < filled; ++j)
           store(texel[j], result[j].normal, result[j].r, result[j].f0, result[j].rho);
         filled = 0;
@@ -106,24 +111,24 @@ GltfBake BakeBasisAsGgx(const MaterialMaps& m, const ProgressFn& progress, BakeL
           continue;
         }
         if (lanes == BakeLanes::kOneByOne) {
-          load(pred, len, t, fit.y.data());
-          fit.SamplesSet();
+          load(pred, len, t, one->y.data());
+          one->SamplesSet();
           Vec3f nn;
-          const TexelFit::Lobe best = fit.FitTexel(r_material, &nn, &scratch);
+          const TexelFit::Lobe best = one->FitTexel(r_material, &nn, &scratch);
           const float normal[3] = {nn.x, nn.y, nn.z};
           store(p, normal, best.r, best.f0, best.rho);
           continue;
         }
         // Eight texels in a row inside the mask load at once.
-        bool eight = filled == 0 && t + BatchFit::kLanes <= len;
-        for (int j = 1; eight && j < BatchFit::kLanes; ++j) eight = in_mask(p + j);
-        if (eight) {
-          batch.LoadEight(pred.data() + t, len);
+        bool in_a_row = filled == 0 && t + BatchFit::kLanes <= len;
+        for (int j = 1; in_a_row && j < BatchFit::kLanes; ++j) in_a_row = in_mask(p + j);
+        if (in_a_row) {
+          eight->LoadEight(pred.data() + t, len);
           for (int j = 0; j < BatchFit::kLanes; ++j) texel[j] = p + j;
           filled = BatchFit::kLanes;
           t += BatchFit::kLanes - 1;
         } else {
-          batch.Load(filled, pred.data() + t, len);
+          eight->Load(filled, pred.data() + t, len);
           texel[filled++] = p;
         }
         if (filled == BatchFit::kLanes) flush();

@@ -71,12 +71,11 @@ __attribute__((always_inline)) inline void Transpose8x8(const V* rows, V* cols) 
       u[i + h] = __builtin_shufflevector(t[i + h], t[i + h + 2], 0, 1, 8, 9, 4, 5, 12, 13);
       u[i + h + 2] = __builtin_shufflevector(t[i + h], t[i + h + 2], 2, 3, 10, 11, 6, 7, 14, 15);
     }
-  // u[h] holds column j = (h & 1) + 2 (h >> 1) of rows 0–3 and column j + 4 beside them, and
-  // u[h + 4] the same of rows 4–7.
+  // u[h] (h < 4) holds column h of rows 0–3 and column h + 4 beside them, u[h + 4] the same of
+  // rows 4–7.
   for (int h = 0; h < 4; ++h) {
-    const int j = (h & 1) + 2 * (h >> 1);
-    cols[j] = __builtin_shufflevector(u[h], u[h + 4], 0, 1, 2, 3, 8, 9, 10, 11);
-    cols[j + 4] = __builtin_shufflevector(u[h], u[h + 4], 4, 5, 6, 7, 12, 13, 14, 15);
+    cols[h] = __builtin_shufflevector(u[h], u[h + 4], 0, 1, 2, 3, 8, 9, 10, 11);
+    cols[h + 4] = __builtin_shufflevector(u[h], u[h + 4], 4, 5, 6, 7, 12, 13, 14, 15);
   }
 }
 

@@ -5,6 +5,7 @@
 #include <cstring>
 #include <utility>
 
+#include "core/check.h"
 #include "core/pack/gltf_bake.h"
 #include "core/simd_clones.h"
 
@@ -500,6 +501,7 @@ void BatchFit::RefineNormals(const Mask on, double r, float* nx, float* ny, floa
 }
 
 void BatchFit::Fit(int lanes, double r0, Result* out) {
+  MATFIT_CHECK(r0 > 0 && lanes >= 0 && lanes <= kB, "BatchFit::Fit: a roughness and 0-8 lanes");
   LaneSquares(ylane_.data(), L_.K, L_.padded, ch_, yy_);
   bool all[kB];
   for (int j = 0; j < kB; ++j) all[j] = j < lanes;

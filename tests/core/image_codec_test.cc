@@ -360,17 +360,20 @@ TEST(ImageCodec, EncodedPngInMemoryIsTheFile) {
 
 // The integer formats' codes: round(v · max) with ties away from zero (std::lround) for linear
 // 8- and 16-bit files, round(255 · sRGB(v)) for 8-bit sRGB, clamped; NaN gives 0. Values on
-// every tie of both ranges, just beside them, outside [0, 1] and NaN, read back code by code.
+// every tie of the 8-bit and of the 16-bit range, just beside them, outside [0, 1] and NaN, read
+// back code by code.
 TEST(ImageCodec, IntegerCodesRoundAsLroundDoes) {
   TempDir tmp;
   std::vector<float> values = {
       -1.0f, -0.0f, 0.0f, 1.0f, 2.0f, std::nanf(""), std::numeric_limits<float>::infinity()};
-  for (int k = 0; k < 256; ++k)
+  for (int k = 0; k < 65535; ++k)
     for (float top : {255.0f, 65535.0f})
-      for (float d : {-1e-4f, 0.0f, 1e-4f}) values.push_back((float(k) + 0.5f + d) / top);
+      for (float d : {-1e-4f, 0.0f, 1e-4f})
+        if (k < 255 || top > 255.0f) values.push_back((float(k) + 0.5f + d) / top);
   for (int k = 0; k < 4096; ++k) values.push_back(float(k) * 37.0f / 65535.0f / 3.0f);
+  values.resize((values.size() + 1023) / 1024 * 1024, 0.0f);  // 1024 × rows
   const int w = int(values.size());
-  Image img(w, 1, 1);
+  Image img(1024, w / 1024, 1);
   for (int x = 0; x < w; ++x) img.Plane(0)[x] = values[size_t(x)];
   struct Case {
     PixelFormat format;

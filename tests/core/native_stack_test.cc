@@ -82,10 +82,12 @@ TEST(NativeStack, RowAndTexelsDecodeThroughTheTable) {
     }
 }
 
-// Runs of 64 codes and more take the AVX-512 byte-table decode where the CPU has it (every run
-// length and start here, so both the vector body and the scalar tail are covered, on any CPU
-// the table's floats bit for bit): a table with NaN, −0 and infinities, a plane of every code
-// in a shuffled order, then the same stack relinearised (its byte tables rebuilt).
+// Runs of 64 codes and more take the AVX-512 VBMI byte-table decode where the CPU has it, and the
+// scalar lookups elsewhere or with MATFIT_KERNELS=generic (ctest runs this test both ways:
+// core.native_stack_scalar_decode). Either way the table's floats bit for bit, at every run
+// length and start here (the vector body and the scalar tail): a table with NaN, −0, infinity
+// and a denormal, a plane of every code in a shuffled order, then the same stack relinearised
+// (its byte tables rebuilt).
 TEST(NativeStack, LongRunsDecodeEveryCodeBitForBit) {
   std::vector<float> lut(256);
   for (int k = 0; k < 256; ++k) lut[size_t(k)] = float(k) / 255.0f * (k % 2 ? 1.0f : -3.5f);

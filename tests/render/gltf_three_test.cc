@@ -15,6 +15,7 @@
 #include <fstream>
 #include <map>
 #include <nlohmann/json.hpp>
+#include <random>
 #include <string>
 #include <thread>
 
@@ -24,6 +25,7 @@
 #include "core/image_io.h"
 #include "core/model/model.h"
 #include "core/pack/gltf_bake.h"
+#include "core/pack/gltf_lobe.h"
 #include "core/pack/pack.h"
 #include "core/pack/pack_reader.h"
 #include "core/shading/shading.h"
@@ -466,6 +468,68 @@ TEST(GltfBake, EightTexelsAtATimeBakeWhatOneAtATimeBakes) {
     (void)check(m, std::string(model) + ", a NaN and a huge value");
   }
   EXPECT_EQ(check(TiltedLambertian(19, 7, 1), "grey lambert"), 0);
+}
+
+// LobeRun, the bake's inner loop: its per-light terms are the lobe of
+// shading::CookTorranceSpecularHalf at F0 = 1 split by the Fresnel weight, and the diffuse shape,
+// each times √(cos θ); its 15 sums are those terms' products added exactly in its documented
+// order (light k into partial sum k mod 8, in light order, then the eight partials in order),
+// bit for bit against a plain loop — the order the batched bake's bit-identity rests on.
+TEST(GltfBake, LobeRunSumsItsTermsInItsDocumentedOrder) {
+  const std::vector<Vec3f> dirs = gltf::CapDirections();
+  const gltf::CapLights L(dirs);
+  const int P = L.padded;
+  ASSERT_EQ(L.K, 85);
+  std::mt19937 rng(5);
+  std::uniform_real_distribution<float> u(-1.0f, 1.0f);
+  std::vector<float> y(size_t(3) * P, 0.0f), a(y.size() / 3), b(y.size() / 3), d(y.size() / 3);
+  for (int trial = 0; trial < 60; ++trial) {
+    const float scale = trial % 5 == 0 ? 1e3f : 1.0f;  // a hostile pack's cut values
+    for (int c = 0; c < 3; ++c)
+      for (int k = 0; k < L.K; ++k)
+        y[size_t(c * P + k)] = L.sw[size_t(k)] * scale * (0.5f + 0.5f * u(rng));
+    const Vec3f n = Normalize(Vec3f(0.6f * u(rng), 0.6f * u(rng), 1.0f));
+    const float alpha = 0.01f + 0.5f * (u(rng) + 1.0f);
+    gltf::LobeSums s;
+    gltf::LobeRun(L, y.data(), n.x, n.y, n.z, alpha, a.data(), b.data(), d.data(), &s);
+    const Vec3f v(0, 0, 1);
+    for (int k = 0; k < P; ++k) {
+      if (k >= L.K) {  // padding: nothing
+        EXPECT_EQ(a[size_t(k)], 0.0f);
+        EXPECT_EQ(b[size_t(k)], 0.0f);
+        EXPECT_EQ(d[size_t(k)], 0.0f);
+        continue;
+      }
+      const Vec3f l = dirs[size_t(k)], h = Normalize(l + v);
+      const float r = std::sqrt(alpha), sw = std::sqrt(l.z);
+      const float lobe = shading::CookTorranceSpecularHalf(1.0f, r, n, l, v, h) /
+                         shading::SchlickFresnel(1.0f, Dot(v, h));  // F = 1 at F0 = 1
+      const float w = shading::SchlickFresnel(0.0f, Dot(v, h));
+      const float want_a = sw * lobe * (1 - w), want_b = sw * lobe * w,
+                  want_d = sw * std::max(0.0f, Dot(n, l)) * (1 - w);
+      EXPECT_NEAR(a[size_t(k)], want_a, 1e-5f * (1 + std::abs(want_a))) << "light " << k;
+      EXPECT_NEAR(b[size_t(k)], want_b, 1e-5f * (1 + std::abs(want_b))) << "light " << k;
+      EXPECT_NEAR(d[size_t(k)], want_d, 1e-6f) << "light " << k;
+    }
+    double acc[15][8] = {};
+    for (int k = 0; k < P; ++k) {
+      const int j = k % 8;
+      const double dk = d[size_t(k)], ak = a[size_t(k)], bk = b[size_t(k)];
+      const double yk[3] = {y[size_t(k)], y[size_t(P + k)], y[size_t(2 * P + k)]};
+      acc[0][j] += dk * dk, acc[1][j] += ak * dk, acc[2][j] += ak * ak;
+      acc[3][j] += bk * dk, acc[4][j] += bk * ak, acc[5][j] += bk * bk;
+      for (int c = 0; c < 3; ++c)
+        acc[6 + c][j] += yk[c] * dk, acc[9 + c][j] += yk[c] * ak, acc[12 + c][j] += yk[c] * bk;
+    }
+    double t[15] = {};
+    for (int i = 0; i < 15; ++i)
+      for (int j = 0; j < 8; ++j) t[i] += acc[i][j];
+    const double got[15] = {s.dd,    s.ad,    s.aa,    s.bd,    s.ba,    s.bb,    s.yd[0], s.yd[1],
+                            s.yd[2], s.ya[0], s.ya[1], s.ya[2], s.yb[0], s.yb[1], s.yb[2]};
+    for (int i = 0; i < 15; ++i)
+      ASSERT_EQ(std::memcmp(&got[i], &t[i], sizeof(double)), 0)
+          << "sum " << i << ": " << got[i] << " against " << t[i] << " (trial " << trial << ")";
+  }
 }
 
 // The lobe's F0 solves F0 = u / (1 + c F0) − v (its multiple-scattering factor held
