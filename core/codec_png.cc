@@ -1,7 +1,7 @@
 // PNG through libpng, read as OpenImageIO 2.4 reads it: 8/16-bit grey, grey+alpha, RGB, RGBA
 // (palette, < 8-bit and tRNS files are declined: OpenImageIO expands them); colour space from
 // the sRGB chunk ("sRGB") or gAMA ("linear" / "Gamma<g>", g = 1/gAMA rounded to 0.01); the
-// Software text chunk. Written with an sRGB chunk (sRGB) or gAMA 1.0 (linear) and Software.
+// Software text chunk. The writer is core/codec_png_write.cc.
 #include <png.h>
 
 #include <algorithm>
@@ -141,70 +141,6 @@ class PngReader : public Reader {
   volatile bool pixels_done_ = false;  // read after a longjmp
 };
 
-// Where encoded bytes go: a FILE (first errno kept) or memory.
-struct Sink {
-  FILE* file = nullptr;
-  std::string* memory = nullptr;
-  int error = 0;
-};
-
-void WriteBytes(png_structp png, png_bytep data, png_size_t n) {
-  auto* s = static_cast<Sink*>(png_get_io_ptr(png));
-  if (s->memory) {
-    s->memory->append(reinterpret_cast<const char*>(data), n);
-  } else if (std::fwrite(data, 1, n, s->file) != n) {
-    if (s->error == 0) s->error = errno != 0 ? errno : EIO;
-    png_error(png, std::strerror(s->error));
-  }
-}
-
-void FlushBytes(png_structp) {}
-
-// The libpng part of WritePng, apart so that setjmp's frame holds no C++ objects.
-bool Encode(const WriteSpec& w, Sink* sink, ErrorState* err, std::vector<png_bytep>* rows) {
-  png_structp png = png_create_write_struct(PNG_LIBPNG_VER_STRING, err, OnError, OnWarning);
-  if (!png) return false;
-  png_infop info = png_create_info_struct(png);
-  if (!info || setjmp(png_jmpbuf(png))) {
-    png_destroy_write_struct(&png, info ? &info : nullptr);
-    return false;
-  }
-  png_set_write_fn(png, sink, WriteBytes, FlushBytes);
-  const int depth = w.sample == Sample::kUint16 ? 16 : 8;
-  const int type = w.channels == 1 ? PNG_COLOR_TYPE_GRAY : PNG_COLOR_TYPE_RGB;
-  png_set_IHDR(png, info, png_uint_32(w.width), png_uint_32(w.height), depth, type,
-               PNG_INTERLACE_NONE, PNG_COMPRESSION_TYPE_DEFAULT, PNG_FILTER_TYPE_DEFAULT);
-  png_set_compression_level(png, w.compact ? 6 : 1);
-  // No row filters, as OpenImageIO wrote them: with libpng's adaptive filters level 6 came out
-  // larger than level 1 on smooth 16-bit maps.
-  png_set_filter(png, PNG_FILTER_TYPE_BASE, PNG_FILTER_NONE);
-  if (w.srgb)
-    png_set_sRGB(png, info, PNG_sRGB_INTENT_PERCEPTUAL);
-  else
-    png_set_gAMA(png, info, 1.0);
-  png_text text[2] = {};
-  text[0].compression = text[1].compression = PNG_TEXT_COMPRESSION_NONE;
-  text[0].key = const_cast<char*>("oiio:ColorSpace");
-  text[0].text = const_cast<char*>(w.srgb ? "sRGB" : "Linear");
-  text[1].key = const_cast<char*>("Software");
-  text[1].text = const_cast<char*>(w.software.c_str());
-  png_set_text(png, info, text, 2);
-  png_write_info(png, info);
-  if (depth == 16) png_set_swap(png);  // host order → big-endian file
-  const size_t row_bytes = size_t(w.width) * w.channels * (depth / 8);
-  for (int y0 = 0; y0 < w.height; y0 += w.strip_rows) {
-    const int y1 = std::min(w.height, y0 + w.strip_rows);
-    const auto* strip = static_cast<const unsigned char*>(w.rows(y0, y1));
-    rows->resize(size_t(y1 - y0));
-    for (int y = y0; y < y1; ++y)
-      (*rows)[size_t(y - y0)] = const_cast<png_bytep>(strip + row_bytes * size_t(y - y0));
-    png_write_rows(png, rows->data(), png_uint_32(y1 - y0));
-  }
-  png_write_end(png, info);
-  png_destroy_write_struct(&png, &info);
-  return true;
-}
-
 // Walks the chunks (length, type, data, CRC) up to IEND and checks that each one's data fits in
 // the file: libpng allocates a text chunk's declared length before reading it, so a few hostile
 // bytes could ask for a gigabyte. Leaves `f` at the start.
@@ -247,37 +183,6 @@ std::unique_ptr<Reader> OpenPng(const std::string& path, std::string* error) {
   if (r->OpenHeader(&declined)) return r;
   if (!declined) *error = r->error();
   return nullptr;
-}
-
-bool WritePng(const WriteSpec& spec, const std::string& path, std::string* memory,
-              std::string* error) {
-  if ((spec.channels != 1 && spec.channels != 3) ||
-      (spec.sample != Sample::kUint8 && spec.sample != Sample::kUint16)) {
-    *error = "the native PNG writer takes 1 or 3 channels of 8 or 16 bits";
-    return false;
-  }
-  Sink sink;
-  FilePtr f(nullptr, std::fclose);
-  if (memory) {
-    memory->clear();
-    sink.memory = memory;
-  } else {
-    f.reset(std::fopen(path.c_str(), "wb"));
-    if (!f) {
-      *error = std::string("cannot create it: ") + std::strerror(errno);
-      return false;
-    }
-    sink.file = f.get();
-  }
-  ErrorState err;
-  std::vector<png_bytep> rows;
-  if (!Encode(spec, &sink, &err, &rows)) {
-    *error = sink.error != 0  ? std::strerror(sink.error)
-             : err.message[0] ? err.message
-                              : "PNG encoder failed";
-    return false;
-  }
-  return !f || FlushAndClose(f.release(), error);
 }
 
 }  // namespace matfit::codec

@@ -56,6 +56,9 @@ struct WriteSpec {
   // Rows [y0, y1) interleaved: uint8/uint16 codes for integer samples, float otherwise. The
   // pointer stays valid until the next call.
   std::function<const void*(int y0, int y1)> rows;
+  // The same samples written to `dst`; callable from several threads at once for disjoint rows
+  // (the PNG writer encodes strips in parallel). Optional for the other encoders.
+  std::function<void(int y0, int y1, void* dst)> rows_into;
 };
 
 class Backend {

@@ -482,20 +482,18 @@ bool Encode(const Image& image, const std::string& format, const ImageWriteOptio
   // the image.
   spec.strip_rows =
       std::max(1, std::min(H, int((1 << 20) / std::max<int64_t>(1, int64_t(W) * ch))));
-  std::vector<uint8_t> q8, codes;
-  std::vector<uint16_t> q16;
-  std::vector<float> f32;
   auto encoded = [&](int c, int64_t p) {
     const float v = image.Plane(c)[p];
     // RGBA: the alpha plane stays linear.
     return srgb && !(ch == 4 && c == 3) ? LinearToSrgb(std::clamp(v, 0.0f, 1.0f)) : v;
   };
-  // Interleaved samples of rows [y0, y1): codes round(v · max) for the integer formats.
-  spec.rows = [&](int y0, int y1) -> const void* {
+  // Interleaved samples of rows [y0, y1) into `dst`: codes round(v · max) for the integer
+  // formats. Reads only the image: safe from several threads for disjoint rows.
+  spec.rows_into = [&](int y0, int y1, void* dst) {
     const int64_t p0 = int64_t(y0) * W, n = int64_t(y1 - y0) * W;
-    auto quantise = [&]<typename T>(std::vector<T>& q) -> const void* {
+    auto quantise = [&]<typename T>(T* q) {
       const float top = float(std::numeric_limits<T>::max());
-      q.resize(size_t(n) * ch);
+      std::vector<uint8_t> codes;
       for (int c = 0; c < ch; ++c) {
         const float* v = image.Plane(c).data() + p0;
         if (sizeof(T) == 1 && srgb && !(ch == 4 && c == 3)) {
@@ -508,14 +506,22 @@ bool Encode(const Image& image, const std::string& format, const ImageWriteOptio
         for (int64_t p = 0; p < n; ++p)
           q[p * ch + c] = T(RoundCode(std::clamp(encoded(c, p0 + p), 0.0f, 1.0f) * top));
       }
-      return q.data();
     };
-    if (options.format == PixelFormat::kUint8) return quantise(q8);
-    if (options.format == PixelFormat::kUint16) return quantise(q16);
-    f32.resize(size_t(n) * ch);
+    if (options.format == PixelFormat::kUint8) return quantise(static_cast<uint8_t*>(dst));
+    if (options.format == PixelFormat::kUint16) return quantise(static_cast<uint16_t*>(dst));
+    float* f = static_cast<float*>(dst);
     for (int c = 0; c < ch; ++c)
-      for (int64_t p = 0; p < n; ++p) f32[p * ch + c] = encoded(c, p0 + p);
-    return f32.data();
+      for (int64_t p = 0; p < n; ++p) f[p * ch + c] = encoded(c, p0 + p);
+  };
+  // The same a strip at a time into one buffer, for the encoders that take rows in order.
+  std::vector<unsigned char> strip;
+  spec.rows = [&](int y0, int y1) -> const void* {
+    const size_t bytes = options.format == PixelFormat::kUint8    ? 1
+                         : options.format == PixelFormat::kUint16 ? 2
+                                                                  : 4;
+    strip.resize(size_t(y1 - y0) * size_t(W) * size_t(ch) * bytes);
+    spec.rows_into(y0, y1, strip.data());
+    return strip.data();
   };
   codec::Backend* backend = &codec::Native();
   if (!backend->CanWrite(format, spec, memory != nullptr)) {

@@ -143,22 +143,29 @@ Confidence ComputeConfidence(const LightStack& s, const MaterialMaps& maps, Mode
   out.pooled_sigma = std::sqrt(sigma2);
   const Image& ie = maps.interpolation_error;
   const bool interp = ie.width() == s.width() && ie.height() == s.height() && ie.channels() == 1;
-  for (int64_t p = 0; p < T; ++p) {
-    if (!ok(p)) continue;
-    const double dof = samples[p] - P;
-    if (dof < 1 || used_lights[p] < min_lights || !out.frontal_covered ||
-        !std::isfinite(out.extrapolation) || !std::isfinite(sigma2)) {
-      if (status) (*status)[p] = kTexelUnverifiable;
-      ++out.unverifiable;
-      continue;
+  // Per texel, independent: in parallel, the unverifiable texels counted per chunk.
+  constexpr int64_t kChunk = 1 << 14;
+  const int64_t chunks = (T + kChunk - 1) / kChunk;
+  std::vector<int64_t> unverifiable(size_t(chunks), 0);
+  ParallelFor(0, chunks, [&](int64_t c0, int64_t c1) {
+    for (int64_t p = c0 * kChunk; p < std::min(T, c1 * kChunk); ++p) {
+      if (!ok(p)) continue;
+      const double dof = samples[p] - P;
+      if (dof < 1 || used_lights[p] < min_lights || !out.frontal_covered ||
+          !std::isfinite(out.extrapolation) || !std::isfinite(sigma2)) {
+        if (status) (*status)[p] = kTexelUnverifiable;
+        ++unverifiable[size_t(p / kChunk)];
+        continue;
+      }
+      double s2 = std::max(rss[p] / dof, sigma2);
+      if (interp)  // an interpolating model's error between its samples
+        s2 = std::max(s2, std::pow(double(maps.interpolation_error.Plane(0)[p]), 2));
+      const double extra = (out.extrapolation - 1) * level[p];
+      out.bound[p] = float(std::sqrt(
+          o.kappa * o.kappa * s2 * out.extrapolation * (1.0 + P / samples[p]) + extra * extra));
     }
-    double s2 = std::max(rss[p] / dof, sigma2);
-    if (interp)  // an interpolating model's error between its samples
-      s2 = std::max(s2, std::pow(double(maps.interpolation_error.Plane(0)[p]), 2));
-    const double extra = (out.extrapolation - 1) * level[p];
-    out.bound[p] = float(std::sqrt(
-        o.kappa * o.kappa * s2 * out.extrapolation * (1.0 + P / samples[p]) + extra * extra));
-  }
+  });
+  for (int64_t u : unverifiable) out.unverifiable += u;
   return out;
 }
 

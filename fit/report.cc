@@ -110,9 +110,10 @@ std::string MakeReportJson(const FitReportInputs& in) {
   }
   if (in.assessment) {
     const Confidence& c = in.assessment->confidence;
-    std::vector<float> b;
-    for (float v : c.bound)
-      if (std::isfinite(v)) b.push_back(v);
+    std::vector<float> b(c.bound.size());  // the finite bounds (one allocation, no regrowth)
+    b.resize(size_t(std::copy_if(c.bound.begin(), c.bound.end(), b.begin(),
+                                 [](float v) { return std::isfinite(v); }) -
+                    b.begin()));
     double median = NAN;
     if (!b.empty()) {
       std::nth_element(b.begin(), b.begin() + b.size() / 2, b.end());

@@ -113,13 +113,12 @@ Status ZipFolder(const std::string& folder, const std::string& zip_path) {
 // from its minimum (0) to its maximum (65535), the range in material.json.
 constexpr int64_t kMaxHeightTexels = int64_t(4096) * 4096;
 
-template <typename Put, typename Keep>
-Status PutHeightMaps(const MaterialMaps& m, const std::vector<uint8_t>& status, Put& put,
-                     Keep& keep, const ImageWriteOptions& exr, const ImageWriteOptions& lin16,
-                     json* maps) {
+// Integrates the height and writes height.exr and height.png under `maps_dir`; *written says
+// whether there was a height to write (some trusted texel), *range its [min, max].
+Status WriteHeightMaps(const MaterialMaps& m, const std::vector<uint8_t>& status,
+                       const fs::path& maps_dir, const ImageWriteOptions& exr,
+                       const ImageWriteOptions& lin16, bool* written, double range[2]) {
   const int64_t n = int64_t(m.width) * m.height;
-  // The solve holds about 70 bytes per texel: beyond 4096² (1.2 GB) the pack has no height map.
-  if (n > kMaxHeightTexels) return Status::Ok();
   std::vector<uint8_t> trusted(size_t(n), 1);
   for (int64_t p = 0; p < n; ++p) {
     const uint8_t st = size_t(p) < status.size() ? status[p] : 0;
@@ -127,20 +126,14 @@ Status PutHeightMaps(const MaterialMaps& m, const std::vector<uint8_t>& status, 
     trusted[p] = fitted && (m.mask.empty() || m.mask.Plane(0)[p] > 0.5f);
   }
   HeightResult h = IntegrateNormals(m.normal, trusted);
-  if (h.height.empty()) return Status::Ok();
-  const Image& exact = keep(std::move(h.height));
-  Image png(m.width, m.height, 1);
+  *written = !h.height.empty();
+  if (!*written) return Status::Ok();
+  range[0] = h.min, range[1] = h.max;
+  MATFIT_RETURN_IF_ERROR(WriteImage((maps_dir / "height.exr").string(), h.height, exr));
   const double span = h.max - h.min;
-  for (int64_t p = 0; p < n; ++p)
-    png.Plane(0)[p] = span > 0 ? float((exact.Plane(0)[p] - h.min) / span) : 0.5f;
-  MATFIT_RETURN_IF_ERROR(put("height_exact", "height.exr", exact, exr,
-                             "height from the normals in texel units, mean 0 over the fitted "
-                             "texels (least-squares integration, docs/pack.md)"));
-  MATFIT_RETURN_IF_ERROR(put("height", "height.png", keep(std::move(png)), lin16,
-                             "the same height, 0 = range[0], 65535 = range[1] (texel units)"));
-  for (auto& e : *maps)
-    if (e["name"] == "height" || e["name"] == "height_exact") e["range_texels"] = {h.min, h.max};
-  return Status::Ok();
+  float* v = h.height.Plane(0).data();  // rescaled in place: the EXR is written
+  for (int64_t p = 0; p < n; ++p) v[p] = span > 0 ? float((v[p] - h.min) / span) : 0.5f;
+  return WriteImage((maps_dir / "height.png").string(), h.height, lin16);
 }
 
 double RoughnessFromBlinnPhongExponent(double e) { return std::pow(2.0 / (e + 2.0), 0.25); }
@@ -163,11 +156,9 @@ Status WritePack(const MaterialMaps& m, const std::vector<uint8_t>& status, cons
   std::deque<Image> owned;  // images made for the pack (stable addresses until written)
   auto keep = [&](Image img) -> const Image& { return owned.emplace_back(std::move(img)); };
   json maps = json::array();
-  auto put = [&](const char* name, const char* file, const Image& img, ImageWriteOptions wo,
-                 const char* semantic) -> Status {
-    if (img.empty()) return Status::Ok();
-    tasks.push_back(
-        [path = (root / "maps" / file).string(), &img, wo] { return WriteImage(path, img, wo); });
+  // material.json's entry for a map file.
+  auto describe = [&](const char* name, const char* file, int channels, ImageWriteOptions wo,
+                      const char* semantic) {
     const char* enc = wo.format == PixelFormat::kUint8    ? "png8"
                       : wo.format == PixelFormat::kUint16 ? "png16"
                                                           : "exr32";
@@ -176,7 +167,14 @@ Status WritePack(const MaterialMaps& m, const std::vector<uint8_t>& status, cons
                     {"semantic", semantic},
                     {"encoding", enc},
                     {"color_space", wo.transfer == TransferFunction::kSrgb ? "sRGB" : "linear"},
-                    {"channels", img.channels()}});
+                    {"channels", channels}});
+  };
+  auto put = [&](const char* name, const char* file, const Image& img, ImageWriteOptions wo,
+                 const char* semantic) -> Status {
+    if (img.empty()) return Status::Ok();
+    tasks.push_back(
+        [path = (root / "maps" / file).string(), &img, wo] { return WriteImage(path, img, wo); });
+    describe(name, file, img.channels(), wo, semantic);
     return Status::Ok();
   };
   const bool compact = options.compact;
@@ -186,6 +184,9 @@ Status WritePack(const MaterialMaps& m, const std::vector<uint8_t>& status, cons
   const ImageWriteOptions exr{PixelFormat::kFloat, TransferFunction::kLinear, compact};
   const ModelDescriptor& model = Model(m.model);
   const bool has_normal = model.writes_normal_map();
+  std::function<Status()> height_task;  // set when the pack has a height map
+  bool height_written = false;
+  double height_range[2] = {0, 0};
   // Progress in thousandths: the glTF bake (most of a relighting basis's write), the files,
   // the view packs; the rest (exports, glTF, material.json) is short.
   // Reported from worker threads: one at a time, and never backwards (two tasks may finish
@@ -209,7 +210,19 @@ Status WritePack(const MaterialMaps& m, const std::vector<uint8_t>& status, cons
                                "tangent-space normal, OpenGL +Y, rgb = n*0.5+0.5"));
     MATFIT_RETURN_IF_ERROR(
         put("normal_exact", "normal.exr", m.normal, exr, "unit normal xyz (float)"));
-    MATFIT_RETURN_IF_ERROR(PutHeightMaps(m, status, put, keep, exr, lin16, &maps));
+    // The height (the write's longest single job: a multigrid solve) is integrated and written
+    // by a task of its own, the first to run, so that the other files encode beside it. Beyond
+    // 4096² texels (the solve holds about 70 bytes a texel: 1.2 GB) the pack has no height map.
+    if (int64_t(m.width) * m.height <= kMaxHeightTexels) {
+      describe("height_exact", "height.exr", 1, exr,
+               "height from the normals in texel units, mean 0 over the fitted texels "
+               "(least-squares integration, docs/pack.md)");
+      describe("height", "height.png", 1, lin16,
+               "the same height, 0 = range[0], 65535 = range[1] (texel units)");
+      height_task = [&, maps_dir = root / "maps"] {
+        return WriteHeightMaps(m, status, maps_dir, exr, lin16, &height_written, height_range);
+      };
+    }
   }
   MATFIT_RETURN_IF_ERROR(model.WritePackMaps(m, [&](const PackMap& pm) {
     const ImageWriteOptions wo = pm.encoding == MapEncoding::kSrgb8      ? srgb8
@@ -362,6 +375,7 @@ Status WritePack(const MaterialMaps& m, const std::vector<uint8_t>& status, cons
       viewer["basis_table"] = "viewer/basis_table.bin", viewer["table_size"] = sp->table_size;
     return Status::Ok();
   });
+  if (height_task) tasks.insert(tasks.begin(), std::move(height_task));
   {
     std::vector<Status> written(tasks.size(), Status::Ok());
     std::atomic<int64_t> finished{0};
@@ -375,6 +389,16 @@ Status WritePack(const MaterialMaps& m, const std::vector<uint8_t>& status, cons
         },
         1);
     for (const Status& st : written) MATFIT_RETURN_IF_ERROR(st);
+  }
+  // The height's entries say its range, or go when no texel had a fitted normal to integrate.
+  for (auto e = maps.begin(); e != maps.end();) {
+    const bool height = (*e)["name"] == "height" || (*e)["name"] == "height_exact";
+    if (height && !height_written) {
+      e = maps.erase(e);
+      continue;
+    }
+    if (height) (*e)["range_texels"] = {height_range[0], height_range[1]};
+    ++e;
   }
 
   // glTF quad.

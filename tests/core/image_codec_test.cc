@@ -18,6 +18,7 @@
 
 #include "core/color.h"
 #include "core/image_io.h"
+#include "core/parallel.h"
 #include "tests/core/test_util.h"
 
 namespace matfit {
@@ -399,6 +400,93 @@ TEST(ImageCodec, IntegerCodesRoundAsLroundDoes) {
       const long got = std::lround(back->Plane(0)[x] * c.top);
       ASSERT_EQ(got, want) << "value " << v << " (x " << x << "), top " << c.top
                            << (c.transfer == TransferFunction::kSrgb ? ", sRGB" : "");
+    }
+  }
+}
+
+// The PNG writer deflates strips of rows in parallel into one zlib stream
+// (core/codec_png_write.cc). For images of one strip, of many (more than one wave of eight), of
+// rows longer than a strip, 8 and 16 bits, grey and RGB, level 1 and 6: the file is the same on 1
+// and 2 threads; every chunk's CRC holds; the chunks are IHDR, sRGB or gAMA, two tEXt, IDAT…, IEND;
+// the IDATs inflate (zlib checks the Adler-32) to exactly the unfiltered rows of the expected
+// codes; and libpng and OpenImageIO read the file alike.
+TEST(ImageCodec, PngStripsDeflatedInParallelMakeOneStream) {
+  TempDir tmp;
+  struct Case {
+    int w, h, ch;
+    PixelFormat format;
+    TransferFunction transfer;
+    bool compact;
+    int min_idat;  // IDAT chunks: one per strip
+  };
+  const Case cases[] = {
+      {1, 1, 1, PixelFormat::kUint8, TransferFunction::kLinear, false, 1},
+      {512, 344, 3, PixelFormat::kUint16, TransferFunction::kLinear, false, 9},  // 42 rows a strip
+      {2000, 300, 3, PixelFormat::kUint8, TransferFunction::kSrgb, false, 15},   // two waves
+      {50000, 3, 3, PixelFormat::kUint8, TransferFunction::kLinear, false, 3},   // a row > a strip
+      {333, 517, 1, PixelFormat::kUint16, TransferFunction::kLinear, true, 3},
+  };
+  for (const Case& c : cases) {
+    SCOPED_TRACE(std::to_string(c.w) + "x" + std::to_string(c.h) + "x" + std::to_string(c.ch));
+    Image img = Pattern(c.w, c.h, c.ch);
+    img.Plane(0)[0] = -1.0f, img.Plane(c.ch - 1)[int64_t(c.w) * c.h - 1] = 2.0f;  // clamped
+    const ImageWriteOptions o{c.format, c.transfer, c.compact};
+    SetNumThreads(1);
+    auto one = EncodeImage(img, "png", o);
+    SetNumThreads(2);
+    auto two = EncodeImage(img, "png", o);
+    SetNumThreads(0);
+    ASSERT_TRUE(one.ok() && two.ok());
+    EXPECT_TRUE(*one == *two) << "the file depends on the thread count";
+    const std::string& f = *two;
+    ASSERT_EQ(f.compare(0, 8, "\x89PNG\r\n\x1a\n"), 0);
+    std::vector<std::string> types;
+    std::string z;
+    int idat = 0;
+    for (size_t p = 8; p + 12 <= f.size();) {
+      auto be32 = [&](size_t at) {
+        return uint32_t(uint8_t(f[at])) << 24 | uint32_t(uint8_t(f[at + 1])) << 16 |
+               uint32_t(uint8_t(f[at + 2])) << 8 | uint32_t(uint8_t(f[at + 3]));
+      };
+      const uint32_t n = be32(p);
+      ASSERT_LE(p + 12 + n, f.size());
+      const std::string type = f.substr(p + 4, 4);
+      EXPECT_EQ(crc32(0, reinterpret_cast<const Bytef*>(f.data() + p + 4), n + 4), be32(p + 8 + n))
+          << type << " chunk's CRC";
+      if (type == "IDAT") z += f.substr(p + 8, n), ++idat;
+      if (types.empty() || types.back() != type || type != "IDAT") types.push_back(type);
+      p += 12 + n;
+    }
+    const std::string colour = c.transfer == TransferFunction::kSrgb ? "sRGB" : "gAMA";
+    EXPECT_EQ(types, (std::vector<std::string>{"IHDR", colour, "tEXt", "tEXt", "IDAT", "IEND"}));
+    EXPECT_GE(idat, c.min_idat) << "strips";
+    // The rows as they must be: filter byte 0, then the codes (16-bit big-endian).
+    const int bytes = c.format == PixelFormat::kUint16 ? 2 : 1;
+    const float top = bytes == 2 ? 65535.0f : 255.0f;
+    std::string want;
+    for (int y = 0; y < c.h; ++y) {
+      want += '\0';
+      for (int x = 0; x < c.w; ++x)
+        for (int ch = 0; ch < c.ch; ++ch) {
+          const float v = img.Plane(ch)[int64_t(y) * c.w + x];
+          const long code = c.transfer == TransferFunction::kSrgb
+                                ? long(LinearToSrgb8(v))
+                                : std::lround(std::clamp(v, 0.0f, 1.0f) * top);
+          if (bytes == 2) want += char(code >> 8);
+          want += char(code & 0xFF);
+        }
+    }
+    std::string raw(want.size() + 1, '\0');
+    uLongf got = uLongf(raw.size());
+    ASSERT_EQ(uncompress(reinterpret_cast<Bytef*>(raw.data()), &got,
+                         reinterpret_cast<const Bytef*>(z.data()), uLong(z.size())),
+              Z_OK);
+    raw.resize(got);
+    EXPECT_TRUE(raw == want) << "the rows inflate to other bytes";
+    if (int64_t(c.w) * c.h <= 600000) {
+      const fs::path file = tmp / "strips.png";
+      std::ofstream(file, std::ios::binary) << f;
+      ExpectSameDecoding(file);
     }
   }
 }

@@ -2,6 +2,8 @@
 // definition, pack round trips and shader planes, for every registered model.
 #include <gtest/gtest.h>
 
+#include <nlohmann/json.hpp>
+
 #include <cmath>
 #include <filesystem>
 #include <fstream>
@@ -205,6 +207,78 @@ TEST(ModelPack, PreviewDrawsFlaggedTexelsAndMarksTexelsWithoutEstimate) {
       EXPECT_FALSE(r == 1.0f && g == 0.0f && b == 1.0f) << "texel " << p;
     }
   }
+}
+
+// A pack with normals carries the height integrated from them (a task of the write's own, run
+// beside the other files): material.json lists height_exact and height right after the normal
+// maps with the range of height.exr over the fitted texels, and height.png spans that range.
+// Without a fitted texel the height is flat.
+TEST(ModelPack, HeightMapsComeWithTheirRange) {
+  testing::TempDir dir;
+  MaterialMaps m = RandomModelMaps(ModelId("lambert"), 24, 16, 3);
+  for (int64_t p = 0; p < 24 * 16; ++p) {  // a dome: a relief to integrate
+    const double x = (p % 24 - 11.5) / 12, y = (p / 24 - 7.5) / 12;
+    const Vec3 n = Normalize(Vec3(0.6 * x, 0.6 * y, 1.0));
+    m.normal.Plane(0)[p] = float(n.x), m.normal.Plane(1)[p] = float(n.y);
+    m.normal.Plane(2)[p] = float(n.z);
+  }
+  std::vector<uint8_t> status(24 * 16, 0);
+  status[5] = 2;  // flagged: not integrated
+  const std::string out = dir / "with";
+  ASSERT_TRUE(WritePack(m, status, {}, {}, out).ok());
+  std::ifstream in(out + "/material.json");
+  const nlohmann::json j = nlohmann::json::parse(in);
+  std::vector<std::string> names;
+  nlohmann::json range;
+  for (const auto& e : j["maps"]) {
+    names.push_back(e["name"]);
+    if (e["name"] == "height" || e["name"] == "height_exact") {
+      EXPECT_EQ(e["channels"], 1);
+      if (range.is_null()) range = e["range_texels"];
+      EXPECT_EQ(e["range_texels"], range) << "both entries give the same range";
+    }
+  }
+  const auto at = std::find(names.begin(), names.end(), "normal_exact");
+  ASSERT_TRUE(at != names.end() && at + 2 < names.end());
+  EXPECT_EQ(at[1], "height_exact");
+  EXPECT_EQ(at[2], "height");
+  auto exact = ReadImage(out + "/maps/height.exr");
+  ASSERT_TRUE(exact.ok()) << exact.status().message();
+  double lo = 1e30, hi = -1e30;
+  for (int64_t p = 0; p < 24 * 16; ++p) {
+    if (p == 5) continue;
+    lo = std::min(lo, double(exact->Plane(0)[p])), hi = std::max(hi, double(exact->Plane(0)[p]));
+  }
+  ASSERT_TRUE(range.is_array() && range.size() == 2);
+  EXPECT_NEAR(range[0].get<double>(), lo, 1e-6 * (hi - lo));
+  EXPECT_NEAR(range[1].get<double>(), hi, 1e-6 * (hi - lo));
+  EXPECT_GT(hi - lo, 1.0) << "the dome's relief, in texels";
+  ImageReadOptions raw;
+  raw.color_space = ColorSpaceChoice::kLinear;
+  auto png = ReadImage(out + "/maps/height.png", raw);
+  ASSERT_TRUE(png.ok()) << png.status().message();
+  for (int64_t p = 0; p < 24 * 16; ++p) {
+    if (p == 5) continue;
+    ASSERT_NEAR(png->Plane(0)[p], (exact->Plane(0)[p] - lo) / (hi - lo), 1.0 / 65535) << p;
+  }
+
+  // Without a fitted texel the height is flat: range [0, 0], height.png mid-grey.
+  std::fill(status.begin(), status.end(), uint8_t(2));  // every texel flagged
+  const std::string flat = dir / "flat";
+  ASSERT_TRUE(WritePack(m, status, {}, {}, flat).ok());
+  std::ifstream in2(flat + "/material.json");
+  const nlohmann::json j2 = nlohmann::json::parse(in2);
+  int entries = 0;
+  for (const auto& e : j2["maps"]) {
+    if (e["name"] != "height" && e["name"] != "height_exact") continue;
+    ++entries;
+    EXPECT_EQ(e["range_texels"], nlohmann::json::array({0.0, 0.0}));
+  }
+  EXPECT_EQ(entries, 2);
+  auto mid = ReadImage(flat + "/maps/height.png", raw);
+  ASSERT_TRUE(mid.ok()) << mid.status().message();
+  for (int64_t p = 0; p < 24 * 16; ++p) ASSERT_NEAR(mid->Plane(0)[p], 0.5f, 1.0 / 65535) << p;
+  EXPECT_TRUE(ReadPack(flat).ok());
 }
 
 // Writes `text` as the pack's material.json and expects ReadPack to refuse it, naming the file
