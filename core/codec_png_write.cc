@@ -12,6 +12,7 @@
 #include <zlib.h>
 
 #include <algorithm>
+#include <bit>
 #include <cerrno>
 #include <cstdint>
 #include <cstdio>
@@ -92,7 +93,8 @@ bool DeflateStrip(const WriteSpec& w, int y0, int y1, bool last, Strip* out) {
     dst[0] = 0;  // filter type None
     if (bytes == 1) {
       std::memcpy(dst + 1, src, row_bytes);
-    } else {  // host order (little-endian) → big-endian
+    } else {  // host order → big-endian
+      static_assert(std::endian::native == std::endian::little, "16-bit codes are swapped");
       for (size_t k = 0; k < row_bytes; k += 2) dst[1 + k] = src[k + 1], dst[2 + k] = src[k];
     }
   }
@@ -103,11 +105,12 @@ bool DeflateStrip(const WriteSpec& w, int y0, int y1, bool last, Strip* out) {
   // every strip. Level 1, or 6 for compact maps; libpng's memory level (8) and strategy.
   if (deflateInit2(&z, w.compact ? 6 : 1, Z_DEFLATED, -15, 8, Z_DEFAULT_STRATEGY) != Z_OK)
     return false;
-  out->z.resize(deflateBound(&z, uLong(raw.size())) + 16);
+  out->z.resize(deflateBound(&z, uLong(raw.size())) + 64);
   z.next_in = raw.data(), z.avail_in = uInt(raw.size());
   z.next_out = reinterpret_cast<Bytef*>(out->z.data()), z.avail_out = uInt(out->z.size());
   const int rc = deflate(&z, last ? Z_FINISH : Z_SYNC_FLUSH);
-  const bool done = last ? rc == Z_STREAM_END : rc == Z_OK && z.avail_in == 0;
+  // A sync flush is complete only with room left over (zlib: keep more than 6 bytes free).
+  const bool done = last ? rc == Z_STREAM_END : rc == Z_OK && z.avail_in == 0 && z.avail_out > 6;
   out->z.resize(out->z.size() - z.avail_out);
   deflateEnd(&z);
   return done;
@@ -122,9 +125,11 @@ bool WritePng(const WriteSpec& spec, const std::string& path, std::string* memor
     *error = "the native PNG writer takes 1 or 3 channels of 8 or 16 bits";
     return false;
   }
-  if (spec.width <= 0 || spec.height <= 0) {
-    *error = "cannot write an empty PNG (" + std::to_string(spec.width) + "x" +
-             std::to_string(spec.height) + ")";
+  // libpng (which reads these files back) refuses more than 1,000,000 pixels a side.
+  constexpr int kMaxSide = 1000000;
+  if (spec.width <= 0 || spec.height <= 0 || spec.width > kMaxSide || spec.height > kMaxSide) {
+    *error = "a PNG of " + std::to_string(spec.width) + "x" + std::to_string(spec.height) +
+             " cannot be written: 1 to 1000000 pixels a side (write an .exr instead)";
     return false;
   }
   if (!spec.rows_into) {

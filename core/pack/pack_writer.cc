@@ -112,9 +112,13 @@ Status ZipFolder(const std::string& folder, const std::string& zip_path) {
 // fit/fit_types.h whose normal was fitted. height.exr in texel units (mean 0), height.png 16-bit
 // from its minimum (0) to its maximum (65535), the range in material.json.
 constexpr int64_t kMaxHeightTexels = int64_t(4096) * 4096;
+// Up to this size the height is made beside the other files (its solve's memory on top of
+// theirs); above, alone before them, so that the peak stays the larger of the two, not the sum.
+constexpr int64_t kHeightBesideFilesTexels = int64_t(2048) * 2048;
 
 // Integrates the height and writes height.exr and height.png under `maps_dir`; *written says
-// whether there was a height to write (some trusted texel), *range its [min, max].
+// whether IntegrateNormals made a height (always, unless the normal map has fewer than 3 planes;
+// without a fitted texel the height is flat, range [0, 0]), *range its [min, max].
 Status WriteHeightMaps(const MaterialMaps& m, const std::vector<uint8_t>& status,
                        const fs::path& maps_dir, const ImageWriteOptions& exr,
                        const ImageWriteOptions& lin16, bool* written, double range[2]) {
@@ -157,8 +161,9 @@ Status WritePack(const MaterialMaps& m, const std::vector<uint8_t>& status, cons
   auto keep = [&](Image img) -> const Image& { return owned.emplace_back(std::move(img)); };
   json maps = json::array();
   // material.json's entry for a map file.
+  // Returns the entry's index in `maps`.
   auto describe = [&](const char* name, const char* file, int channels, ImageWriteOptions wo,
-                      const char* semantic) {
+                      const char* semantic) -> size_t {
     const char* enc = wo.format == PixelFormat::kUint8    ? "png8"
                       : wo.format == PixelFormat::kUint16 ? "png16"
                                                           : "exr32";
@@ -168,6 +173,7 @@ Status WritePack(const MaterialMaps& m, const std::vector<uint8_t>& status, cons
                     {"encoding", enc},
                     {"color_space", wo.transfer == TransferFunction::kSrgb ? "sRGB" : "linear"},
                     {"channels", channels}});
+    return maps.size() - 1;
   };
   auto put = [&](const char* name, const char* file, const Image& img, ImageWriteOptions wo,
                  const char* semantic) -> Status {
@@ -185,6 +191,7 @@ Status WritePack(const MaterialMaps& m, const std::vector<uint8_t>& status, cons
   const ModelDescriptor& model = Model(m.model);
   const bool has_normal = model.writes_normal_map();
   std::function<Status()> height_task;  // set when the pack has a height map
+  size_t height_entry = 0;              // height_exact's entry in `maps`; height's is the next
   bool height_written = false;
   double height_range[2] = {0, 0};
   // Progress in thousandths: the glTF bake (most of a relighting basis's write), the files,
@@ -214,9 +221,10 @@ Status WritePack(const MaterialMaps& m, const std::vector<uint8_t>& status, cons
     // by a task of its own, the first to run, so that the other files encode beside it. Beyond
     // 4096² texels (the solve holds about 70 bytes a texel: 1.2 GB) the pack has no height map.
     if (int64_t(m.width) * m.height <= kMaxHeightTexels) {
-      describe("height_exact", "height.exr", 1, exr,
-               "height from the normals in texel units, mean 0 over the fitted texels "
-               "(least-squares integration, docs/pack.md)");
+      height_entry =
+          describe("height_exact", "height.exr", 1, exr,
+                   "height from the normals in texel units, mean 0 over the fitted texels "
+                   "(least-squares integration, docs/pack.md)");
       describe("height", "height.png", 1, lin16,
                "the same height, 0 = range[0], 65535 = range[1] (texel units)");
       height_task = [&, maps_dir = root / "maps"] {
@@ -375,7 +383,10 @@ Status WritePack(const MaterialMaps& m, const std::vector<uint8_t>& status, cons
       viewer["basis_table"] = "viewer/basis_table.bin", viewer["table_size"] = sp->table_size;
     return Status::Ok();
   });
-  if (height_task) tasks.insert(tasks.begin(), std::move(height_task));
+  if (height_task && int64_t(m.width) * m.height > kHeightBesideFilesTexels)
+    MATFIT_RETURN_IF_ERROR(height_task());  // alone: its memory goes back before the files'
+  else if (height_task)
+    tasks.insert(tasks.begin(), std::move(height_task));
   {
     std::vector<Status> written(tasks.size(), Status::Ok());
     std::atomic<int64_t> finished{0};
@@ -390,15 +401,13 @@ Status WritePack(const MaterialMaps& m, const std::vector<uint8_t>& status, cons
         1);
     for (const Status& st : written) MATFIT_RETURN_IF_ERROR(st);
   }
-  // The height's entries say its range, or go when no texel had a fitted normal to integrate.
-  for (auto e = maps.begin(); e != maps.end();) {
-    const bool height = (*e)["name"] == "height" || (*e)["name"] == "height_exact";
-    if (height && !height_written) {
-      e = maps.erase(e);
-      continue;
-    }
-    if (height) (*e)["range_texels"] = {height_range[0], height_range[1]};
-    ++e;
+  // The height's two entries say its range, or go when IntegrateNormals made none.
+  if (height_written) {
+    for (size_t e : {height_entry, height_entry + 1})
+      maps[e]["range_texels"] = {height_range[0], height_range[1]};
+  } else if (has_normal && int64_t(m.width) * m.height <= kMaxHeightTexels) {
+    maps.erase(maps.begin() + ptrdiff_t(height_entry) + 1);
+    maps.erase(maps.begin() + ptrdiff_t(height_entry));
   }
 
   // glTF quad.

@@ -19,6 +19,7 @@
 #include "core/color.h"
 #include "core/image_io.h"
 #include "core/parallel.h"
+#include "core/version.h"
 #include "tests/core/test_util.h"
 
 namespace matfit {
@@ -426,6 +427,10 @@ TEST(ImageCodec, PngStripsDeflatedInParallelMakeOneStream) {
       {50000, 3, 3, PixelFormat::kUint8, TransferFunction::kLinear, false, 3},   // a row > a strip
       {333, 517, 1, PixelFormat::kUint16, TransferFunction::kLinear, true, 3},
   };
+  // Wider than libpng reads back: refused with the limit, not written.
+  auto wide = EncodeImage(Image(1000001, 1, 1), "png", {PixelFormat::kUint8});
+  ASSERT_FALSE(wide.ok());
+  EXPECT_NE(wide.status().message().find("1000000"), std::string::npos) << wide.status().message();
   for (const Case& c : cases) {
     SCOPED_TRACE(std::to_string(c.w) + "x" + std::to_string(c.h) + "x" + std::to_string(c.ch));
     Image img = Pattern(c.w, c.h, c.ch);
@@ -441,9 +446,10 @@ TEST(ImageCodec, PngStripsDeflatedInParallelMakeOneStream) {
     const std::string& f = *two;
     ASSERT_EQ(f.compare(0, 8, "\x89PNG\r\n\x1a\n"), 0);
     std::vector<std::string> types;
-    std::string z;
+    std::string z, text;
     int idat = 0;
-    for (size_t p = 8; p + 12 <= f.size();) {
+    size_t p = 8;
+    while (p + 12 <= f.size()) {
       auto be32 = [&](size_t at) {
         return uint32_t(uint8_t(f[at])) << 24 | uint32_t(uint8_t(f[at + 1])) << 16 |
                uint32_t(uint8_t(f[at + 2])) << 8 | uint32_t(uint8_t(f[at + 3]));
@@ -454,9 +460,26 @@ TEST(ImageCodec, PngStripsDeflatedInParallelMakeOneStream) {
       EXPECT_EQ(crc32(0, reinterpret_cast<const Bytef*>(f.data() + p + 4), n + 4), be32(p + 8 + n))
           << type << " chunk's CRC";
       if (type == "IDAT") z += f.substr(p + 8, n), ++idat;
+      if (type == "tEXt") text += f.substr(p + 8, n) + '|';
+      if (type == "sRGB") {
+        EXPECT_EQ(f.substr(p + 8, n), std::string(1, '\0'));  // perceptual
+      }
+      if (type == "gAMA") {
+        EXPECT_EQ(be32(p + 8), 100000u);  // 1.0
+      }
+      if (type == "IHDR") {
+        EXPECT_EQ(be32(p + 8), uint32_t(c.w));
+        EXPECT_EQ(be32(p + 12), uint32_t(c.h));
+        EXPECT_EQ(int(uint8_t(f[p + 16])), c.format == PixelFormat::kUint16 ? 16 : 8);
+        EXPECT_EQ(int(uint8_t(f[p + 17])), c.ch == 1 ? 0 : 2);  // grey, RGB
+      }
       if (types.empty() || types.back() != type || type != "IDAT") types.push_back(type);
       p += 12 + n;
     }
+    EXPECT_EQ(p, f.size()) << "bytes after IEND";
+    EXPECT_EQ(text, std::string("oiio:ColorSpace\0", 16) +
+                        (c.transfer == TransferFunction::kSrgb ? "sRGB" : "Linear") + "|" +
+                        std::string("Software\0", 9) + "matfit " + kMatfitVersion + "|");
     const std::string colour = c.transfer == TransferFunction::kSrgb ? "sRGB" : "gAMA";
     EXPECT_EQ(types, (std::vector<std::string>{"IHDR", colour, "tEXt", "tEXt", "IDAT", "IEND"}));
     EXPECT_GE(idat, c.min_idat) << "strips";
@@ -478,9 +501,11 @@ TEST(ImageCodec, PngStripsDeflatedInParallelMakeOneStream) {
     }
     std::string raw(want.size() + 1, '\0');
     uLongf got = uLongf(raw.size());
-    ASSERT_EQ(uncompress(reinterpret_cast<Bytef*>(raw.data()), &got,
-                         reinterpret_cast<const Bytef*>(z.data()), uLong(z.size())),
+    uLong used = uLong(z.size());  // uncompress2: the stream must end where the data ends
+    ASSERT_EQ(uncompress2(reinterpret_cast<Bytef*>(raw.data()), &got,
+                          reinterpret_cast<const Bytef*>(z.data()), &used),
               Z_OK);
+    EXPECT_EQ(used, uLong(z.size())) << "bytes after the zlib stream";
     raw.resize(got);
     EXPECT_TRUE(raw == want) << "the rows inflate to other bytes";
     if (int64_t(c.w) * c.h <= 600000) {
