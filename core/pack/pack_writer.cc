@@ -160,8 +160,7 @@ Status WritePack(const MaterialMaps& m, const std::vector<uint8_t>& status, cons
   std::deque<Image> owned;  // images made for the pack (stable addresses until written)
   auto keep = [&](Image img) -> const Image& { return owned.emplace_back(std::move(img)); };
   json maps = json::array();
-  // material.json's entry for a map file.
-  // Returns the entry's index in `maps`.
+  // Adds material.json's entry for a map file; returns its index in `maps`.
   auto describe = [&](const char* name, const char* file, int channels, ImageWriteOptions wo,
                       const char* semantic) -> size_t {
     const char* enc = wo.format == PixelFormat::kUint8    ? "png8"
