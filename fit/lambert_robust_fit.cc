@@ -317,7 +317,6 @@ StatusOr<FitResult> FitLambertRobust(const LightStack& s, const FitOptions& o) {
   const auto t0 = std::chrono::steady_clock::now();
   FitResult r;
   InitResult(s, "lambert", "lambert-robust", &r);
-  MarkUnfittableTexels(s, /*flag_clipped=*/false, &r);  // clipped samples are dropped per sample
   const std::vector<float> inv = InverseIntensities(s);
   std::vector<Vec3> dirs(n);
   for (int i = 0; i < n; ++i) dirs[i] = s.lights()[i].direction;
@@ -326,14 +325,17 @@ StatusOr<FitResult> FitLambertRobust(const LightStack& s, const FitOptions& o) {
 
   const bool ok = ForEachTile(s, o, [&](const Tile& t) {
     const int tw = t.width;
-    // The row's samples (linear, [c][i][k]), luminance ([i][k]) and clipped flags ([i][k]),
-    // gathered image by image (contiguous rows), then handed to FitBlock four texels at a time.
-    std::vector<float> vals(size_t(C) * n * tw);
+    // The row's samples (linear, [c][i][k]), luminance ([i][k]), clipped flags ([i][k]) and
+    // each texel's peak sample, gathered image by image (contiguous rows); texels without signal
+    // are flagged (clipped samples are dropped per sample, not flagged: ApplyPeakStatus without
+    // clip), the others handed to FitBlock four at a time.
+    std::vector<float> vals(size_t(C) * n * tw), peak(static_cast<size_t>(tw));
     std::vector<double> lum(size_t(n) * tw);
     std::vector<char> clip(size_t(n) * tw);
     Block b(n, C);
     for (int row = t.y0; row < t.y0 + t.height; ++row) {
       const int64_t base = int64_t(row) * W + t.x0;
+      std::fill(peak.begin(), peak.end(), 0.0f);
       for (int i = 0; i < n; ++i) {
         double* dst = lum.data() + size_t(i) * tw;
         char* cl = clip.data() + size_t(i) * tw;
@@ -345,11 +347,14 @@ StatusOr<FitResult> FitLambertRobust(const LightStack& s, const FitOptions& o) {
           const float* src = s.Row(i, c, row, t.x0, tw, v);
           if (src != v) std::copy_n(src, tw, v);
           for (int k = 0; k < tw; ++k) dst[k] += w * v[k];
+          // std::max keeps the peak on a NaN sample, as MarkUnfittableTexels does.
+          for (int k = 0; k < tw; ++k) peak[size_t(k)] = std::max(peak[size_t(k)], v[k]);
           // Clipped samples (at the file's maximum code) are never used.
           if (may_clip)
             for (int k = 0; k < tw; ++k) cl[k] |= char(v[k] >= kClipLevel);
         }
       }
+      ApplyPeakStatus(peak.data(), base, tw, /*clip=*/false, r.status.data());
       for (int k0 = 0; k0 < tw; k0 += kLanes) {
         const int kb = std::min(kLanes, tw - k0);
         for (int j = 0; j < kLanes; ++j) b.fit[j] = j < kb && r.status[base + k0 + j] == kTexelOk;

@@ -230,6 +230,15 @@ PlainRobust PlainLambertRobust(const LightStack& s) {
     return true;
   };
   for (int64_t p = 0; p < P; ++p) {
+    // No sample above the no-signal level (NaN samples aside): flagged, not fitted.
+    float peak = 0;
+    for (int i = 0; i < n; ++i)
+      for (int c = 0; c < C; ++c)
+        if (s.Sample(i, c, p) > peak) peak = s.Sample(i, c, p);
+    if (!(peak > kNoSignalLevel)) {
+      out.status[p] = kTexelNoSignal;
+      continue;
+    }
     std::vector<double> y(n);
     std::vector<char> bad(n, 0);
     int finite = 0;
@@ -303,19 +312,25 @@ PlainRobust PlainLambertRobust(const LightStack& s) {
   return out;
 }
 
-// Shadows, noise, highlights clipped at 1 (the stack says it is clipped), NaN samples, and a
-// 12-light set where the robust fit runs out of inliers: every texel the same as the plain form.
+// Shadows, noise, highlights clipped at 1 (the stack says it is clipped), NaN samples, black
+// texels (one of them NaN but for a few zeros; the row ends included), and a 12-light set where
+// the robust fit runs out of inliers: every texel the same as the plain form.
 TEST(LambertRobust, EqualsItsPlainDefinitionExactly) {
   for (const char* lights : {"bonn81", "ring:12:35"}) {
     auto data = Glossy(lights, 40, 0.01);
     LightStack& s = data.stack;
     std::mt19937 rng(3);
+    const int W = s.width();
+    const std::vector<int64_t> black = {0, 5 * W + 7, 5 * W + 8, 6 * W + 7, 9 * W + W - 1};
     for (int i = 0; i < s.num_images(); ++i)
-      for (int c = 0; c < s.channels(); ++c)
+      for (int c = 0; c < s.channels(); ++c) {
         for (float& v : s.Plane(i, c)) {
           v = std::min(v * 1.6f, 1.0f);  // bright enough to clip the highlights
           if (rng() % 500 == 0) v = std::nanf("");
         }
+        for (int64_t p : black) s.Plane(i, c)[p] = 0.0f;
+        s.Plane(i, c)[20 * W + 3] = i < 2 ? 0.0f : std::nanf("");
+      }
     s.saturated_pixels.assign(size_t(s.num_images()), 1);
     auto fit = FitLambertRobust(s, {});
     ASSERT_TRUE(fit.ok());
@@ -331,6 +346,8 @@ TEST(LambertRobust, EqualsItsPlainDefinitionExactly) {
       }
     }
     EXPECT_GT(ok, P / 2) << lights;  // the comparison covers fitted texels, not only flags
+    for (int64_t p : black) EXPECT_EQ(int(fit->status[p]), int(kTexelNoSignal)) << lights << p;
+    EXPECT_EQ(int(fit->status[20 * W + 3]), int(kTexelNoSignal)) << lights;
   }
 }
 
