@@ -176,6 +176,43 @@ inline __attribute__((always_inline)) Vm IndexOfRank(const Vd* y, int n, Vd v, i
   return index;
 }
 
+// One plane row's samples v (tw texels) into each texel's luminance dst += w · v (the product
+// in float, the sum in double), its peak sample (std::max: a NaN sample leaves it, as
+// MarkUnfittableTexels does) and, with may_clip, its clipped flags (samples at the file's
+// maximum code are never used).
+MATFIT_CLONES_V4 void AddRowSamples(const float* __restrict v, float w, int tw, bool may_clip,
+                                    double* __restrict dst, float* __restrict peak,
+                                    char* __restrict clipped) {
+  for (int k = 0; k < tw; ++k) dst[k] += w * v[k];
+  for (int k = 0; k < tw; ++k) peak[k] = std::max(peak[k], v[k]);
+  if (may_clip)
+    for (int k = 0; k < tw; ++k) clipped[k] |= char(v[k] >= kClipLevel);
+}
+
+// Texels [k0, k0 + kb) of the row (lum, clip: [i][k]; vals: [c][i][k]; tw texels) into the lanes
+// of `b`, light-major; lanes past kb get zeros and are not usable.
+MATFIT_CLONES_V4 void LoadBlock(const double* lum, const char* clip, const float* vals, int n,
+                                int C, int tw, int k0, int kb, Block& b) {
+  for (int i = 0; i < n; ++i) {
+    const size_t at = size_t(i) * tw + k0;
+    if (kb == kLanes) {
+      std::memcpy(&b.y[i], lum + at, sizeof(Vd));
+      for (int j = 0; j < kLanes; ++j) b.usable[i][j] = clip[at + j] ? 0 : -1;
+      for (int c = 0; c < C; ++c)
+        std::memcpy(&b.samples[size_t(c) * n + i], vals + size_t(c) * n * tw + at, sizeof(Vf));
+      continue;
+    }
+    for (int j = 0; j < kLanes; ++j) {
+      b.y[i][j] = j < kb ? lum[at + j] : 0.0;
+      b.usable[i][j] = j < kb && !clip[at + j] ? -1 : 0;
+    }
+    for (int c = 0; c < C; ++c) {
+      const float* v = vals + size_t(c) * n * tw + at;
+      for (int j = 0; j < kLanes; ++j) b.samples[size_t(c) * n + i][j] = j < kb ? v[j] : 0.f;
+    }
+  }
+}
+
 // Fits the lanes of `b` marked `fit` (status, normal, albedo per lane).
 MATFIT_CLONES_V4 void FitBlock(const LightTable& L, const float* inv, int C, Block& b) {
   const int n = L.size();
@@ -346,29 +383,17 @@ StatusOr<FitResult> FitLambertRobust(const LightStack& s, const FitOptions& o) {
           float* v = vals.data() + (size_t(c) * n + i) * tw;
           const float* src = s.Row(i, c, row, t.x0, tw, v);
           if (src != v) std::copy_n(src, tw, v);
-          for (int k = 0; k < tw; ++k) dst[k] += w * v[k];
-          // std::max keeps the peak on a NaN sample, as MarkUnfittableTexels does.
-          for (int k = 0; k < tw; ++k) peak[size_t(k)] = std::max(peak[size_t(k)], v[k]);
-          // Clipped samples (at the file's maximum code) are never used.
-          if (may_clip)
-            for (int k = 0; k < tw; ++k) cl[k] |= char(v[k] >= kClipLevel);
+          AddRowSamples(v, w, tw, may_clip, dst, peak.data(), cl);
         }
       }
       ApplyPeakStatus(peak.data(), base, tw, /*clip=*/false, r.status.data());
       for (int k0 = 0; k0 < tw; k0 += kLanes) {
         const int kb = std::min(kLanes, tw - k0);
-        for (int j = 0; j < kLanes; ++j) b.fit[j] = j < kb && r.status[base + k0 + j] == kTexelOk;
-        for (int i = 0; i < n; ++i) {
-          const size_t at = size_t(i) * tw + k0;
-          for (int j = 0; j < kLanes; ++j) {
-            b.y[i][j] = j < kb ? lum[at + j] : 0.0;
-            b.usable[i][j] = j < kb && !clip[at + j] ? -1 : 0;
-          }
-          for (int c = 0; c < C; ++c) {
-            const float* v = vals.data() + (size_t(c) * n + i) * tw + k0;
-            for (int j = 0; j < kLanes; ++j) b.samples[size_t(c) * n + i][j] = j < kb ? v[j] : 0.f;
-          }
-        }
+        bool any = false;
+        for (int j = 0; j < kLanes; ++j)
+          any |= b.fit[j] = j < kb && r.status[base + k0 + j] == kTexelOk;
+        if (!any) continue;  // masked or without signal: nothing to fit
+        LoadBlock(lum.data(), clip.data(), vals.data(), n, C, tw, k0, kb, b);
         FitBlock(L, inv.data(), C, b);
         for (int j = 0; j < kb; ++j) {
           const int64_t p = base + k0 + j;
