@@ -312,16 +312,22 @@ PlainRobust PlainLambertRobust(const LightStack& s) {
   return out;
 }
 
-// Shadows, noise, highlights clipped at 1 (the stack says it is clipped), NaN samples, black
-// texels (one of them NaN but for a few zeros; the row ends included), and a 12-light set where
-// the robust fit runs out of inliers: every texel the same as the plain form.
+// Shadows, noise, highlights clipped at 1 (the stack says it is clipped), NaN samples, texels
+// without signal (black, at the row ends too; four of them one whole block of lanes; a NaN texel
+// with two zeros; one whose samples are all negative, which a fit alone would not flag), and a
+// 12-light set where the robust fit runs out of inliers: every texel the same as the plain
+// form. 42 texels a row: the last block of each row is partial; the default work units and
+// one row per unit.
 TEST(LambertRobust, EqualsItsPlainDefinitionExactly) {
   for (const char* lights : {"bonn81", "ring:12:35"}) {
-    auto data = Glossy(lights, 40, 0.01);
+    auto data = Glossy(lights, 42, 0.01);
     LightStack& s = data.stack;
     std::mt19937 rng(3);
     const int W = s.width();
-    const std::vector<int64_t> black = {0, 5 * W + 7, 5 * W + 8, 6 * W + 7, 9 * W + W - 1};
+    const int64_t nan_texel = 20 * W + 3, negative = 30 * W + 9;
+    const std::vector<int64_t> black = {0,          5 * W + 7,     5 * W + 8,
+                                        6 * W + 7,  9 * W + W - 1, 12 * W + 4,
+                                        12 * W + 5, 12 * W + 6,    12 * W + 7};
     for (int i = 0; i < s.num_images(); ++i)
       for (int c = 0; c < s.channels(); ++c) {
         for (float& v : s.Plane(i, c)) {
@@ -329,25 +335,31 @@ TEST(LambertRobust, EqualsItsPlainDefinitionExactly) {
           if (rng() % 500 == 0) v = std::nanf("");
         }
         for (int64_t p : black) s.Plane(i, c)[p] = 0.0f;
-        s.Plane(i, c)[20 * W + 3] = i < 2 ? 0.0f : std::nanf("");
+        s.Plane(i, c)[nan_texel] = i < 2 ? 0.0f : std::nanf("");
+        s.Plane(i, c)[negative] = -0.3f;
       }
     s.saturated_pixels.assign(size_t(s.num_images()), 1);
-    auto fit = FitLambertRobust(s, {});
-    ASSERT_TRUE(fit.ok());
     const PlainRobust ref = PlainLambertRobust(s);
-    const int64_t P = s.texels();
-    int64_t ok = 0;
-    for (int64_t p = 0; p < P; ++p) {
-      ASSERT_EQ(int(fit->status[p]), int(ref.status[p])) << lights << " texel " << p;
-      ok += fit->status[p] == kTexelOk;
-      for (int c = 0; c < 3; ++c) {
-        ASSERT_EQ(fit->maps.normal.Plane(c)[p], ref.normal[c * P + p]) << lights << " " << p;
-        ASSERT_EQ(fit->maps.albedo.Plane(c)[p], ref.albedo[c * P + p]) << lights << " " << p;
+    for (int tile : {64, 8}) {
+      FitOptions o;
+      o.tile = tile;
+      auto fit = FitLambertRobust(s, o);
+      ASSERT_TRUE(fit.ok());
+      const int64_t P = s.texels();
+      int64_t ok = 0;
+      for (int64_t p = 0; p < P; ++p) {
+        ASSERT_EQ(int(fit->status[p]), int(ref.status[p])) << lights << " texel " << p;
+        ok += fit->status[p] == kTexelOk;
+        for (int c = 0; c < 3; ++c) {
+          ASSERT_EQ(fit->maps.normal.Plane(c)[p], ref.normal[c * P + p]) << lights << " " << p;
+          ASSERT_EQ(fit->maps.albedo.Plane(c)[p], ref.albedo[c * P + p]) << lights << " " << p;
+        }
       }
+      EXPECT_GT(ok, P / 2) << lights;  // the comparison covers fitted texels, not only flags
+      for (int64_t p : black) EXPECT_EQ(int(fit->status[p]), int(kTexelNoSignal)) << lights << p;
+      EXPECT_EQ(int(fit->status[nan_texel]), int(kTexelNoSignal)) << lights;
+      EXPECT_EQ(int(fit->status[negative]), int(kTexelNoSignal)) << lights;
     }
-    EXPECT_GT(ok, P / 2) << lights;  // the comparison covers fitted texels, not only flags
-    for (int64_t p : black) EXPECT_EQ(int(fit->status[p]), int(kTexelNoSignal)) << lights << p;
-    EXPECT_EQ(int(fit->status[20 * W + 3]), int(kTexelNoSignal)) << lights;
   }
 }
 
