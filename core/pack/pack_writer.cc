@@ -12,6 +12,7 @@
 #include <functional>
 #include <mutex>
 #include <nlohmann/json.hpp>
+#include <optional>
 
 #include "core/atomic_file.h"
 #include "core/height_from_normals.h"
@@ -190,7 +191,7 @@ Status WritePack(const MaterialMaps& m, const std::vector<uint8_t>& status, cons
   const ModelDescriptor& model = Model(m.model);
   const bool has_normal = model.writes_normal_map();
   std::function<Status()> height_task;  // set when the pack has a height map
-  size_t height_entry = 0;              // height_exact's entry in `maps`; height's is the next
+  std::optional<size_t> height_entry;   // height_exact's entry in `maps`; height's is the next
   bool height_written = false;
   double height_range[2] = {0, 0};
   // Progress in thousandths: the glTF bake (most of a relighting basis's write), the files,
@@ -401,12 +402,12 @@ Status WritePack(const MaterialMaps& m, const std::vector<uint8_t>& status, cons
     for (const Status& st : written) MATFIT_RETURN_IF_ERROR(st);
   }
   // The height's two entries say its range, or go when IntegrateNormals made none.
-  if (height_written) {
-    for (size_t e : {height_entry, height_entry + 1})
+  if (height_entry && height_written) {
+    for (size_t e : {*height_entry, *height_entry + 1})
       maps[e]["range_texels"] = {height_range[0], height_range[1]};
-  } else if (has_normal && int64_t(m.width) * m.height <= kMaxHeightTexels) {
-    maps.erase(maps.begin() + ptrdiff_t(height_entry) + 1);
-    maps.erase(maps.begin() + ptrdiff_t(height_entry));
+  } else if (height_entry) {
+    maps.erase(maps.begin() + ptrdiff_t(*height_entry) + 1);
+    maps.erase(maps.begin() + ptrdiff_t(*height_entry));
   }
 
   // glTF quad.
