@@ -262,6 +262,10 @@ void RegisterFit(CLI::App& app, int* exit_code) {
       ->capture_default_str();
   sub->add_flag("--per-texel-lobe", j.fit.per_texel_lobe,
                 "nonlinear models: fit the lobe shape per texel instead of once per material");
+  sub->add_option("--lobe-shape-texels", j.fit.lobe_shape_texels,
+                  "nonlinear models: the material's lobe shape is the median of per-texel fits "
+                  "on a grid of about this many texels (0 = every texel)")
+      ->capture_default_str();
   sub->add_option(
       "--report-only", j.report_only,
       "score this existing pack against DIR instead of fitting (--out: report.json path)");

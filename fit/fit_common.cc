@@ -42,6 +42,11 @@ bool FitOptions::Check(std::string* why) const {
            std::to_string(robust_scale);
     return false;
   }
+  if (lobe_shape_texels < 0) {
+    *why = "--lobe-shape-texels must be >= 0 (0 = every texel), got " +
+           std::to_string(lobe_shape_texels);
+    return false;
+  }
   if (!(exponent_min >= 1 && exponent_max > exponent_min)) {
     *why = "exponent range must satisfy 1 ≤ min < max";
     return false;

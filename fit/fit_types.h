@@ -42,6 +42,10 @@ struct FitOptions {
   // coordinates, SharedLobeShape in fit/methods.h) instead of estimated from this stack; empty:
   // estimate it. Near-light fits (fit/near_fit.h) estimate it once over every tile.
   std::vector<double> lobe_shape;
+  // blinn-phong / cook-torrance / lafortune with a material-wide shape estimated from the stack:
+  // at most about this many texels (a regular grid over the whole stack) get the per-texel fit
+  // whose median is the shape; 0: every texel. Stage 2 fits every texel either way.
+  int64_t lobe_shape_texels = 16384;
   // Nonlinear fits: Cauchy loss scale σ on residuals (linear units of the normalised samples;
   // 0 = plain least squares). Residual cast shadows and interreflections weigh less: on the
   // psm cat, held-out RMSE 0.0280 → 0.0270 (blinn-phong) at σ = 0.05 (docs/benchmarks.md).

@@ -7,10 +7,13 @@
 // prediction), clipped or non-finite samples are left out.
 //
 // By default the lobe shape is one value per material, as in the seed method: stage 1 fits
-// every parameter per texel; each shape parameter is then the median over texels with a clear
-// lobe (first amplitude above a tenth of its 90th percentile), and stage 2 refits normal,
-// albedo and amplitudes with the shape fixed. Sparse real light sets overfit a per-texel shape;
-// FitOptions::per_texel_lobe keeps stage 1's result.
+// every parameter per texel on a regular grid of about FitOptions::lobe_shape_texels texels
+// (every texel when the stack has no more); each shape parameter is then the median over those
+// with a clear lobe (first amplitude above a tenth of its 90th percentile), and stage 2 fits
+// normal, albedo and amplitudes of every texel with the shape fixed, from stage 1's result where
+// there is one and from lambert-robust's elsewhere. Sparse real light sets overfit a per-texel
+// shape; FitOptions::per_texel_lobe keeps stage 1's result, on every texel. A given shape
+// (FitOptions::lobe_shape) needs no stage 1.
 #include <algorithm>
 #include <array>
 #include <chrono>
@@ -31,13 +34,16 @@ namespace matfit::fit {
 namespace {
 
 // The median shape (fitting coordinates) over ok texels with a clear lobe: first amplitude above
-// a tenth of its 90th percentile. Quantiles over the whole stack: a band of a distributed one
-// gathers every band's values (a quantile does not depend on their order). False: no such texel.
+// a tenth of its 90th percentile; only texels with only[p] ≠ 0 when `only` is given. Quantiles
+// over the whole stack: a band of a distributed one gathers every band's values (a quantile does
+// not depend on their order). False: no such texel.
 bool MedianShape(const LightStack& s, const std::vector<uint8_t>& status, const float* strength,
-                 const std::vector<const float*>& shapes, std::vector<double>* out) {
+                 const std::vector<const float*>& shapes, std::vector<double>* out,
+                 const std::vector<char>* only = nullptr) {
+  auto ok = [&](int64_t p) { return status[p] == kTexelOk && (!only || (*only)[size_t(p)]); };
   std::vector<float> st;
   for (int64_t p = 0; p < s.plane_size(); ++p)
-    if (status[p] == kTexelOk) st.push_back(strength[p]);
+    if (ok(p)) st.push_back(strength[p]);
   st = ConcatOverBands(s, st);
   if (st.empty()) return false;
   std::nth_element(st.begin(), st.begin() + st.size() * 9 / 10, st.end());
@@ -46,7 +52,7 @@ bool MedianShape(const LightStack& s, const std::vector<uint8_t>& status, const 
   for (size_t k = 0; k < shapes.size(); ++k) {
     std::vector<float> v;
     for (int64_t p = 0; p < s.plane_size(); ++p)
-      if (status[p] == kTexelOk && strength[p] > clear) v.push_back(shapes[k][p]);
+      if (ok(p) && strength[p] > clear) v.push_back(shapes[k][p]);
     v = ConcatOverBands(s, v);
     if (v.empty()) return false;
     std::nth_element(v.begin(), v.begin() + v.size() / 2, v.end());
@@ -87,6 +93,37 @@ StatusOr<FitResult> FitLobe(const LightStack& s, const FitOptions& o, const std:
   for (int i = 0; i < n; ++i)
     dirs[i] = s.lights()[i].direction, halves[i] = Normalize(dirs[i] + s.view_direction);
   std::vector<int> iterations(size_t(s.plane_size()), 0);
+  // Stage 1's texels: every k-th column of every k-th row of the whole stack (rows counted from
+  // its top, so a band of a distributed stack samples the rows the whole stack would), k the
+  // largest with at least lobe_shape_texels of lambert-robust's ok texels (the mask's, in
+  // effect) per k² of them.
+  const bool estimate_shape = !o.per_texel_lobe && o.lobe_shape.empty();
+  int64_t fittable = 0;
+  for (int64_t p = 0; p < s.plane_size(); ++p) fittable += r.status[size_t(p)] == kTexelOk;
+  SumOverBands(s, &fittable, 1);
+  const int grid =
+      !estimate_shape || o.lobe_shape_texels == 0
+          ? 1
+          : std::max(1, int(std::sqrt(double(fittable) / double(o.lobe_shape_texels))));
+  bool rest = false;  // stage 1 on the texels off the grid (no shape found on it)
+  auto in_stage1 = [&](int x, int y) {
+    if (!o.per_texel_lobe && !estimate_shape) return false;
+    const bool on_grid = grid <= 1 || (x % grid == 0 && (y + s.band.row0) % grid == 0);
+    return on_grid != rest;
+  };
+  std::vector<char> from_stage1(size_t(s.plane_size()), 0);
+  // lambert-robust's normal and albedo, and the lobe's own start (fitting coordinates).
+  auto initial = [&](int64_t p, double* x, int params) {
+    const Vec3 n0(init->maps.normal.Plane(0)[p], init->maps.normal.Plane(1)[p],
+                  init->maps.normal.Plane(2)[p]);
+    const double nz = std::max(n0.z, 0.2);
+    x[0] = n0.x / nz, x[1] = n0.y / nz;
+    for (int c = 0; c < 3; ++c) x[2 + c] = init->maps.albedo.Plane(C == 1 ? 0 : c)[p];
+    double a[A], sh[S];
+    Lobe::Init(a, sh);
+    for (int k = 0; k < A; ++k) x[5 + k] = a[k];
+    for (int k = 0; k < S && 5 + A + k < params; ++k) x[5 + A + k] = sh[k];
+  };
 
   const float clip_level =
       StackMayBeClipped(s) ? kClipLevel : std::numeric_limits<float>::infinity();
@@ -129,24 +166,16 @@ StatusOr<FitResult> FitLobe(const LightStack& s, const FitOptions& o, const std:
       for (int y = t.y0; y < t.y0 + t.height; ++y)
         for (int xx = t.x0; xx < t.x0 + t.width; ++xx) {
           const int64_t p = int64_t(y) * W + xx;
-          if (r.status[p] != kTexelOk) continue;
+          if (r.status[p] != kTexelOk || (!kShared && !in_stage1(xx, y))) continue;
           if (gather(p, obs, use) * C < P + 2) {
             r.status[p] = kTexelTooFewLights;
             continue;
           }
           Eigen::Matrix<double, P, 1> x;
-          if (kShared) {
-            for (int k = 0; k < P; ++k) x[k] = xs.Plane(k)[p];  // from stage 1
+          if (kShared && from_stage1[size_t(p)]) {
+            for (int k = 0; k < P; ++k) x[k] = xs.Plane(k)[p];
           } else {
-            const Vec3 n0(init->maps.normal.Plane(0)[p], init->maps.normal.Plane(1)[p],
-                          init->maps.normal.Plane(2)[p]);
-            const double nz = std::max(n0.z, 0.2);
-            x[0] = n0.x / nz, x[1] = n0.y / nz;
-            for (int c = 0; c < 3; ++c) x[2 + c] = init->maps.albedo.Plane(C == 1 ? 0 : c)[p];
-            double a[A], sh[S];
-            Lobe::Init(a, sh);
-            for (int k = 0; k < A; ++k) x[5 + k] = a[k];
-            for (int k = 0; k < S && 5 + A + k < P; ++k) x[5 + A + k] = sh[k];
+            initial(p, x.data(), P);
           }
           prob.Project(x.data());
           LmOptions lm;
@@ -159,12 +188,13 @@ StatusOr<FitResult> FitLobe(const LightStack& s, const FitOptions& o, const std:
             continue;
           }
           for (int k = 0; k < P; ++k) xs.Plane(k)[p] = float(x[k]);
+          from_stage1[size_t(p)] = !kShared;
           if (kShared)
             for (int k = 0; k < S; ++k) xs.Plane(5 + A + k)[p] = float(shape[k]);
         }
     });
   };
-  bool ok = stage(std::false_type{}, {});
+  bool ok = o.per_texel_lobe || estimate_shape ? stage(std::false_type{}, {}) : true;
   if (ok && !o.per_texel_lobe) {
     std::array<double, S> shape{};
     std::vector<double> median;
@@ -176,7 +206,7 @@ StatusOr<FitResult> FitLobe(const LightStack& s, const FitOptions& o, const std:
     } else {
       std::vector<const float*> planes;
       for (int k = 0; k < S; ++k) planes.push_back(xs.Plane(5 + A + k).data());
-      have = MedianShape(s, r.status, xs.Plane(5).data(), planes, &median);
+      have = MedianShape(s, r.status, xs.Plane(5).data(), planes, &median, &from_stage1);
     }
     if (have) std::copy(median.begin(), median.end(), shape.begin());
     if (have) {
@@ -185,6 +215,7 @@ StatusOr<FitResult> FitLobe(const LightStack& s, const FitOptions& o, const std:
     } else {
       r.warnings.push_back(Warning(WarningCode::kNoSpecularLobe,
                                    "no texel shows a specular lobe; kept the per-texel fit"));
+      if (grid > 1) rest = true, ok = stage(std::false_type{}, {});  // the texels off the grid
     }
   }
   // Fitting coordinates → maps.

@@ -170,11 +170,13 @@ void ExpectSameImage(const Image& a, const Image& b, const char* what) {
 
 // Fits `input` with `model` in one process and over three thread ranks; rank 0's result must
 // equal the single process's.
-void ExpectRanksFitWhatOneProcessFits(const std::string& input, const std::string& model) {
+void ExpectRanksFitWhatOneProcessFits(const std::string& input, const std::string& model,
+                                      int64_t lobe_shape_texels = FitOptions{}.lobe_shape_texels) {
   SCOPED_TRACE(model);
   FitJobOptions o;
   o.input = input;
   o.model = model;
+  o.fit.lobe_shape_texels = lobe_shape_texels;
   o.holdout = 3;
   o.out = TempPath(model + "-one");
   auto one = RunFitJob(o);
@@ -227,6 +229,13 @@ void ExpectRanksFitWhatOneProcessFits(const std::string& input, const std::strin
 TEST(Bands, ThreeRanksFitWhatOneProcessFits) {
   for (const char* model : {"lambert", "heinrich", "ptm", "blinn-phong", "rbf", "auto"})
     ExpectRanksFitWhatOneProcessFits(kFixture, model);
+}
+
+// The lobe shape from per-texel fits on a grid of every 4th texel of every 4th row (32² texels,
+// a target of 64): the bands start at rows 11 and 22, off the grid, and sample the rows the
+// whole stack's grid has.
+TEST(Bands, ThreeRanksSampleTheLobeShapeOnOneProcessGrid) {
+  ExpectRanksFitWhatOneProcessFits(kFixture, "blinn-phong", 64);
 }
 
 // Flagged texels in the first band only (the top rows black: no signal): every rank must still

@@ -1,7 +1,10 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <cmath>
 #include <cstdio>
+#include <span>
+#include <string>
 
 #include "fit/methods.h"
 #include "fit/metrics.h"
@@ -73,6 +76,101 @@ TEST(BlinnPhong, BeatsLambertOnGlossyData) {
   ASSERT_TRUE(bp.ok() && lam.ok());
   EXPECT_LT(Reconstruction(data.stack, bp->maps, bp->status).deviation_percent,
             0.1 * Reconstruction(data.stack, lam->maps, lam->status).deviation_percent);
+}
+
+// The material-wide exponent from per-texel fits on a grid (FitOptions::lobe_shape_texels):
+// 64² texels with a target of 256 give a grid of every 4th texel of every 4th row. The shape
+// and the maps agree with the fit whose first stage ran on every texel, every texel is still
+// fitted, and the first stage did run on fewer texels (fewer LM iterations per texel). A target
+// above a quarter of the texels (grid 1) is the every-texel fit, bit for bit.
+TEST(BlinnPhong, SharedShapeFromAGridOfTexelsAgreesWithEveryTexel) {
+  const auto data = Make("plastic", 64, 0.01);
+  FitOptions all, grid, quarter;
+  all.lobe_shape_texels = 0, grid.lobe_shape_texels = 256, quarter.lobe_shape_texels = 1025;
+  auto a = FitBlinnPhong(data.stack, all), g = FitBlinnPhong(data.stack, grid),
+       q = FitBlinnPhong(data.stack, quarter);
+  ASSERT_TRUE(a.ok() && g.ok() && q.ok());
+  const double ea = a->parameters.at("exponent"), eg = g->parameters.at("exponent");
+  const TruthMetrics ta = CompareToTruth(a->maps, data.truth, a->status),
+                     tg = CompareToTruth(g->maps, data.truth, g->status);
+  const double truth_e = data.truth.exponent.Plane(0)[0];
+  std::printf(
+      "exponent: every texel %.3f, grid %.3f (truth %.3f); normal MAE %.4f° / %.4f°; "
+      "LM iterations per texel %.2f / %.2f\n",
+      ea, eg, truth_e, ta.normal_mae_deg, tg.normal_mae_deg, a->parameters.at("mean_lm_iterations"),
+      g->parameters.at("mean_lm_iterations"));
+  EXPECT_NEAR(eg / ea, 1.0, 0.02);
+  EXPECT_NEAR(eg / truth_e, 1.0, 0.05);
+  EXPECT_LT(tg.normal_mae_deg, ta.normal_mae_deg * 1.05 + 0.01);
+  EXPECT_EQ(tg.texels, ta.texels);
+  EXPECT_EQ(g->status, a->status);
+  EXPECT_LT(MaxAbsDiff(g->maps.albedo, a->maps.albedo), 0.01);
+  EXPECT_LT(g->parameters.at("mean_lm_iterations"), 0.9 * a->parameters.at("mean_lm_iterations"));
+  // Grid 1: the same fit.
+  EXPECT_EQ(q->parameters.at("exponent"), ea);
+  EXPECT_EQ(MaxAbsDiff(q->maps.normal, a->maps.normal), 0.0);
+  EXPECT_EQ(MaxAbsDiff(q->maps.albedo, a->maps.albedo), 0.0);
+  EXPECT_EQ(MaxAbsDiff(q->maps.specular, a->maps.specular), 0.0);
+}
+
+// A given shape needs no first stage: every texel is fitted from lambert-robust's start with it.
+TEST(BlinnPhong, GivenShapeFitsFromTheLinearStart) {
+  const auto data = Make("plastic", 32, 0.01);
+  FitOptions o;
+  o.lobe_shape = {std::log(double(data.truth.exponent.Plane(0)[0]))};
+  auto fit = FitBlinnPhong(data.stack, o);
+  ASSERT_TRUE(fit.ok());
+  const TruthMetrics t = CompareToTruth(fit->maps, data.truth, fit->status);
+  EXPECT_EQ(fit->flagged_texels, 0);
+  EXPECT_LT(t.normal_mae_deg, 0.5);
+  EXPECT_NEAR(fit->parameters.at("exponent") / data.truth.exponent.Plane(0)[0], 1.0, 1e-6);
+}
+
+// No texel of the grid shows a lobe (here: every grid texel is black, so lambert-robust flags it
+// and none is left to estimate the shape from): the per-texel fit is kept, with a warning — and
+// then every other texel needs one too, so stage 1 runs on the texels off the grid.
+TEST(BlinnPhong, NoLobeOnTheGridFitsTheTexelsOffItPerTexel) {
+  auto data = Make("plastic", 64);
+  const int W = data.stack.width();
+  auto on_grid = [&](int64_t p) { return p % W % 4 == 0 && p / W % 4 == 0; };
+  for (int i = 0; i < data.stack.num_images(); ++i)
+    for (int c = 0; c < data.stack.channels(); ++c) {
+      std::span<float> plane = data.stack.Plane(i, c);
+      for (int64_t p = 0; p < data.stack.plane_size(); ++p)
+        if (on_grid(p)) plane[size_t(p)] = 0;
+    }
+  FitOptions o;
+  o.lobe_shape_texels = 240;  // 3840 fittable texels: every 4th texel of every 4th row
+  auto fit = FitBlinnPhong(data.stack, o);
+  ASSERT_TRUE(fit.ok()) << fit.status().ToString();
+  bool warned = false;
+  for (const auto& w : fit->warnings)
+    warned = warned || w.find("no texel shows") != std::string::npos;
+  EXPECT_TRUE(warned);
+  int64_t off_grid = 0;
+  for (int64_t p = 0; p < data.stack.plane_size(); ++p) {
+    if (on_grid(p)) {
+      EXPECT_NE(fit->status[size_t(p)], kTexelOk);
+      continue;
+    }
+    ASSERT_EQ(fit->status[size_t(p)], kTexelOk) << p;
+    ++off_grid;
+    const Vec3 n(fit->maps.normal.Plane(0)[p], fit->maps.normal.Plane(1)[p],
+                 fit->maps.normal.Plane(2)[p]);
+    const Vec3 t(data.truth.normal.Plane(0)[p], data.truth.normal.Plane(1)[p],
+                 data.truth.normal.Plane(2)[p]);
+    EXPECT_LT(AngleBetweenDeg(n, t), 0.5) << p;
+    EXPECT_NEAR(fit->maps.exponent.Plane(0)[p] / data.truth.exponent.Plane(0)[p], 1.0, 0.1) << p;
+  }
+  EXPECT_EQ(off_grid, 3840);
+}
+
+TEST(FitOptions, RejectsANegativeLobeShapeTexelCount) {
+  FitOptions o;
+  o.lobe_shape_texels = -1;
+  std::string why;
+  EXPECT_FALSE(o.Check(&why));
+  EXPECT_NE(why.find("--lobe-shape-texels"), std::string::npos) << why;
 }
 
 }  // namespace
