@@ -43,8 +43,9 @@ struct FitOptions {
   // estimate it. Near-light fits (fit/near_fit.h) estimate it once over every tile.
   std::vector<double> lobe_shape;
   // blinn-phong / cook-torrance / lafortune with a material-wide shape estimated from the stack:
-  // at most about this many texels (a regular grid over the whole stack) get the per-texel fit
-  // whose median is the shape; 0: every texel. Stage 2 fits every texel either way.
+  // the per-texel fits whose median is the shape run on a regular grid of N to 2.25N of the texels
+  // (N this value; every texel when there are fewer than 4N), 0: on every texel. Stage 2 fits
+  // every texel either way (fit/specular_fit.cc).
   int64_t lobe_shape_texels = 16384;
   // Nonlinear fits: Cauchy loss scale σ on residuals (linear units of the normalised samples;
   // 0 = plain least squares). Residual cast shadows and interreflections weigh less: on the

@@ -7,13 +7,13 @@
 // prediction), clipped or non-finite samples are left out.
 //
 // By default the lobe shape is one value per material, as in the seed method: stage 1 fits
-// every parameter per texel on a regular grid of about FitOptions::lobe_shape_texels texels
-// (every texel when the stack has no more); each shape parameter is then the median over those
+// every parameter per texel on a regular grid of FitOptions::lobe_shape_texels to 2.25 × that many
+// texels (every texel on smaller stacks); each shape parameter is then the median over those
 // with a clear lobe (first amplitude above a tenth of its 90th percentile), and stage 2 fits
 // normal, albedo and amplitudes of every texel with the shape fixed, from stage 1's result where
-// there is one and from lambert-robust's elsewhere. Sparse real light sets overfit a per-texel
-// shape; FitOptions::per_texel_lobe keeps stage 1's result, on every texel. A given shape
-// (FitOptions::lobe_shape) needs no stage 1.
+// there is one and from lambert-robust's elsewhere (also where stage 1 could not fit a texel).
+// Sparse real light sets overfit a per-texel shape; FitOptions::per_texel_lobe keeps stage 1's
+// result, on every texel. A given shape (FitOptions::lobe_shape) needs no stage 1.
 #include <algorithm>
 #include <array>
 #include <chrono>
@@ -93,10 +93,12 @@ StatusOr<FitResult> FitLobe(const LightStack& s, const FitOptions& o, const std:
   for (int i = 0; i < n; ++i)
     dirs[i] = s.lights()[i].direction, halves[i] = Normalize(dirs[i] + s.view_direction);
   std::vector<int> iterations(size_t(s.plane_size()), 0);
-  // Stage 1's texels: every k-th column of every k-th row of the whole stack (rows counted from
-  // its top, so a band of a distributed stack samples the rows the whole stack would), k the
-  // largest with at least lobe_shape_texels of lambert-robust's ok texels (the mask's, in
-  // effect) per k² of them.
+  // Stage 1's texels: a grid of every k-th column of every k-th row of the whole stack, offset by
+  // k/2 from its top-left corner (rows counted from the stack's top, so a band of a distributed
+  // stack samples the rows the whole stack would); k = max(1, ⌊√(F / lobe_shape_texels)⌋) for
+  // the F texels lambert-robust fitted (the mask's, in effect), so the grid holds about
+  // lobe_shape_texels to 2.25 × lobe_shape_texels of them, and every texel when F is below 4 ×
+  // lobe_shape_texels.
   const bool estimate_shape = !o.per_texel_lobe && o.lobe_shape.empty();
   int64_t fittable = 0;
   for (int64_t p = 0; p < s.plane_size(); ++p) fittable += r.status[size_t(p)] == kTexelOk;
@@ -105,13 +107,14 @@ StatusOr<FitResult> FitLobe(const LightStack& s, const FitOptions& o, const std:
       !estimate_shape || o.lobe_shape_texels == 0
           ? 1
           : std::max(1, int(std::sqrt(double(fittable) / double(o.lobe_shape_texels))));
-  bool rest = false;  // stage 1 on the texels off the grid (no shape found on it)
-  auto in_stage1 = [&](int x, int y) {
-    if (!o.per_texel_lobe && !estimate_shape) return false;
-    const bool on_grid = grid <= 1 || (x % grid == 0 && (y + s.band.row0) % grid == 0);
-    return on_grid != rest;
-  };
+  // No shape found on the grid: the per-texel fit is kept, so stage 1 runs again on every texel
+  // it has not fitted.
+  bool rest = false;
   std::vector<char> from_stage1(size_t(s.plane_size()), 0);
+  auto in_stage1 = [&](int x, int y) {
+    if (rest) return !from_stage1[size_t(int64_t(y) * W + x)];
+    return grid <= 1 || (x % grid == grid / 2 && (y + s.band.row0) % grid == grid / 2);
+  };
   // lambert-robust's normal and albedo, and the lobe's own start (fitting coordinates).
   auto initial = [&](int64_t p, double* x, int params) {
     const Vec3 n0(init->maps.normal.Plane(0)[p], init->maps.normal.Plane(1)[p],
@@ -167,8 +170,12 @@ StatusOr<FitResult> FitLobe(const LightStack& s, const FitOptions& o, const std:
         for (int xx = t.x0; xx < t.x0 + t.width; ++xx) {
           const int64_t p = int64_t(y) * W + xx;
           if (r.status[p] != kTexelOk || (!kShared && !in_stage1(xx, y))) continue;
+          // Whether this fit is the texel's result: stage 1 as the shape's estimate leaves a
+          // texel it cannot fit (too few usable samples for a free shape, a non-finite solve) to
+          // stage 2, which has fewer parameters.
+          const bool result = kShared || o.per_texel_lobe || rest;
           if (gather(p, obs, use) * C < P + 2) {
-            r.status[p] = kTexelTooFewLights;
+            if (result) r.status[p] = kTexelTooFewLights;
             continue;
           }
           Eigen::Matrix<double, P, 1> x;
@@ -184,7 +191,7 @@ StatusOr<FitResult> FitLobe(const LightStack& s, const FitOptions& o, const std:
           if (!kShared && !o.per_texel_lobe) lm.max_iterations = 20;
           iterations[p] += SolveTinyLm<P>(prob, &x, lm).iterations;
           if (!x.allFinite()) {
-            r.status[p] = kTexelNonFinite;
+            if (result) r.status[p] = kTexelNonFinite;
             continue;
           }
           for (int k = 0; k < P; ++k) xs.Plane(k)[p] = float(x[k]);
@@ -207,6 +214,10 @@ StatusOr<FitResult> FitLobe(const LightStack& s, const FitOptions& o, const std:
       std::vector<const float*> planes;
       for (int k = 0; k < S; ++k) planes.push_back(xs.Plane(5 + A + k).data());
       have = MedianShape(s, r.status, xs.Plane(5).data(), planes, &median, &from_stage1);
+      int64_t fitted = 0;  // the texels the shape was estimated from
+      for (char f : from_stage1) fitted += f;
+      SumOverBands(s, &fitted, 1);
+      r.parameters["lobe_shape_texels"] = double(fitted);
     }
     if (have) std::copy(median.begin(), median.end(), shape.begin());
     if (have) {
@@ -215,7 +226,7 @@ StatusOr<FitResult> FitLobe(const LightStack& s, const FitOptions& o, const std:
     } else {
       r.warnings.push_back(Warning(WarningCode::kNoSpecularLobe,
                                    "no texel shows a specular lobe; kept the per-texel fit"));
-      if (grid > 1) rest = true, ok = stage(std::false_type{}, {});  // the texels off the grid
+      rest = true, ok = stage(std::false_type{}, {});  // every texel stage 1 has not fitted
     }
   }
   // Fitting coordinates → maps.

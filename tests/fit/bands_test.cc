@@ -13,6 +13,7 @@
 #include <cstdio>
 #include <cstdlib>
 #include <filesystem>
+#include <map>
 #include <mutex>
 #include <nlohmann/json.hpp>
 #include <numeric>
@@ -170,8 +171,10 @@ void ExpectSameImage(const Image& a, const Image& b, const char* what) {
 
 // Fits `input` with `model` in one process and over three thread ranks; rank 0's result must
 // equal the single process's.
+// *parameters (when given): the one-process fit's model-wide values.
 void ExpectRanksFitWhatOneProcessFits(const std::string& input, const std::string& model,
-                                      int64_t lobe_shape_texels = FitOptions{}.lobe_shape_texels) {
+                                      int64_t lobe_shape_texels = FitOptions{}.lobe_shape_texels,
+                                      std::map<std::string, double>* parameters = nullptr) {
   SCOPED_TRACE(model);
   FitJobOptions o;
   o.input = input;
@@ -181,6 +184,7 @@ void ExpectRanksFitWhatOneProcessFits(const std::string& input, const std::strin
   o.out = TempPath(model + "-one");
   auto one = RunFitJob(o);
   ASSERT_TRUE(one.ok()) << one.status().ToString();
+  if (parameters) *parameters = one->fit.parameters;
   fs::remove_all(o.out);
 
   constexpr int kRanks = 3;
@@ -232,10 +236,12 @@ TEST(Bands, ThreeRanksFitWhatOneProcessFits) {
 }
 
 // The lobe shape from per-texel fits on a grid of every 4th texel of every 4th row (32² texels,
-// a target of 64): the bands start at rows 11 and 22, off the grid, and sample the rows the
-// whole stack's grid has.
+// a target of 64: 8 × 8 texels): the bands start at rows 10 and 21, and sample the rows the
+// whole stack's grid has (counted from their own first row, they would sample others).
 TEST(Bands, ThreeRanksSampleTheLobeShapeOnOneProcessGrid) {
-  ExpectRanksFitWhatOneProcessFits(kFixture, "blinn-phong", 64);
+  std::map<std::string, double> parameters;
+  ExpectRanksFitWhatOneProcessFits(kFixture, "blinn-phong", 64, &parameters);
+  EXPECT_EQ(parameters["lobe_shape_texels"], 64);
 }
 
 // Flagged texels in the first band only (the top rows black: no signal): every rank must still
