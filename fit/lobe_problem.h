@@ -11,6 +11,7 @@
 #include <cmath>
 #include <map>
 #include <string>
+#include <vector>
 
 #include "core/material_maps.h"
 #include "core/shading/shading.h"
@@ -41,9 +42,9 @@ struct BlinnPhongLobe {
     using std::exp;
     shape[0] = exp(s[0]);
   }
-  template <typename T>
-  static T Eval(const T* a, const T* shape, const Vec3T<T>& n, const Vec3& l, const Vec3& v,
-                const Vec3& h) {
+  template <typename T, typename V>
+  [[gnu::always_inline]] static T Eval(const T* a, const T* shape, const Vec3T<T>& n,
+                                       const Vec3T<V>& l, const Vec3T<V>& v, const Vec3T<V>& h) {
     (void)v;
     return shading::BlinnPhongSpecularHalf(a[0], shape[0], n, l, h);
   }
@@ -66,9 +67,9 @@ struct CookTorranceLobe {
   static void Prepare(const T* s, T* shape) {
     shape[0] = s[0];
   }
-  template <typename T>
-  static T Eval(const T* a, const T* s, const Vec3T<T>& n, const Vec3& l, const Vec3& v,
-                const Vec3& h) {
+  template <typename T, typename V>
+  [[gnu::always_inline]] static T Eval(const T* a, const T* s, const Vec3T<T>& n, const Vec3T<V>& l,
+                                       const Vec3T<V>& v, const Vec3T<V>& h) {
     return shading::CookTorranceSpecularHalf(a[0], s[0], n, l, v, h);
   }
   static void Init(double* a, double* s) { a[0] = 0.04, s[0] = 0.5; }
@@ -98,9 +99,9 @@ struct LafortuneLobes {
     using std::exp;
     for (int j = 0; j < L; ++j) shape[2 * j] = s[2 * j], shape[2 * j + 1] = exp(s[2 * j + 1]);
   }
-  template <typename T>
-  static T Eval(const T* a, const T* shape, const Vec3T<T>& n, const Vec3& l, const Vec3& v,
-                const Vec3&) {
+  template <typename T, typename V>
+  [[gnu::always_inline]] static T Eval(const T* a, const T* shape, const Vec3T<T>& n,
+                                       const Vec3T<V>& l, const Vec3T<V>& v, const Vec3T<V>&) {
     T r(0);
     for (int j = 0; j < L; ++j)
       r += shading::LafortuneLobe(a[j], shape[2 * j], shape[2 * j + 1], n, l, v);
@@ -121,6 +122,29 @@ struct LafortuneLobes {
   }
 };
 
+// A stack's lights and half vectors in SoA, padded to a multiple of 8 (the padding's entries
+// are 0 and never used): what TexelProblem's lane linearisation loads eight at a time.
+struct LightLanes {
+  int n = 0, padded = 0;
+  std::vector<double> lx, ly, lz, hx, hy, hz;
+  LightLanes(const Vec3* lights, const Vec3* halves, int count)
+      : n(count), padded((count + 7) / 8 * 8) {
+    for (auto* v : {&lx, &ly, &lz, &hx, &hy, &hz}) v->assign(size_t(padded), 0.0);
+    for (int i = 0; i < n; ++i) {
+      lx[i] = lights[i].x, ly[i] = lights[i].y, lz[i] = lights[i].z;
+      hx[i] = halves[i].x, hy[i] = halves[i].y, hz[i] = halves[i].z;
+    }
+  }
+};
+
+template <typename Lobe, bool kShared>
+struct TexelProblem;
+// TexelProblem::Linearise with eight lights at a time (fit/lobe_lanes.cc: the shading functions
+// on lanes, AVX-512/AVX2 clones): the same normal equations and cost up to the order of the sums.
+template <typename Lobe, bool kShared, int P>
+double LineariseLanes(const TexelProblem<Lobe, kShared>& problem, const double* x, double s2,
+                      Eigen::Matrix<double, P, P>* jtj, Eigen::Matrix<double, P, 1>* jtr);
+
 // Texel problem: x = (p, q, ρ_r, ρ_g, ρ_b, amps…[, shapes…]); with kShared the shapes are fixed.
 template <typename Lobe, bool kShared>
 struct TexelProblem {
@@ -135,6 +159,10 @@ struct TexelProblem {
   Vec3 view{0, 0, 1};
   const Vec3* views = nullptr;    // per sample (multi-view stacks); null: `view` for all
   const double* shape = nullptr;  // kShared: the fixed shape parameters
+  // Both set (and `views` null): Linearise takes eight lights at a time. obs_lanes holds the
+  // observations by channel, [c · lanes->padded + i], and it and `use` are `padded` long, 0 past n.
+  const LightLanes* lanes = nullptr;
+  const double* obs_lanes = nullptr;
 
   template <typename T, typename Add>
   void Residuals(const T* x, Add&& add) const {
@@ -160,52 +188,88 @@ struct TexelProblem {
   [[gnu::flatten]] double Linearise(const double* x, double s2, Eigen::Matrix<double, P, P>* jtj,
                                     Eigen::Matrix<double, P, 1>* jtr) const {
     static_assert(P == kParams);
-    constexpr int G = kLobeParams, A = Lobe::kAmps;
-    using J = ceres::Jet<double, G>;
-    int index[G];  // lobe parameter k → position in x
-    J g[2 + A + Lobe::kShapes];
-    for (int k = 0; k < G; ++k) index[k] = k < 2 ? k : k + 3;
-    for (int k = 0; k < G; ++k) g[k] = J(x[index[k]], k);
-    J fs[Lobe::kShapes], sh[Lobe::kShapes];
-    for (int k = 0; k < Lobe::kShapes; ++k) fs[k] = kShared ? J(shape[k]) : g[2 + A + k];
-    Lobe::Prepare(fs, sh);
-    const Vec3T<J> nn = Normalize(Vec3T<J>(g[0], g[1], J(1)));
-    double agg[G][G] = {}, agr[3][G] = {}, arr[3] = {}, bg[G] = {}, br[3] = {};
+    if (lanes && obs_lanes && !views)
+      return LineariseLanes<Lobe, kShared, P>(*this, x, s2, jtj, jtr);
+    using J = LobeJet;
+    const LobeJets jets = MakeJets(x);
+    NormalSums<double> sums;
     LmCost cost(s2);
     for (int i = 0; i < n; ++i) {
       if (!use[i]) continue;
       // l, v, h are constants: plain doubles, so only n carries derivatives into the dots.
-      const J lobe = Lobe::Eval(g + 2, sh, nn, lights[i], views ? views[i] : view, halves[i]);
-      const J d = shading::Lambert(J(1), nn, lights[i]);
+      const J lobe =
+          Lobe::Eval(jets.g + 2, jets.sh, jets.n, lights[i], views ? views[i] : view, halves[i]);
+      const J d = shading::Lambert(J(1), jets.n, lights[i]);
       for (int c = 0; c < channels; ++c) {
         const double rho = x[2 + c];
         const double r = rho * d.a + lobe.a - obs[i * channels + c];
-        const double w = cost.Add(r * r), wr = w * r, wd = w * d.a;
-        double u[G];
-        for (int k = 0; k < G; ++k) u[k] = rho * d.v[k] + lobe.v[k];
-        for (int a = 0; a < G; ++a) {
-          const double wu = w * u[a];
-          bg[a] += u[a] * wr;
-          agr[c][a] += wd * u[a];
-          for (int b = 0; b <= a; ++b) agg[a][b] += wu * u[b];
-        }
-        arr[c] += wd * d.a;
-        br[c] += d.a * wr;
+        sums.Add(c, rho, d, lobe, r, cost.Add(r * r));
       }
     }
+    Assemble(sums, jtj, jtr);
+    return cost.Value();
+  }
+
+  // The lobe parameters (p, q, amps…[, shapes…]) as Jets over themselves.
+  using LobeJet = ceres::Jet<double, kLobeParams>;
+  struct LobeJets {
+    LobeJet g[2 + Lobe::kAmps + Lobe::kShapes];
+    LobeJet sh[Lobe::kShapes];  // the shape in model units (fixed with kShared)
+    Vec3T<LobeJet> n{LobeJet(0), LobeJet(0), LobeJet(0)};  // the unit normal
+  };
+  static constexpr int ParamIndex(int k) { return k < 2 ? k : k + 3; }  // lobe parameter k → x
+  LobeJets MakeJets(const double* x) const {
+    constexpr int G = kLobeParams, A = Lobe::kAmps;
+    using J = LobeJet;
+    LobeJets j;
+    for (int k = 0; k < G; ++k) j.g[k] = J(x[ParamIndex(k)], k);
+    J fs[Lobe::kShapes];
+    for (int k = 0; k < Lobe::kShapes; ++k) fs[k] = kShared ? J(shape[k]) : j.g[2 + A + k];
+    Lobe::Prepare(fs, j.sh);
+    j.n = Normalize(Vec3T<J>(j.g[0], j.g[1], J(1)));
+    return j;
+  }
+
+  // The blocks' sums over residuals, on doubles or on lanes (S): one residual r = ρ d + L − o of
+  // channel c with IRLS weight w, d and L with their derivatives (.a, .v[k]) in the lobe
+  // parameters.
+  template <typename S>
+  struct NormalSums {
+    static constexpr int G = kLobeParams;
+    S gg[G][G] = {}, gr[3][G] = {}, rr[3] = {}, g[G] = {}, r[3] = {};
+    template <typename D>
+    void Add(int c, double rho, const D& d, const D& lobe, S res, S w) {
+      const S wr = w * res, wd = w * d.a;
+      S u[G];
+      for (int k = 0; k < G; ++k) u[k] = rho * d.v[k] + lobe.v[k];
+      for (int a = 0; a < G; ++a) {
+        const S wu = w * u[a];
+        g[a] += u[a] * wr;
+        gr[c][a] += wd * u[a];
+        for (int b = 0; b <= a; ++b) gg[a][b] += wu * u[b];
+      }
+      rr[c] += wd * d.a;
+      r[c] += d.a * wr;
+    }
+  };
+  template <int P>
+  static void Assemble(const NormalSums<double>& s, Eigen::Matrix<double, P, P>* jtj,
+                       Eigen::Matrix<double, P, 1>* jtr) {
+    constexpr int G = kLobeParams;
     jtj->setZero();
     jtr->setZero();
     for (int a = 0; a < G; ++a) {
-      (*jtr)[index[a]] = bg[a];
+      const int ia = ParamIndex(a);
+      (*jtr)[ia] = s.g[a];
       for (int b = 0; b <= a; ++b)
-        (*jtj)(index[a], index[b]) = (*jtj)(index[b], index[a]) = agg[a][b];
+        (*jtj)(ia, ParamIndex(b)) = (*jtj)(ParamIndex(b), ia) = s.gg[a][b];
     }
     for (int c = 0; c < 3; ++c) {
-      (*jtr)[2 + c] = br[c];
-      (*jtj)(2 + c, 2 + c) = arr[c];
-      for (int a = 0; a < G; ++a) (*jtj)(2 + c, index[a]) = (*jtj)(index[a], 2 + c) = agr[c][a];
+      (*jtr)[2 + c] = s.r[c];
+      (*jtj)(2 + c, 2 + c) = s.rr[c];
+      for (int a = 0; a < G; ++a)
+        (*jtj)(2 + c, ParamIndex(a)) = (*jtj)(ParamIndex(a), 2 + c) = s.gr[c][a];
     }
-    return cost.Value();
   }
 
   void Project(double* x) const {

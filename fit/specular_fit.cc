@@ -92,6 +92,8 @@ StatusOr<FitResult> FitLobe(const LightStack& s, const FitOptions& o, const std:
   std::vector<Vec3> dirs(n), halves(n);
   for (int i = 0; i < n; ++i)
     dirs[i] = s.lights()[i].direction, halves[i] = Normalize(dirs[i] + s.view_direction);
+  const lobe::LightLanes light_lanes(dirs.data(), halves.data(), n);
+  const size_t padded = size_t(light_lanes.padded);
   std::vector<int> iterations(size_t(s.plane_size()), 0);
   // Stage 1's texels: a grid of every k-th column of every k-th row of the whole stack, offset by
   // k/2 from its top-left corner (rows counted from the stack's top, so a band of a distributed
@@ -130,7 +132,9 @@ StatusOr<FitResult> FitLobe(const LightStack& s, const FitOptions& o, const std:
 
   const float clip_level =
       StackMayBeClipped(s) ? kClipLevel : std::numeric_limits<float>::infinity();
-  auto gather = [&](int64_t p, std::vector<double>& obs, std::vector<char>& use) {
+  // obs[i · C + c] and, by channel, obs_lanes[c · padded + i] (the padding stays 0, unused).
+  auto gather = [&](int64_t p, std::vector<double>& obs, std::vector<double>& obs_lanes,
+                    std::vector<char>& use) {
     const Vec3 n0(init->maps.normal.Plane(0)[p], init->maps.normal.Plane(1)[p],
                   init->maps.normal.Plane(2)[p]);
     int used = 0;
@@ -148,6 +152,7 @@ StatusOr<FitResult> FitLobe(const LightStack& s, const FitOptions& o, const std:
       }
       if (!valid)
         for (int c = 0; c < C; ++c) obs[i * C + c] = 0;
+      for (int c = 0; c < C; ++c) obs_lanes[c * padded + size_t(i)] = obs[i * C + c];
       use[i] = valid && !(pred > 0.02 * C && lum < 0.5 * pred);
       used += use[i];
     }
@@ -158,11 +163,12 @@ StatusOr<FitResult> FitLobe(const LightStack& s, const FitOptions& o, const std:
     using Problem = lobe::TexelProblem<Lobe, kShared>;
     constexpr int P = Problem::kParams;
     return ForEachTile(s, o, [&](const Tile& t) {
-      std::vector<double> obs(size_t(n) * C);
-      std::vector<char> use(n);
+      std::vector<double> obs(size_t(n) * C), obs_lanes(padded * C, 0.0);
+      std::vector<char> use(padded, 0);
       Problem prob;
       prob.n = n, prob.channels = C, prob.lights = dirs.data(), prob.obs = obs.data(),
       prob.use = use.data();
+      prob.lanes = &light_lanes, prob.obs_lanes = obs_lanes.data();
       prob.halves = halves.data();
       prob.view = s.view_direction;
       prob.shape = shape.data();
@@ -174,7 +180,7 @@ StatusOr<FitResult> FitLobe(const LightStack& s, const FitOptions& o, const std:
           // texel it cannot fit (too few usable samples for a free shape, a non-finite solve) to
           // stage 2, which has fewer parameters.
           const bool result = kShared || o.per_texel_lobe || rest;
-          if (gather(p, obs, use) * C < P + 2) {
+          if (gather(p, obs, obs_lanes, use) * C < P + 2) {
             if (result) r.status[p] = kTexelTooFewLights;
             continue;
           }

@@ -19,6 +19,18 @@ inline T Clamp0(const T& x) {
   return x > T(0) ? x : T(0);
 }
 
+// Guards, written once for any scalar: on plain and autodiff types a branch, on lanes
+// (lanes.h: eight lights at once) a per-lane select, found there by argument-dependent lookup.
+template <typename T>
+inline bool Positive(const T& x) {
+  return x > T(0);
+}
+// f() where ok, else 0 (f is not called where !ok).
+template <typename T, typename F>
+inline T ZeroUnless(bool ok, F&& f) {
+  return ok ? f() : T(0);
+}
+
 // x^e for x > 0. Plain std::pow on floating point; exp(e·ln x) on autodiff types, whose pow of
 // two variables costs two scalar pows and a log per call where this costs one exp and one log.
 template <typename T>
@@ -46,11 +58,9 @@ inline T Lambert(const T& albedo, const Vec3T<T>& n, const Vec3T<V>& l) {
 template <typename T, typename V>
 inline T BlinnPhongSpecularHalf(const T& ks, const T& exponent, const Vec3T<T>& n,
                                 const Vec3T<V>& l, const Vec3T<V>& h) {
-  const T nl = Dot(n, l);
-  if (!(nl > T(0))) return T(0);
-  const T nh = Clamp0(Dot(n, h));
-  if (!(nh > T(0))) return T(0);
-  return ks * PowPositive(nh, exponent) * nl;
+  const T nl = Dot(n, l), nh = Dot(n, h);
+  return ZeroUnless<T>(Positive(nl) && Positive(nh),
+                       [&] { return ks * PowPositive(nh, exponent) * nl; });
 }
 template <typename T>
 inline T BlinnPhongSpecular(const T& ks, const T& exponent, const Vec3T<T>& n, const Vec3T<T>& l,
@@ -90,12 +100,13 @@ template <typename T, typename V>
 inline T CookTorranceSpecularHalf(const T& f0, const T& roughness, const Vec3T<T>& n,
                                   const Vec3T<V>& l, const Vec3T<V>& v, const Vec3T<V>& h) {
   const T nl = Dot(n, l), nv = Dot(n, v);
-  if (!(nl > T(0)) || !(nv > T(0))) return T(0);
-  const T nh = Clamp0(Dot(n, h));
-  const T alpha = roughness * roughness;
-  const T dgf =
-      GgxD(nh, alpha) * GgxG1(nl, alpha) * GgxG1(nv, alpha) * SchlickFresnel(f0, T(Dot(v, h)));
-  return T(M_PI) * dgf / (T(4) * nv);
+  return ZeroUnless<T>(Positive(nl) && Positive(nv), [&] {
+    const T nh = Clamp0(Dot(n, h));
+    const T alpha = roughness * roughness;
+    const T dgf =
+        GgxD(nh, alpha) * GgxG1(nl, alpha) * GgxG1(nv, alpha) * SchlickFresnel(f0, T(Dot(v, h)));
+    return T(M_PI) * dgf / (T(4) * nv);
+  });
 }
 template <typename T>
 inline T CookTorranceSpecular(const T& f0, const T& roughness, const Vec3T<T>& n, const Vec3T<T>& l,
@@ -125,10 +136,10 @@ template <typename T, typename V>
 inline T LafortuneLobe(const T& rho_s, const T& c_xy, const T& exponent, const Vec3T<T>& n,
                        const Vec3T<V>& l, const Vec3T<V>& v) {
   const T nl = Dot(n, l), nv = Dot(n, v);
-  if (!(nl > T(0)) || !(nv > T(0))) return T(0);
-  const T d = c_xy * (T(Dot(l, v)) - nl * nv) + nl * nv;
-  if (!(d > T(0))) return T(0);
-  return rho_s * PowPositive(d, exponent) * nl;
+  return ZeroUnless<T>(Positive(nl) && Positive(nv), [&] {
+    const T d = c_xy * (T(Dot(l, v)) - nl * nv) + nl * nv;
+    return ZeroUnless<T>(Positive(d), [&] { return rho_s * PowPositive(d, exponent) * nl; });
+  });
 }
 
 // Seed method A (METHODS.md §2), one channel: diffuse part t·a + t·(n·l) with the fitted,

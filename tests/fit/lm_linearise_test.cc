@@ -89,6 +89,70 @@ TEST(LmLinearise, StructuredNormalEquationsMatchAutodiff) {
   }
 }
 
+// The lane linearisation (eight lights at a time, fit/lobe_lanes.cc) against the structured one
+// on doubles: the same sums in another order. 43 lights (a partial last group of eight),
+// unused samples with NaN observations, normals toward and away from the lights.
+template <typename Lobe, bool kShared>
+void ExpectLanesAgree(int channels, double s2) {
+  using Problem = lobe::TexelProblem<Lobe, kShared>;
+  constexpr int P = Problem::kParams;
+  std::mt19937 rng(17 + channels);
+  std::uniform_real_distribution<double> u(-1, 1);
+  for (int trial = 0; trial < 20; ++trial) {
+    Samples smp = MakeSamples(43, channels, &rng);
+    for (size_t i = 0; i < smp.use.size(); ++i)
+      if (!smp.use[i]) smp.obs[i * channels] = std::nan("");
+    const lobe::LightLanes lanes(smp.lights.data(), smp.halves.data(), 43);
+    ASSERT_EQ(lanes.padded, 48);
+    std::vector<double> obs_lanes(size_t(lanes.padded) * channels, 0.0);
+    for (int i = 0; i < 43; ++i)
+      for (int c = 0; c < channels; ++c)
+        obs_lanes[c * lanes.padded + i] = smp.obs[i * channels + c];
+    smp.use.resize(size_t(lanes.padded), 0);
+    double shape[4] = {};
+    double a[Lobe::kAmps], sh[Lobe::kShapes];
+    Lobe::Init(a, sh);
+    for (int k = 0; k < Lobe::kShapes; ++k) shape[k] = sh[k] + 0.2 * u(rng);
+    Problem prob;
+    prob.n = 43, prob.channels = channels;
+    prob.lights = smp.lights.data(), prob.halves = smp.halves.data();
+    prob.obs = smp.obs.data(), prob.use = smp.use.data(), prob.shape = shape;
+    Eigen::Matrix<double, P, 1> x;
+    // Tilts up to 70°: some lights fall below the tilted surface's horizon.
+    x[0] = 1.5 * u(rng), x[1] = 1.5 * u(rng);
+    for (int c = 2; c < 5; ++c) x[c] = 0.5 + 0.3 * u(rng);
+    for (int k = 0; k < Lobe::kAmps; ++k) x[5 + k] = a[k] * (1 + 0.5 * u(rng));
+    for (int k = 5 + Lobe::kAmps; k < P; ++k) x[k] = shape[k - 5 - Lobe::kAmps];
+    Eigen::Matrix<double, P, P> jtj_s, jtj_l;
+    Eigen::Matrix<double, P, 1> jtr_s, jtr_l;
+    const double cost_s = prob.template Linearise<P>(x.data(), s2, &jtj_s, &jtr_s);
+    prob.lanes = &lanes, prob.obs_lanes = obs_lanes.data();
+    const double cost_l = prob.template Linearise<P>(x.data(), s2, &jtj_l, &jtr_l);
+    ASSERT_TRUE(std::isfinite(cost_s));
+    EXPECT_NEAR(cost_l, cost_s, 1e-13 * cost_s) << "trial " << trial;
+    const double scale = std::max(1.0, jtj_s.cwiseAbs().maxCoeff());
+    EXPECT_LT((jtj_l - jtj_s).cwiseAbs().maxCoeff(), 1e-13 * scale) << "trial " << trial;
+    EXPECT_LT((jtr_l - jtr_s).cwiseAbs().maxCoeff(), 1e-13 * scale) << "trial " << trial;
+    EXPECT_EQ(jtj_l, jtj_l.transpose());
+  }
+}
+
+TEST(LmLinearise, EightLightsAtATimeMatchTheStructuredSums) {
+  for (double s2 : {0.0, 0.05 * 0.05}) {
+    for (int channels : {1, 3}) {
+      SCOPED_TRACE(testing::Message() << "channels " << channels << ", σ² " << s2);
+      ExpectLanesAgree<lobe::BlinnPhongLobe, false>(channels, s2);
+      ExpectLanesAgree<lobe::BlinnPhongLobe, true>(channels, s2);
+      ExpectLanesAgree<lobe::CookTorranceLobe, false>(channels, s2);
+      ExpectLanesAgree<lobe::CookTorranceLobe, true>(channels, s2);
+      ExpectLanesAgree<lobe::LafortuneLobes<1>, false>(channels, s2);
+      ExpectLanesAgree<lobe::LafortuneLobes<1>, true>(channels, s2);
+      ExpectLanesAgree<lobe::LafortuneLobes<2>, false>(channels, s2);
+      ExpectLanesAgree<lobe::LafortuneLobes<2>, true>(channels, s2);
+    }
+  }
+}
+
 TEST(LmLinearise, CauchyCostAsALogOfProductsMatchesTheSumOfLogs) {
   // Residuals up to 1e3 σ, so the running product must be folded many times.
   std::mt19937 rng(11);
