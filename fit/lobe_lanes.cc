@@ -64,8 +64,9 @@ template <typename Lobe, bool kShared, int P>
   for (int k = 0; k < A; ++k) amps[k] = Broadcast(jets.g[2 + k]);
   for (int k = 0; k < S; ++k) sh[k] = Broadcast(jets.sh[k]);
   const Vec3T<D> n(Broadcast(jets.n.x), Broadcast(jets.n.y), Broadcast(jets.n.z));
-  const Vec3T<L8> v(L8(pr.view.x), L8(pr.view.y), L8(pr.view.z));
   const LightLanes& L = *pr.lanes;
+  const bool views = !L.vx.empty();  // per sample, else pr.view for all
+  Vec3T<L8> v(L8(pr.view.x), L8(pr.view.y), L8(pr.view.z));
   typename Problem::template NormalSums<L8> sums;
   LaneCost cost(s2);
   for (int i = 0; i < L.padded; i += 8) {
@@ -74,6 +75,7 @@ template <typename Lobe, bool kShared, int P>
     if (!lanes::Any(use)) continue;
     const Vec3T<L8> l(lanes::Load(&L.lx[i]), lanes::Load(&L.ly[i]), lanes::Load(&L.lz[i]));
     const Vec3T<L8> h(lanes::Load(&L.hx[i]), lanes::Load(&L.hy[i]), lanes::Load(&L.hz[i]));
+    if (views) v = Vec3T<L8>(lanes::Load(&L.vx[i]), lanes::Load(&L.vy[i]), lanes::Load(&L.vz[i]));
     // Lanes of unused samples are zeroed before they reach a sum (their lobe may be NaN).
     const D lobe = Select(use, Lobe::Eval(amps, sh, n, l, v, h), D(0.0));
     const D d = Select(use, shading::Lambert(D(1.0), n, l), D(0.0));

@@ -122,17 +122,22 @@ struct LafortuneLobes {
   }
 };
 
-// A stack's lights and half vectors in SoA, padded to a multiple of 8 (the padding's entries
-// are 0 and never used): what TexelProblem's lane linearisation loads eight at a time.
+// A stack's lights and half vectors (and each sample's view, for multi-view stacks) in SoA,
+// padded to a multiple of 8 (the padding's entries are 0 and never used): what TexelProblem's
+// lane linearisation loads eight at a time.
 struct LightLanes {
   int n = 0, padded = 0;
   std::vector<double> lx, ly, lz, hx, hy, hz;
-  LightLanes(const Vec3* lights, const Vec3* halves, int count)
+  std::vector<double> vx, vy, vz;  // empty without per-sample views
+  LightLanes(const Vec3* lights, const Vec3* halves, int count, const Vec3* views = nullptr)
       : n(count), padded((count + 7) / 8 * 8) {
     for (auto* v : {&lx, &ly, &lz, &hx, &hy, &hz}) v->assign(size_t(padded), 0.0);
+    if (views)
+      for (auto* v : {&vx, &vy, &vz}) v->assign(size_t(padded), 0.0);
     for (int i = 0; i < n; ++i) {
       lx[i] = lights[i].x, ly[i] = lights[i].y, lz[i] = lights[i].z;
       hx[i] = halves[i].x, hy[i] = halves[i].y, hz[i] = halves[i].z;
+      if (views) vx[i] = views[i].x, vy[i] = views[i].y, vz[i] = views[i].z;
     }
   }
 };
@@ -159,8 +164,9 @@ struct TexelProblem {
   Vec3 view{0, 0, 1};
   const Vec3* views = nullptr;    // per sample (multi-view stacks); null: `view` for all
   const double* shape = nullptr;  // kShared: the fixed shape parameters
-  // Both set (and `views` null): Linearise takes eight lights at a time. obs_lanes holds the
-  // observations by channel, [c · lanes->padded + i], and it and `use` are `padded` long, 0 past n.
+  // Both set (with the same views as `views`): Linearise takes eight samples at a time.
+  // obs_lanes holds the observations by channel, [c · lanes->padded + i]; it and `use` are
+  // `padded` long, 0 past n.
   const LightLanes* lanes = nullptr;
   const double* obs_lanes = nullptr;
 
@@ -188,7 +194,7 @@ struct TexelProblem {
   [[gnu::flatten]] double Linearise(const double* x, double s2, Eigen::Matrix<double, P, P>* jtj,
                                     Eigen::Matrix<double, P, 1>* jtr) const {
     static_assert(P == kParams);
-    if (lanes && obs_lanes && !views)
+    if (lanes && obs_lanes && (views != nullptr) == !lanes->vx.empty())
       return LineariseLanes<Lobe, kShared, P>(*this, x, s2, jtj, jtr);
     using J = LobeJet;
     const LobeJets jets = MakeJets(x);

@@ -77,6 +77,8 @@ StatusOr<FitResult> RefineSvbrdf(const LightStack& s, const FitResult& start, in
     views[size_t(i)] = Normalize(s.ViewOf(i));
     halves[size_t(i)] = Normalize(dirs[size_t(i)] + views[size_t(i)]);
   }
+  const lobe::LightLanes light_lanes(dirs.data(), halves.data(), n, views.data());
+  const size_t padded = size_t(light_lanes.padded);
   const float clip_level =
       StackMayBeClipped(s) ? kClipLevel : std::numeric_limits<float>::infinity();
   // The start's roughness: the material's when cook-torrance shared one (the default), else the
@@ -102,10 +104,12 @@ StatusOr<FitResult> RefineSvbrdf(const LightStack& s, const FitResult& start, in
   ParallelFor(0, runs, [&](int64_t run0, int64_t run1) {
     std::vector<double> obs(size_t(kRun) * n * C);
     std::vector<float> scratch(kRun);
-    std::vector<char> use(static_cast<size_t>(n));
+    std::vector<char> use(padded, 0);
+    std::vector<double> obs_lanes(padded * C, 0.0);  // the texel's samples by channel
     Problem prob;
     prob.n = n, prob.channels = C, prob.lights = dirs.data(), prob.halves = halves.data();
     prob.views = views.data(), prob.obs = nullptr, prob.use = use.data();
+    prob.lanes = &light_lanes, prob.obs_lanes = obs_lanes.data();
     for (int64_t run = run0; run < run1 && !cancelled; ++run) {
       const int64_t d = ++done;  // runs started
       if (o.progress && (d % 64 == 0 || d == runs)) {
@@ -154,6 +158,7 @@ StatusOr<FitResult> RefineSvbrdf(const LightStack& s, const FitResult& start, in
             }
             if (!valid)
               for (int c = 0; c < C; ++c) ob[size_t(i) * C + c] = 0;
+            for (int c = 0; c < C; ++c) obs_lanes[c * padded + size_t(i)] = ob[size_t(i) * C + c];
             use[size_t(i)] = valid && !(pred > 0.02 * C && lum < 0.5 * pred);
             used += use[size_t(i)];
           }

@@ -93,7 +93,7 @@ TEST(LmLinearise, StructuredNormalEquationsMatchAutodiff) {
 // on doubles: the same sums in another order. 43 lights (a partial last group of eight),
 // unused samples with NaN observations, normals toward and away from the lights.
 template <typename Lobe, bool kShared>
-void ExpectLanesAgree(int channels, double s2) {
+void ExpectLanesAgree(int channels, double s2, bool per_sample_views = false) {
   using Problem = lobe::TexelProblem<Lobe, kShared>;
   constexpr int P = Problem::kParams;
   std::mt19937 rng(17 + channels);
@@ -102,7 +102,13 @@ void ExpectLanesAgree(int channels, double s2) {
     Samples smp = MakeSamples(43, channels, &rng);
     for (size_t i = 0; i < smp.use.size(); ++i)
       if (!smp.use[i]) smp.obs[i * channels] = std::nan("");
-    const lobe::LightLanes lanes(smp.lights.data(), smp.halves.data(), 43);
+    std::vector<Vec3> views;  // a multi-view stack's: each sample seen from its own direction
+    for (int i = 0; per_sample_views && i < 43; ++i) {
+      views.push_back(Normalize(Vec3(0.5 * u(rng), 0.5 * u(rng), 1)));
+      smp.halves[size_t(i)] = Normalize(smp.lights[size_t(i)] + views.back());
+    }
+    const lobe::LightLanes lanes(smp.lights.data(), smp.halves.data(), 43,
+                                 per_sample_views ? views.data() : nullptr);
     ASSERT_EQ(lanes.padded, 48);
     std::vector<double> obs_lanes(size_t(lanes.padded) * channels, 0.0);
     for (int i = 0; i < 43; ++i)
@@ -117,6 +123,7 @@ void ExpectLanesAgree(int channels, double s2) {
     prob.n = 43, prob.channels = channels;
     prob.lights = smp.lights.data(), prob.halves = smp.halves.data();
     prob.obs = smp.obs.data(), prob.use = smp.use.data(), prob.shape = shape;
+    if (per_sample_views) prob.views = views.data();
     Eigen::Matrix<double, P, 1> x;
     // Tilts up to 70°: some lights fall below the tilted surface's horizon.
     x[0] = 1.5 * u(rng), x[1] = 1.5 * u(rng);
@@ -149,6 +156,8 @@ TEST(LmLinearise, EightLightsAtATimeMatchTheStructuredSums) {
       ExpectLanesAgree<lobe::LafortuneLobes<1>, true>(channels, s2);
       ExpectLanesAgree<lobe::LafortuneLobes<2>, false>(channels, s2);
       ExpectLanesAgree<lobe::LafortuneLobes<2>, true>(channels, s2);
+      ExpectLanesAgree<lobe::CookTorranceLobe, false>(channels, s2, true);  // svbrdf's
+      ExpectLanesAgree<lobe::BlinnPhongLobe, false>(channels, s2, true);
     }
   }
 }
