@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <atomic>
 #include <chrono>
+#include <cmath>
 #include <mutex>
 #include <vector>
 
@@ -16,8 +17,11 @@ namespace matfit::fit {
 namespace {
 
 // One pass over the plan's tiles (pass `pass` of `passes` for progress), merged into one result.
+// With step > 1 only the tiles (tx, ty) with tx ≡ ty ≡ step/2 (mod step) are fitted; the others'
+// texels stay masked.
 StatusOr<FitResult> FitTiles(const std::string& method, const FitFn& fit, const LightStack& s,
-                             const NearTilePlan& plan, const FitOptions& o, int pass, int passes) {
+                             const NearTilePlan& plan, const FitOptions& o, int pass, int passes,
+                             int step = 1) {
   const int64_t count = plan.count();
   std::vector<StatusOr<FitResult>> tiles(static_cast<size_t>(count),
                                          Status(StatusCode::kInternal, "not run"));
@@ -37,15 +41,19 @@ StatusOr<FitResult> FitTiles(const std::string& method, const FitFn& fit, const 
   ParallelFor(0, count, [&](int64_t b, int64_t e) {
     for (int64_t t = b; t < e && !cancelled; ++t) {
       const int tx = int(t % plan.tiles_x), ty = int(t / plan.tiles_x);
-      auto tile = NearTileStack(s, plan, tx, ty, &x0[size_t(t)], &y0[size_t(t)]);
-      if (!tile.ok()) {
-        tiles[size_t(t)] = tile.status();
-        continue;
-      }
-      if (tile->has_mask() && tile->MaskedTexels() == 0)
+      if (tx % step != step / 2 || ty % step != step / 2) {
         masked[size_t(t)] = 1;
-      else
-        tiles[size_t(t)] = fit(*tile, inner);
+      } else {
+        auto tile = NearTileStack(s, plan, tx, ty, &x0[size_t(t)], &y0[size_t(t)]);
+        if (!tile.ok()) {
+          tiles[size_t(t)] = tile.status();
+          continue;
+        }
+        if (tile->has_mask() && tile->MaskedTexels() == 0)
+          masked[size_t(t)] = 1;
+        else
+          tiles[size_t(t)] = fit(*tile, inner);
+      }
       const int64_t d = ++done;
       if (o.progress && count > 1) {
         std::lock_guard<std::mutex> lock(progress_mutex);
@@ -129,18 +137,34 @@ StatusOr<FitResult> FitNearLights(const std::string& method, const FitFn& fit, c
   NearLightOptions no;
   no.max_direction_error_deg = o.near_tolerance_deg;
   const NearTilePlan plan = PlanNearTiles(s, no);
-  // Lobe models share one lobe shape over the material: a first pass fits every tile with a
-  // per-texel shape, the shape is the median over all of them (the whole-stack fit's estimator),
-  // and the second pass fits the tiles with it fixed. (Per tile, a few texels would overfit it.)
+  // Lobe models share one lobe shape over the material: a first pass fits tiles with a
+  // per-texel shape, the shape is the median over their texels (the whole-stack fit's
+  // estimator), and the second pass fits every tile with it fixed. (Per tile, a few texels would
+  // overfit it.) The first pass fits every step-th tile in x and y, step = ⌊√(F / N)⌋ for the F
+  // texels in the mask and N = lobe_shape_texels (at most the tiles across or down; 0: every
+  // tile), so about N texels in tiles spread over the image (the distant-light fit's grid,
+  // in tiles); without a shape there, every tile.
   const bool two_pass = HasSharedLobeShape(method) && !o.per_texel_lobe && o.lobe_shape.empty();
   const int passes = two_pass ? 2 : 1;
+  int64_t shape_texels = 0;  // the texels the shape is the median of
   auto result = [&]() -> StatusOr<FitResult> {
     if (!two_pass) return FitTiles(method, fit, s, plan, o, 0, passes);
     FitOptions first = o;
     first.per_texel_lobe = true;
-    auto pass1 = FitTiles(method, fit, s, plan, first, 0, passes);
+    const int step =
+        o.lobe_shape_texels == 0
+            ? 1
+            : std::clamp(int(std::sqrt(double(s.MaskedTexels()) / double(o.lobe_shape_texels))), 1,
+                         std::max(1, std::min(plan.tiles_x, plan.tiles_y)));
+    auto pass1 = FitTiles(method, fit, s, plan, first, 0, passes, step);
+    auto shape = pass1.ok() ? SharedLobeShape(method, s, pass1->maps, pass1->status)
+                            : StatusOr<std::vector<double>>(pass1.status());
+    if (step > 1 && !shape.ok()) {  // nothing to take the median of in the sampled tiles
+      pass1 = FitTiles(method, fit, s, plan, first, 0, passes);
+      if (pass1.ok()) shape = SharedLobeShape(method, s, pass1->maps, pass1->status);
+    }
     if (!pass1.ok()) return pass1;
-    auto shape = SharedLobeShape(method, s, pass1->maps, pass1->status);
+    for (uint8_t st : pass1->status) shape_texels += st == kTexelOk;
     if (!shape.ok() && shape.status().code() == StatusCode::kNotFound) {
       pass1->warnings.push_back(Warning(WarningCode::kNoSpecularLobe,
                                         "no texel shows a specular lobe; kept the per-texel fit"));
@@ -158,6 +182,7 @@ StatusOr<FitResult> FitNearLights(const std::string& method, const FitFn& fit, c
   out.parameters["near_max_direction_error_deg"] = plan.max_direction_error_deg;
   out.parameters["near_max_falloff_error"] = plan.max_falloff_error;
   out.parameters["near_nearest_light_px"] = plan.nearest_light_px;
+  if (shape_texels > 0) out.parameters["lobe_shape_texels"] = double(shape_texels);
   out.fit_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   return result;
 }

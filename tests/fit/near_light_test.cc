@@ -5,9 +5,11 @@
 
 #include <unistd.h>
 
+#include <algorithm>
 #include <cmath>
 #include <filesystem>
 #include <fstream>
+#include <span>
 #include <string>
 
 #include "core/dataset/dataset.h"
@@ -168,6 +170,55 @@ TEST(NearLights, ALobeModelSharesOneShapeOverAllTiles) {
   EXPECT_LT(f.tn.normal_mae_deg, 0.3);
   EXPECT_GT(f.td.normal_mae_deg, 4 * f.tn.normal_mae_deg);
   EXPECT_LT(f.hn.rmse, 0.5 * f.hd.rmse);
+}
+
+// The first pass fits every step-th tile across and down for a median over about
+// lobe_shape_texels texels (tiles spread over the image); the second pass fits every tile.
+TEST(NearLights, TheShapePassSamplesTilesSpreadOverTheImage) {
+  const synth::SynthResult r = NearData("plastic", 48, 500);
+  const auto m = MakeMethod("blinn-phong");
+  FitOptions every, sampled;
+  every.lobe_shape_texels = 0;
+  sampled.lobe_shape_texels = 128;  // step ⌊√(2304 / 128)⌋ = 4
+  auto a = m->Fit(r.stack, every);
+  auto b = m->Fit(r.stack, sampled);
+  ASSERT_TRUE(a.ok() && b.ok());
+  const double tile = a->parameters.at("near_tile_texels");
+  std::printf(
+      "tiles of %g texels; shape from %g texels (every tile) and %g (sampled): exponent "
+      "%.3f and %.3f (truth 40)\n",
+      tile, a->parameters.at("lobe_shape_texels"), b->parameters.at("lobe_shape_texels"),
+      a->parameters.at("exponent"), b->parameters.at("exponent"));
+  EXPECT_EQ(a->parameters.at("lobe_shape_texels"), 48.0 * 48.0);
+  // Every 4th tile of each 4 × 4 block: a sixteenth of the texels (whole tiles).
+  EXPECT_NEAR(b->parameters.at("lobe_shape_texels"), 48.0 * 48.0 / 16, tile * tile * 12);
+  EXPECT_NEAR(b->parameters.at("exponent"), a->parameters.at("exponent"),
+              0.02 * a->parameters.at("exponent"));
+  EXPECT_NEAR(b->parameters.at("exponent"), 40.0, 0.8);
+  EXPECT_EQ(a->status, b->status);  // the second pass fits every tile
+  const TruthMetrics ta = CompareToTruth(a->maps, r.truth, a->status);
+  const TruthMetrics tb = CompareToTruth(b->maps, r.truth, b->status);
+  EXPECT_LT(tb.normal_mae_deg, 0.3);
+  EXPECT_NEAR(tb.normal_mae_deg, ta.normal_mae_deg, 0.02);
+  // Without a lobe in the sampled tiles (their texels black here), the first pass fits every
+  // tile, as with every tile sampled: the same shape from the other texels, the same fit.
+  synth::SynthResult dark = NearData("plastic", 48, 500);
+  const int W = dark.stack.width(), T = int(tile);
+  auto sampled_tile = [&](int64_t p) { return p % W / T % 4 == 2 && p / W / T % 4 == 2; };
+  for (int i = 0; i < dark.stack.num_images(); ++i)
+    for (int c = 0; c < dark.stack.channels(); ++c) {
+      std::span<float> plane = dark.stack.Plane(i, c);
+      for (int64_t p = 0; p < dark.stack.plane_size(); ++p)
+        if (sampled_tile(p)) plane[size_t(p)] = 0;
+    }
+  auto c = m->Fit(dark.stack, every);
+  auto d = m->Fit(dark.stack, sampled);
+  ASSERT_TRUE(c.ok() && d.ok());
+  EXPECT_EQ(c->status, d->status);
+  EXPECT_NE(d->status[size_t(W * 2 * T + 2 * T)], kTexelOk);  // a sampled tile's texel
+  EXPECT_EQ(c->parameters.at("exponent"), d->parameters.at("exponent"));
+  EXPECT_EQ(c->maps.normal.data(), d->maps.normal.data());
+  EXPECT_EQ(c->parameters.at("lobe_shape_texels"), d->parameters.at("lobe_shape_texels"));
 }
 
 // The tone-curve check regresses each texel against its own lamps (direction and fall-off): a
