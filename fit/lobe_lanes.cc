@@ -36,10 +36,11 @@ struct LaneCost {
     }
     const L8 e = r * r * L8(inv_s2);
     q = q + e + q * e;
+    Fold();  // as LmCost: before the next residual can overflow the product
     return L8(1.0) / (L8(1.0) + e);
   }
   void Fold() {
-    if (!cauchy || !lanes::Any(!(q < L8(1e100)))) return;
+    if (!lanes::Any(!(q < L8(1e100)))) return;
     for (int k = 0; k < 8; ++k)
       if (!(q.v[k] < 1e100)) sum.v[k] += std::log1p(q.v[k]), q.v[k] = 0;
   }
@@ -71,7 +72,7 @@ template <typename Lobe, bool kShared, int P>
   LaneCost cost(s2);
   for (int i = 0; i < L.padded; i += 8) {
     Mask use;
-    for (int k = 0; k < 8; ++k) use.m[k] = pr.use[i + k] ? -1 : 0;
+    for (int k = 0; k < 8; ++k) use.m[k] = i + k < pr.n && pr.use[i + k] ? -1 : 0;
     if (!lanes::Any(use)) continue;
     const Vec3T<L8> l(lanes::Load(&L.lx[i]), lanes::Load(&L.ly[i]), lanes::Load(&L.lz[i]));
     const Vec3T<L8> h(lanes::Load(&L.hx[i]), lanes::Load(&L.hy[i]), lanes::Load(&L.hz[i]));
@@ -85,7 +86,6 @@ template <typename Lobe, bool kShared, int P>
       const L8 r = Select(use, L8(rho) * d.a + lobe.a - o, L8(0.0));
       sums.Add(c, rho, d, lobe, r, cost.Add(r));
     }
-    cost.Fold();
   }
   typename Problem::template NormalSums<double> total;
   constexpr int kG = G;

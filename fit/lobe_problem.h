@@ -164,9 +164,9 @@ struct TexelProblem {
   Vec3 view{0, 0, 1};
   const Vec3* views = nullptr;    // per sample (multi-view stacks); null: `view` for all
   const double* shape = nullptr;  // kShared: the fixed shape parameters
-  // Both set (with the same views as `views`): Linearise takes eight samples at a time.
-  // obs_lanes holds the observations by channel, [c · lanes->padded + i]; it and `use` are
-  // `padded` long, 0 past n.
+  // Both set (with the same views as `views`, lanes->n == n): Linearise takes eight samples at
+  // a time. obs_lanes holds the observations by channel, [c · lanes->padded + i], `padded` long
+  // with 0 past n.
   const LightLanes* lanes = nullptr;
   const double* obs_lanes = nullptr;
 

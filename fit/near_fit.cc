@@ -108,6 +108,8 @@ StatusOr<FitResult> FitTiles(const std::string& method, const FitFn& fit, const 
       if (std::find(out.warnings.begin(), out.warnings.end(), wmsg) == out.warnings.end())
         out.warnings.push_back(wmsg);
   }
+  if (first && step > 1)  // the sampled tiles hold no texel to fit (the caller fits every tile)
+    return Status(StatusCode::kNotFound, method + ": no texel to fit in the sampled tiles");
   if (first) return InvalidArgument(method + ": every texel is masked; nothing to fit");
   for (const auto& [k, v] : shared) out.parameters[k] = v.first / v.second;
   for (const auto& [k, v] : worst) out.parameters[k] = v;
@@ -159,12 +161,22 @@ StatusOr<FitResult> FitNearLights(const std::string& method, const FitFn& fit, c
     auto pass1 = FitTiles(method, fit, s, plan, first, 0, passes, step);
     auto shape = pass1.ok() ? SharedLobeShape(method, s, pass1->maps, pass1->status)
                             : StatusOr<std::vector<double>>(pass1.status());
-    if (step > 1 && !shape.ok()) {  // nothing to take the median of in the sampled tiles
+    auto fitted = [&] {
+      int64_t k = 0;
+      for (uint8_t st : pass1->status) k += st == kTexelOk;
+      return k;
+    };
+    // Nothing to take the median of in the sampled tiles (no texel, no lobe), or fewer than a
+    // quarter of the texels asked for (a small or uneven mask): every tile. A cancel or a
+    // tile's error is returned as it is.
+    if (step > 1 &&
+        ((!shape.ok() && shape.status().code() == StatusCode::kNotFound) ||
+         (shape.ok() && fitted() < std::min(int64_t(o.lobe_shape_texels), s.MaskedTexels()) / 4))) {
       pass1 = FitTiles(method, fit, s, plan, first, 0, passes);
       if (pass1.ok()) shape = SharedLobeShape(method, s, pass1->maps, pass1->status);
     }
     if (!pass1.ok()) return pass1;
-    for (uint8_t st : pass1->status) shape_texels += st == kTexelOk;
+    shape_texels = fitted();
     if (!shape.ok() && shape.status().code() == StatusCode::kNotFound) {
       pass1->warnings.push_back(Warning(WarningCode::kNoSpecularLobe,
                                         "no texel shows a specular lobe; kept the per-texel fit"));

@@ -4,7 +4,9 @@
 // are written once for any scalar; their guards (Positive, ZeroUnless, Clamp0) are a branch on
 // the scalar types and a per-lane select here, found by argument-dependent lookup. Exp and Log
 // are lane versions of the libm functions (within 2 ulp of them; Exp flushes results below
-// e^−708 to 0), so a lane evaluation equals the scalar one to rounding. GCC vector extensions:
+// e^−708 to 0), so a lane evaluation equals the scalar one to rounding. Every helper is
+// always_inline: the AVX-512 and AVX2 clones that use them must not call a baseline copy (whose
+// vector arguments would be passed differently). GCC vector extensions:
 // a function inlining these into an AVX-512 clone gets 512-bit arithmetic, elsewhere GCC splits
 // them into the ISA's widths.
 #pragma once
@@ -20,10 +22,10 @@ using I8 = int64_t __attribute__((vector_size(64)));
 struct Mask {
   I8 m;
 };
-inline Mask operator&&(Mask a, Mask b) { return {a.m & b.m}; }
-inline Mask operator||(Mask a, Mask b) { return {a.m | b.m}; }
-inline Mask operator!(Mask a) { return {~a.m}; }
-inline bool Any(Mask a) {
+[[gnu::always_inline]] inline Mask operator&&(Mask a, Mask b) { return {a.m & b.m}; }
+[[gnu::always_inline]] inline Mask operator||(Mask a, Mask b) { return {a.m | b.m}; }
+[[gnu::always_inline]] inline Mask operator!(Mask a) { return {~a.m}; }
+[[gnu::always_inline]] inline bool Any(Mask a) {
   int64_t r = 0;
   for (int k = 0; k < 8; ++k) r |= a.m[k];
   return r != 0;
@@ -36,27 +38,27 @@ struct L8 {
   explicit L8(D8 d) : v(d) {}
   double operator[](int k) const { return v[k]; }
 };
-inline L8 operator+(L8 a, L8 b) { return L8(a.v + b.v); }
-inline L8 operator-(L8 a, L8 b) { return L8(a.v - b.v); }
-inline L8 operator*(L8 a, L8 b) { return L8(a.v * b.v); }
-inline L8 operator/(L8 a, L8 b) { return L8(a.v / b.v); }
-inline L8 operator-(L8 a) { return L8(-a.v); }
-inline L8& operator+=(L8& a, L8 b) { return a.v += b.v, a; }
-inline Mask operator>(L8 a, L8 b) { return {a.v > b.v}; }
-inline Mask operator<(L8 a, L8 b) { return {a.v < b.v}; }
-inline L8 Select(Mask m, L8 a, L8 b) { return L8(m.m ? a.v : b.v); }
-inline L8 Load(const double* p) {
+[[gnu::always_inline]] inline L8 operator+(L8 a, L8 b) { return L8(a.v + b.v); }
+[[gnu::always_inline]] inline L8 operator-(L8 a, L8 b) { return L8(a.v - b.v); }
+[[gnu::always_inline]] inline L8 operator*(L8 a, L8 b) { return L8(a.v * b.v); }
+[[gnu::always_inline]] inline L8 operator/(L8 a, L8 b) { return L8(a.v / b.v); }
+[[gnu::always_inline]] inline L8 operator-(L8 a) { return L8(-a.v); }
+[[gnu::always_inline]] inline L8& operator+=(L8& a, L8 b) { return a.v += b.v, a; }
+[[gnu::always_inline]] inline Mask operator>(L8 a, L8 b) { return {a.v > b.v}; }
+[[gnu::always_inline]] inline Mask operator<(L8 a, L8 b) { return {a.v < b.v}; }
+[[gnu::always_inline]] inline L8 Select(Mask m, L8 a, L8 b) { return L8(m.m ? a.v : b.v); }
+[[gnu::always_inline]] inline L8 Load(const double* p) {
   L8 r;
   __builtin_memcpy(&r.v, p, sizeof(D8));
   return r;
 }
-inline double Sum(L8 a) {  // lanes in order
+[[gnu::always_inline]] inline double Sum(L8 a) {  // lanes in order
   double s = 0;
   for (int k = 0; k < 8; ++k) s += a.v[k];
   return s;
 }
 
-inline L8 Sqrt(L8 x) {
+[[gnu::always_inline]] inline L8 Sqrt(L8 x) {
   L8 r;
   for (int k = 0; k < 8; ++k) r.v[k] = __builtin_sqrt(x.v[k]);
   return r;
@@ -64,12 +66,15 @@ inline L8 Sqrt(L8 x) {
 
 // e^x = 2^k e^r with k = round(x / ln 2), r = x − k ln 2 (ln 2 in two parts, |r| ≤ 0.347), e^r
 // by its Taylor polynomial to r¹³ (truncation < 5e-18). x > 709.78: +inf; x < −708: 0 (libm
-// gives subnormals from −708.4 down); NaN: NaN.
-inline L8 Exp(L8 x) {
+// gives values below 3.3e-308 there, the last normal ones down to −708.4, then subnormals; the
+// 2^(k−1) scaling below needs k ≥ −1021); NaN: NaN.
+[[gnu::always_inline]] inline L8 Exp(L8 x) {
   const D8 big = D8{} + 0x1.8p52;  // adding and subtracting it rounds to an integer
+  // NaN lanes go through as 0 (their result is NaN, set below): no NaN reaches the conversion.
   const D8 xc = x.v < -708.0 ? D8{} - 708.0 : (x.v > 709.8 ? D8{} + 709.8 : x.v);
-  const D8 kd = (xc * 1.4426950408889634 + big) - big;
-  const D8 r = (xc - kd * 6.93147180369123816490e-01) - kd * 1.90821492927058770002e-10;
+  const D8 xr = x.v != x.v ? D8{} : xc;
+  const D8 kd = (xr * 1.4426950408889634 + big) - big;
+  const D8 r = (xr - kd * 6.93147180369123816490e-01) - kd * 1.90821492927058770002e-10;
   constexpr double c[14] = {1.0,
                             1.0,
                             1.0 / 2,
@@ -99,7 +104,7 @@ inline L8 Exp(L8 x) {
 // ln x = e ln 2 + ln(1 + f), x = 2^e (1 + f) with 1 + f in [√½, √2); ln(1 + f) = 2 atanh(s),
 // s = f / (2 + f), in fdlibm's form (its polynomial in s²). x = 0: −inf; x < 0 or NaN: NaN;
 // +inf: +inf; subnormals scaled by 2^54 first.
-inline L8 Log(L8 x) {
+[[gnu::always_inline]] inline L8 Log(L8 x) {
   const I8 sub = x.v < 0x1p-1022;
   const D8 xs = sub ? x.v * 0x1p54 : x.v;
   const I8 bits = (I8)xs;
@@ -135,76 +140,76 @@ struct Dual {
 };
 
 template <int N>
-inline Dual<N> operator+(const Dual<N>& x, const Dual<N>& y) {
+[[gnu::always_inline]] inline Dual<N> operator+(const Dual<N>& x, const Dual<N>& y) {
   Dual<N> r(x.a + y.a);
   for (int k = 0; k < N; ++k) r.v[k] = x.v[k] + y.v[k];
   return r;
 }
 template <int N>
-inline Dual<N>& operator+=(Dual<N>& x, const Dual<N>& y) {
+[[gnu::always_inline]] inline Dual<N>& operator+=(Dual<N>& x, const Dual<N>& y) {
   return x = x + y;
 }
 template <int N>
-inline Dual<N> operator-(const Dual<N>& x, const Dual<N>& y) {
+[[gnu::always_inline]] inline Dual<N> operator-(const Dual<N>& x, const Dual<N>& y) {
   Dual<N> r(x.a - y.a);
   for (int k = 0; k < N; ++k) r.v[k] = x.v[k] - y.v[k];
   return r;
 }
 template <int N>
-inline Dual<N> operator-(const Dual<N>& x) {
+[[gnu::always_inline]] inline Dual<N> operator-(const Dual<N>& x) {
   Dual<N> r(-x.a);
   for (int k = 0; k < N; ++k) r.v[k] = -x.v[k];
   return r;
 }
 template <int N>
-inline Dual<N> operator*(const Dual<N>& x, const Dual<N>& y) {
+[[gnu::always_inline]] inline Dual<N> operator*(const Dual<N>& x, const Dual<N>& y) {
   Dual<N> r(x.a * y.a);
   for (int k = 0; k < N; ++k) r.v[k] = x.a * y.v[k] + x.v[k] * y.a;
   return r;
 }
 template <int N>
-inline Dual<N> operator*(const Dual<N>& x, L8 s) {
+[[gnu::always_inline]] inline Dual<N> operator*(const Dual<N>& x, L8 s) {
   Dual<N> r(x.a * s);
   for (int k = 0; k < N; ++k) r.v[k] = x.v[k] * s;
   return r;
 }
 template <int N>
-inline Dual<N> operator*(L8 s, const Dual<N>& x) {
+[[gnu::always_inline]] inline Dual<N> operator*(L8 s, const Dual<N>& x) {
   return x * s;
 }
 template <int N>
-inline Dual<N> operator/(const Dual<N>& x, const Dual<N>& y) {
+[[gnu::always_inline]] inline Dual<N> operator/(const Dual<N>& x, const Dual<N>& y) {
   const L8 inv = L8(1.0) / y.a, q = x.a * inv;
   Dual<N> r(q);
   for (int k = 0; k < N; ++k) r.v[k] = (x.v[k] - q * y.v[k]) * inv;
   return r;
 }
 template <int N>
-inline Mask operator>(const Dual<N>& x, const Dual<N>& y) {
+[[gnu::always_inline]] inline Mask operator>(const Dual<N>& x, const Dual<N>& y) {
   return x.a > y.a;
 }
 template <int N>
-inline Dual<N> Select(Mask m, const Dual<N>& x, const Dual<N>& y) {
+[[gnu::always_inline]] inline Dual<N> Select(Mask m, const Dual<N>& x, const Dual<N>& y) {
   Dual<N> r(Select(m, x.a, y.a));
   for (int k = 0; k < N; ++k) r.v[k] = Select(m, x.v[k], y.v[k]);
   return r;
 }
 template <int N>
-inline Dual<N> exp(const Dual<N>& x) {
+[[gnu::always_inline]] inline Dual<N> exp(const Dual<N>& x) {
   const L8 e = Exp(x.a);
   Dual<N> r(e);
   for (int k = 0; k < N; ++k) r.v[k] = e * x.v[k];
   return r;
 }
 template <int N>
-inline Dual<N> log(const Dual<N>& x) {
+[[gnu::always_inline]] inline Dual<N> log(const Dual<N>& x) {
   const L8 inv = L8(1.0) / x.a;
   Dual<N> r(Log(x.a));
   for (int k = 0; k < N; ++k) r.v[k] = x.v[k] * inv;
   return r;
 }
 template <int N>
-inline Dual<N> sqrt(const Dual<N>& x) {
+[[gnu::always_inline]] inline Dual<N> sqrt(const Dual<N>& x) {
   const L8 s = Sqrt(x.a), h = L8(0.5) / s;
   Dual<N> r(s);
   for (int k = 0; k < N; ++k) r.v[k] = x.v[k] * h;
@@ -213,16 +218,16 @@ inline Dual<N> sqrt(const Dual<N>& x) {
 
 // The shading functions' guards (shading.h) on lanes.
 template <int N>
-inline Mask Positive(const Dual<N>& x) {
+[[gnu::always_inline]] inline Mask Positive(const Dual<N>& x) {
   return x.a > L8(0.0);
 }
 template <int N>
-inline Dual<N> Clamp0(const Dual<N>& x) {
+[[gnu::always_inline]] inline Dual<N> Clamp0(const Dual<N>& x) {
   return Select(Positive(x), x, Dual<N>(0.0));
 }
 // f() in every lane, 0 where !ok (f may give NaN or Inf there: the select drops it).
 template <typename T, typename F>
-inline T ZeroUnless(Mask ok, F&& f) {
+[[gnu::always_inline]] inline T ZeroUnless(Mask ok, F&& f) {
   return Select(ok, f(), T(0.0));
 }
 

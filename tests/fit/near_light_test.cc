@@ -219,6 +219,20 @@ TEST(NearLights, TheShapePassSamplesTilesSpreadOverTheImage) {
   EXPECT_EQ(c->parameters.at("exponent"), d->parameters.at("exponent"));
   EXPECT_EQ(c->maps.normal.data(), d->maps.normal.data());
   EXPECT_EQ(c->parameters.at("lobe_shape_texels"), d->parameters.at("lobe_shape_texels"));
+
+  // A mask that leaves one of the sampled tiles' texels (4 of the 32 the shape needs at least,
+  // a quarter of 128): every tile too.
+  synth::SynthResult holes = NearData("plastic", 48, 500);
+  holes.stack.mask.assign(size_t(holes.stack.plane_size()), 1);
+  for (int64_t p = 0; p < holes.stack.plane_size(); ++p)
+    if (sampled_tile(p) && !(p % W / T == 2 && p / W / T == 2)) holes.stack.mask[size_t(p)] = 0;
+  ASSERT_EQ(holes.stack.MaskedTexels(), 48 * 48 - 35 * T * T);  // step ⌊√(2164 / 128)⌋ = 4
+  auto e = m->Fit(holes.stack, every);
+  auto f = m->Fit(holes.stack, sampled);
+  ASSERT_TRUE(e.ok() && f.ok());
+  EXPECT_EQ(f->parameters.at("lobe_shape_texels"), double(holes.stack.MaskedTexels()));
+  EXPECT_EQ(e->parameters.at("exponent"), f->parameters.at("exponent"));
+  EXPECT_EQ(e->maps.normal.data(), f->maps.normal.data());
 }
 
 // The tone-curve check regresses each texel against its own lamps (direction and fall-off): a
