@@ -36,57 +36,97 @@ Samples MakeSamples(int n, int channels, std::mt19937* rng) {
   return s;
 }
 
+// A texel problem over the samples at a random point: the lobe's shape (fixed with kShared) about
+// its Init values, the normal's slopes in [−tilt, tilt], albedos and amplitudes about theirs.
+template <typename Lobe, bool kShared>
+struct RandomTexel {
+  using Problem = lobe::TexelProblem<Lobe, kShared>;
+  static constexpr int P = Problem::kParams;
+  double shape[4] = {};
+  Problem prob;
+  Eigen::Matrix<double, P, 1> x;
+  RandomTexel(const Samples& smp, int n, int channels, double tilt, std::mt19937* rng) {
+    std::uniform_real_distribution<double> u(-1, 1);
+    double a[Lobe::kAmps], sh[Lobe::kShapes];
+    Lobe::Init(a, sh);
+    for (int k = 0; k < Lobe::kShapes; ++k) shape[k] = sh[k] + 0.2 * u(*rng);
+    prob.n = n, prob.channels = channels;
+    prob.lights = smp.lights.data(), prob.halves = smp.halves.data();
+    prob.obs = smp.obs.data(), prob.use = smp.use.data(), prob.shape = shape;
+    x[0] = tilt * u(*rng), x[1] = tilt * u(*rng);
+    for (int c = 2; c < 5; ++c) x[c] = 0.5 + 0.3 * u(*rng);
+    for (int k = 0; k < Lobe::kAmps; ++k) x[5 + k] = a[k] * (1 + 0.5 * u(*rng));
+    for (int k = 5 + Lobe::kAmps; k < P; ++k) x[k] = shape[k - 5 - Lobe::kAmps];
+  }
+  RandomTexel(const RandomTexel&) = delete;  // prob.shape points into it
+};
+
+// Two linearisations of one problem agree: the cost within cost_tol of the reference's, JᵀWJ and
+// JᵀWr within tol of its largest JᵀWJ entry (at least 1), JᵀWJ symmetric.
+template <int P>
+void ExpectSameNormalEquations(double cost, const Eigen::Matrix<double, P, P>& jtj,
+                               const Eigen::Matrix<double, P, 1>& jtr, double cost_ref,
+                               const Eigen::Matrix<double, P, P>& jtj_ref,
+                               const Eigen::Matrix<double, P, 1>& jtr_ref, double cost_tol,
+                               double tol, int trial) {
+  EXPECT_NEAR(cost, cost_ref, cost_tol * cost_ref) << "trial " << trial;
+  const double scale = std::max(1.0, jtj_ref.cwiseAbs().maxCoeff());
+  EXPECT_LT((jtj - jtj_ref).cwiseAbs().maxCoeff(), tol * scale) << "trial " << trial;
+  EXPECT_LT((jtr - jtr_ref).cwiseAbs().maxCoeff(), tol * scale) << "trial " << trial;
+  EXPECT_EQ(jtj, jtj.transpose());
+}
+
 template <typename Lobe, bool kShared>
 void ExpectAgreement(int channels, double s2) {
   using Problem = lobe::TexelProblem<Lobe, kShared>;
   constexpr int P = Problem::kParams;
   std::mt19937 rng(7 + channels);
-  std::uniform_real_distribution<double> u(-1, 1);
   for (int trial = 0; trial < 20; ++trial) {
     const Samples smp = MakeSamples(40, channels, &rng);
-    double shape[4] = {};
-    double a[Lobe::kAmps], sh[Lobe::kShapes];
-    Lobe::Init(a, sh);
-    for (int k = 0; k < Lobe::kShapes; ++k) shape[k] = sh[k] + 0.2 * u(rng);
-    Problem prob;
-    prob.n = int(smp.lights.size()), prob.channels = channels;
-    prob.lights = smp.lights.data(), prob.halves = smp.halves.data();
-    prob.obs = smp.obs.data(), prob.use = smp.use.data(), prob.shape = shape;
-    Eigen::Matrix<double, P, 1> x;
-    x[0] = 0.3 * u(rng), x[1] = 0.3 * u(rng);
-    for (int c = 2; c < 5; ++c) x[c] = 0.5 + 0.3 * u(rng);
-    for (int k = 0; k < Lobe::kAmps; ++k) x[5 + k] = a[k] * (1 + 0.5 * u(rng));
-    for (int k = 5 + Lobe::kAmps; k < P; ++k) x[k] = shape[k - 5 - Lobe::kAmps];
+    RandomTexel<Lobe, kShared> t(smp, 40, channels, 0.3, &rng);
+    const Problem& prob = t.prob;
+    const auto& x = t.x;
     Eigen::Matrix<double, P, P> jtj_s, jtj_j;
     Eigen::Matrix<double, P, 1> jtr_s, jtr_j;
     const double cost_s = prob.template Linearise<P>(x.data(), s2, &jtj_s, &jtr_s);
     const double cost_j = LineariseByJets<P>(prob, x.data(), s2, &jtj_j, &jtr_j);
-    EXPECT_NEAR(cost_s, cost_j, 1e-13 * cost_j);
+    ExpectSameNormalEquations<P>(cost_s, jtj_s, jtr_s, cost_j, jtj_j, jtr_j, 1e-13, 1e-12, trial);
     double direct = 0;  // the cost term by term
     prob.Residuals(x.data(), [&](double r) {
       direct += s2 > 0 ? 0.5 * s2 * std::log1p(r * r / s2) : 0.5 * r * r;
     });
     EXPECT_NEAR(cost_s, direct, 1e-12 * direct);
-    const double scale = std::max(1.0, jtj_j.cwiseAbs().maxCoeff());
-    EXPECT_LT((jtj_s - jtj_j).cwiseAbs().maxCoeff(), 1e-12 * scale) << "trial " << trial;
-    EXPECT_LT((jtr_s - jtr_j).cwiseAbs().maxCoeff(), 1e-12 * scale) << "trial " << trial;
-    EXPECT_EQ(jtj_s, jtj_s.transpose());
   }
 }
 
-TEST(LmLinearise, StructuredNormalEquationsMatchAutodiff) {
-  for (double s2 : {0.0, 0.05 * 0.05}) {
+// f.template operator()<Lobe, kShared>() for every texel problem of the lobe fits.
+template <typename F>
+void ForEachProblem(F&& f) {
+  f.template operator()<lobe::BlinnPhongLobe, false>();
+  f.template operator()<lobe::BlinnPhongLobe, true>();
+  f.template operator()<lobe::CookTorranceLobe, false>();
+  f.template operator()<lobe::CookTorranceLobe, true>();
+  f.template operator()<lobe::LafortuneLobes<1>, false>();
+  f.template operator()<lobe::LafortuneLobes<1>, true>();
+  f.template operator()<lobe::LafortuneLobes<2>, false>();
+  f.template operator()<lobe::LafortuneLobes<2>, true>();
+}
+
+// f(channels, σ²) for one and three channels, the plain and the Cauchy cost.
+template <typename F>
+void ForEachCase(F&& f) {
+  for (double s2 : {0.0, 0.05 * 0.05})
     for (int channels : {1, 3}) {
       SCOPED_TRACE(testing::Message() << "channels " << channels << ", σ² " << s2);
-      ExpectAgreement<lobe::BlinnPhongLobe, false>(channels, s2);
-      ExpectAgreement<lobe::BlinnPhongLobe, true>(channels, s2);
-      ExpectAgreement<lobe::CookTorranceLobe, false>(channels, s2);
-      ExpectAgreement<lobe::CookTorranceLobe, true>(channels, s2);
-      ExpectAgreement<lobe::LafortuneLobes<1>, false>(channels, s2);
-      ExpectAgreement<lobe::LafortuneLobes<2>, false>(channels, s2);
-      ExpectAgreement<lobe::LafortuneLobes<2>, true>(channels, s2);
+      f(channels, s2);
     }
-  }
+}
+
+TEST(LmLinearise, StructuredNormalEquationsMatchAutodiff) {
+  ForEachCase([](int channels, double s2) {
+    ForEachProblem(
+        [&]<typename Lobe, bool kShared>() { ExpectAgreement<Lobe, kShared>(channels, s2); });
+  });
 }
 
 // The lane linearisation (eight lights at a time, fit/lobe_lanes.cc) against the structured one
@@ -114,52 +154,28 @@ void ExpectLanesAgree(int channels, double s2, bool per_sample_views = false) {
     for (int i = 0; i < 43; ++i)
       for (int c = 0; c < channels; ++c)
         obs_lanes[c * lanes.padded + i] = smp.obs[i * channels + c];
-    smp.use.resize(size_t(lanes.padded), 0);
-    double shape[4] = {};
-    double a[Lobe::kAmps], sh[Lobe::kShapes];
-    Lobe::Init(a, sh);
-    for (int k = 0; k < Lobe::kShapes; ++k) shape[k] = sh[k] + 0.2 * u(rng);
-    Problem prob;
-    prob.n = 43, prob.channels = channels;
-    prob.lights = smp.lights.data(), prob.halves = smp.halves.data();
-    prob.obs = smp.obs.data(), prob.use = smp.use.data(), prob.shape = shape;
+    // Tilts up to 65°: some lights fall below the tilted surface's horizon.
+    RandomTexel<Lobe, kShared> t(smp, 43, channels, 1.5, &rng);
+    Problem& prob = t.prob;
+    const auto& x = t.x;
     if (per_sample_views) prob.views = views.data();
-    Eigen::Matrix<double, P, 1> x;
-    // Tilts up to 70°: some lights fall below the tilted surface's horizon.
-    x[0] = 1.5 * u(rng), x[1] = 1.5 * u(rng);
-    for (int c = 2; c < 5; ++c) x[c] = 0.5 + 0.3 * u(rng);
-    for (int k = 0; k < Lobe::kAmps; ++k) x[5 + k] = a[k] * (1 + 0.5 * u(rng));
-    for (int k = 5 + Lobe::kAmps; k < P; ++k) x[k] = shape[k - 5 - Lobe::kAmps];
     Eigen::Matrix<double, P, P> jtj_s, jtj_l;
     Eigen::Matrix<double, P, 1> jtr_s, jtr_l;
     const double cost_s = prob.template Linearise<P>(x.data(), s2, &jtj_s, &jtr_s);
     prob.lanes = &lanes, prob.obs_lanes = obs_lanes.data();
     const double cost_l = prob.template Linearise<P>(x.data(), s2, &jtj_l, &jtr_l);
     ASSERT_TRUE(std::isfinite(cost_s));
-    EXPECT_NEAR(cost_l, cost_s, 1e-13 * cost_s) << "trial " << trial;
-    const double scale = std::max(1.0, jtj_s.cwiseAbs().maxCoeff());
-    EXPECT_LT((jtj_l - jtj_s).cwiseAbs().maxCoeff(), 1e-13 * scale) << "trial " << trial;
-    EXPECT_LT((jtr_l - jtr_s).cwiseAbs().maxCoeff(), 1e-13 * scale) << "trial " << trial;
-    EXPECT_EQ(jtj_l, jtj_l.transpose());
+    ExpectSameNormalEquations<P>(cost_l, jtj_l, jtr_l, cost_s, jtj_s, jtr_s, 1e-13, 1e-13, trial);
   }
 }
 
 TEST(LmLinearise, EightLightsAtATimeMatchTheStructuredSums) {
-  for (double s2 : {0.0, 0.05 * 0.05}) {
-    for (int channels : {1, 3}) {
-      SCOPED_TRACE(testing::Message() << "channels " << channels << ", σ² " << s2);
-      ExpectLanesAgree<lobe::BlinnPhongLobe, false>(channels, s2);
-      ExpectLanesAgree<lobe::BlinnPhongLobe, true>(channels, s2);
-      ExpectLanesAgree<lobe::CookTorranceLobe, false>(channels, s2);
-      ExpectLanesAgree<lobe::CookTorranceLobe, true>(channels, s2);
-      ExpectLanesAgree<lobe::LafortuneLobes<1>, false>(channels, s2);
-      ExpectLanesAgree<lobe::LafortuneLobes<1>, true>(channels, s2);
-      ExpectLanesAgree<lobe::LafortuneLobes<2>, false>(channels, s2);
-      ExpectLanesAgree<lobe::LafortuneLobes<2>, true>(channels, s2);
-      ExpectLanesAgree<lobe::CookTorranceLobe, false>(channels, s2, true);  // svbrdf's
-      ExpectLanesAgree<lobe::BlinnPhongLobe, false>(channels, s2, true);
-    }
-  }
+  ForEachCase([](int channels, double s2) {
+    ForEachProblem(
+        [&]<typename Lobe, bool kShared>() { ExpectLanesAgree<Lobe, kShared>(channels, s2); });
+    ExpectLanesAgree<lobe::CookTorranceLobe, false>(channels, s2, true);  // svbrdf's
+    ExpectLanesAgree<lobe::BlinnPhongLobe, false>(channels, s2, true);
+  });
 }
 
 TEST(LmLinearise, CauchyCostAsALogOfProductsMatchesTheSumOfLogs) {
