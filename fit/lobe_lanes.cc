@@ -88,8 +88,7 @@ template <typename Lobe, bool kShared, int P>
     }
   }
   typename Problem::template NormalSums<double> total;
-  constexpr int kG = G;
-  for (int a = 0; a < kG; ++a) {
+  for (int a = 0; a < G; ++a) {
     total.g[a] = lanes::Sum(sums.g[a]);
     for (int b = 0; b <= a; ++b) total.gg[a][b] = lanes::Sum(sums.gg[a][b]);
     for (int c = 0; c < 3; ++c) total.gr[c][a] = lanes::Sum(sums.gr[c][a]);

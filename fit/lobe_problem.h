@@ -194,7 +194,7 @@ struct TexelProblem {
   [[gnu::flatten]] double Linearise(const double* x, double s2, Eigen::Matrix<double, P, P>* jtj,
                                     Eigen::Matrix<double, P, 1>* jtr) const {
     static_assert(P == kParams);
-    if (lanes && obs_lanes && (views != nullptr) == !lanes->vx.empty())
+    if (lanes && obs_lanes && lanes->n == n && (views != nullptr) == !lanes->vx.empty())
       return LineariseLanes<Lobe, kShared, P>(*this, x, s2, jtj, jtr);
     using J = LobeJet;
     const LobeJets jets = MakeJets(x);
