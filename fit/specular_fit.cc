@@ -1,7 +1,8 @@
 // Nonlinear per-texel fits (METHODS.md §4): `blinn-phong`, `cook-torrance`, `lafortune1`,
 // `lafortune2`. Model: p_ic / I_ic = ρ_c max(0, n·l_i) + lobe(n, l_i, v), the lobe from
 // core/shading/shading.h (the functions that render the synthetic data). Each texel is solved
-// by the fixed-size Levenberg–Marquardt of tiny_lm.h, initialised from lambert-robust.
+// by the fixed-size Levenberg–Marquardt of tiny_lm.h, initialised from lambert-robust, until the
+// minimum is within 0.01 standard errors (its EDM rule, σ̂ from the texel's own residuals).
 // Parameters: (p, q) with n = normalize(p, q, 1), ρ_r, ρ_g, ρ_b, then the lobe's amplitudes
 // and shape parameters. Samples that look cast-shadowed (observed < 0.5 × the initial diffuse
 // prediction), clipped or non-finite samples are left out.
@@ -180,7 +181,8 @@ StatusOr<FitResult> FitLobe(const LightStack& s, const FitOptions& o, const std:
           // texel it cannot fit (too few usable samples for a free shape, a non-finite solve) to
           // stage 2, which has fewer parameters.
           const bool result = kShared || o.per_texel_lobe || rest;
-          if (gather(p, obs, obs_lanes, use) * C < P + 2) {
+          const int residuals = gather(p, obs, obs_lanes, use) * C;
+          if (residuals < P + 2) {
             if (result) r.status[p] = kTexelTooFewLights;
             continue;
           }
@@ -193,6 +195,7 @@ StatusOr<FitResult> FitLobe(const LightStack& s, const FitOptions& o, const std:
           prob.Project(x.data());
           LmOptions lm;
           lm.cauchy_scale = o.robust_scale;
+          lm.residuals = residuals;
           // Stage 1 only feeds the median shape when stage 2 follows: a rough solve will do.
           if (!kShared && !o.per_texel_lobe) lm.max_iterations = 20;
           iterations[p] += SolveTinyLm<P>(prob, &x, lm).iterations;

@@ -176,6 +176,7 @@ StatusOr<FitResult> RefineSvbrdf(const LightStack& s, const FitResult& start, in
           prob.Project(x.data());
           LmOptions lm;
           lm.cauchy_scale = o.robust_scale;
+          lm.residuals = used * C;
           iterations[size_t(p)] = SolveTinyLm<P>(prob, &x, lm).iterations;
           if (!x.allFinite()) {
             r.status[size_t(p)] = kTexelNonFinite;

@@ -261,5 +261,91 @@ TEST(LmLinearise, SolverReachesTheSameMinimumEitherWay) {
   EXPECT_NEAR(xs[5], ks, 1e-5);
 }
 
+// A Blinn–Phong texel (shape fixed: P = 6) under `lights` dome lights, Gaussian noise `sigma`.
+struct NoisyBlinnPhong {
+  using Problem = lobe::TexelProblem<lobe::BlinnPhongLobe, true>;
+  static constexpr int P = Problem::kParams;
+  Samples smp;
+  double shape[1] = {std::log(35.0)};
+  Problem prob;
+  NoisyBlinnPhong(int lights, double sigma, std::mt19937* rng) {
+    smp = MakeSamples(lights, 3, rng);
+    std::normal_distribution<double> noise(0, sigma);
+    const Vec3 n = Normalize(Vec3(0.2, -0.1, 1));
+    const double rho[3] = {0.5, 0.3, 0.2};
+    for (size_t i = 0; i < smp.lights.size(); ++i) {
+      smp.use[i] = 1;
+      const double lobe =
+          shading::BlinnPhongSpecularHalf(0.4, 35.0, n, smp.lights[i], smp.halves[i]);
+      for (int c = 0; c < 3; ++c)
+        smp.obs[i * 3 + c] = shading::Lambert(rho[c], n, smp.lights[i]) + lobe + noise(*rng);
+    }
+    prob.n = lights, prob.lights = smp.lights.data(), prob.halves = smp.halves.data();
+    prob.obs = smp.obs.data(), prob.use = smp.use.data(), prob.shape = shape;
+  }
+  NoisyBlinnPhong(const NoisyBlinnPhong&) = delete;  // prob points into it
+  // lambert-robust-like start: the normal a few degrees off, albedo near, the lobe at Init.
+  Eigen::Matrix<double, P, 1> Start() const {
+    Eigen::Matrix<double, P, 1> x;
+    x << 0.25, -0.05, 0.45, 0.35, 0.2, 0.2;
+    return x;
+  }
+};
+
+// The EDM rule (LmOptions::residuals): with m residuals a solve stops once a step would move the
+// parameters by less than √edm standard errors. Against the same texel solved to a tolerance of
+// 1e-14, the result must lie within a few hundredths of a standard error (Mahalanobis distance,
+// covariance σ̂² (JᵀJ)⁻¹, σ̂² = Σ r² / (m − P)), after fewer trials; on noise-free data the rule
+// must not stop early.
+TEST(TinyLm, TheEdmRuleStopsWithinAHundredthOfAStandardError) {
+  using T = NoisyBlinnPhong;
+  constexpr int P = T::P;
+  std::mt19937 rng(11);
+  int fewer = 0;
+  for (int trial = 0; trial < 20; ++trial) {
+    SCOPED_TRACE(testing::Message() << "trial " << trial);
+    const int lights = trial % 2 ? 240 : 24;
+    const T t(lights, 0.01, &rng);
+    const int m = lights * 3;
+    LmOptions tight;
+    tight.function_tolerance = 1e-14;
+    Eigen::Matrix<double, P, 1> x_ref = t.Start(), x = t.Start();
+    const LmSummary ref = SolveTinyLm<P>(t.prob, &x_ref, tight);
+    LmOptions edm;
+    edm.residuals = m;
+    const LmSummary s = SolveTinyLm<P>(t.prob, &x, edm);
+    ASSERT_TRUE(ref.converged && s.converged);
+    EXPECT_GE(s.final_cost, ref.final_cost * (1 - 1e-12));
+    Eigen::Matrix<double, P, P> jtj;
+    Eigen::Matrix<double, P, 1> jtr;
+    const double cost = t.prob.Linearise<P>(x_ref.data(), 0.0, &jtj, &jtr);
+    const double var = 2 * cost / (m - P);
+    const Eigen::Matrix<double, P, 1> d = x - x_ref;
+    const double distance = std::sqrt(d.dot(jtj * d) / var);
+    EXPECT_LT(distance, 0.02);
+    // The cost it stops at is within edm / 2 · σ̂² of the minimum's (plus the rounding).
+    EXPECT_LT(s.final_cost - ref.final_cost, 1e-4 * var);
+    EXPECT_LE(s.iterations, ref.iterations);
+    fewer += s.iterations < ref.iterations;
+  }
+  EXPECT_GE(fewer, 15);
+  // Noise-free: every step removes most of the cost left, so the rule never fires.
+  const T exact(240, 0.0, &rng);
+  Eigen::Matrix<double, P, 1> x = exact.Start();
+  LmOptions edm;
+  edm.residuals = 240 * 3;
+  ASSERT_TRUE(SolveTinyLm<P>(exact.prob, &x, edm).converged);
+  const Vec3 n = Normalize(Vec3(0.2, -0.1, 1));
+  EXPECT_NEAR(x[0], n.x / n.z, 1e-9);
+  EXPECT_NEAR(x[1], n.y / n.z, 1e-9);
+  EXPECT_NEAR(x[5], 0.4, 1e-9);
+  // m ≤ P: no rule.
+  LmOptions few;
+  few.residuals = P;
+  EXPECT_EQ(EdmLimit<P>(few), 0.0);
+  few.residuals = P + 100;
+  EXPECT_DOUBLE_EQ(EdmLimit<P>(few), 1e-6);
+}
+
 }  // namespace
 }  // namespace matfit::fit
