@@ -16,7 +16,7 @@ namespace matfit::fit {
 struct LmSummary {
   int iterations = 0;
   double initial_cost = 0, final_cost = 0;  // ½ Σ r² (or the Cauchy cost)
-  bool converged = false;                   // relative cost decrease fell below the tolerance
+  bool converged = false;  // stopped by a tolerance or the EDM rule, not the iteration cap
 };
 
 struct LmOptions {
@@ -34,8 +34,10 @@ struct LmOptions {
   // the noise variance is σ̂² = 2 cost / (m − P) (cost = ½ Σ r²) and a decrease Δ is 2Δ / σ̂² in
   // χ², so the rule is EDM < edm · cost / (m − P): the minimum lies less than √edm standard
   // errors of the parameters away (Mahalanobis, covariance σ̂² (JᵀJ)⁻¹) — 0.01 at the default,
-  // ROOT's Minuit default (0.001 × tolerance 0.1). On noise-free data most of the cost is what
-  // the step removes, so the rule does not fire and the other tolerances end the solve.
+  // TMinuit's (0.001 × tolerance 0.1). With the Cauchy loss, cost and JᵀWJ are the robust ones
+  // (IRLS), so the distance is the reweighted problem's: approximate. On noise-free data most of
+  // the cost is what the step removes, so the rule does not fire and the other tolerances end
+  // the solve.
   int residuals = 0;
   double edm = 1e-4;
 };
@@ -124,6 +126,7 @@ LmSummary SolveTinyLm(const Problem& problem, Eigen::Matrix<double, P, 1>* x_in,
   Mat jtj, trial_jtj;
   Vec jtr, trial_jtr;
   const double edm_limit = EdmLimit<P>(options);
+  bool fresh = true;  // the EDM rule not yet tried at x
   double cost = linearise(x, &jtj, &jtr);
   s.initial_cost = cost;
   double lambda = options.initial_lambda;
@@ -132,7 +135,8 @@ LmSummary SolveTinyLm(const Problem& problem, Eigen::Matrix<double, P, 1>* x_in,
       s.converged = true;
       break;
     }
-    if (edm_limit > 0) {
+    if (edm_limit > 0 && fresh) {  // once per point: a rejected step leaves JᵀJ, Jᵀr as they were
+      fresh = false;
       const Eigen::LDLT<Mat> gn(jtj);
       if (gn.info() == Eigen::Success && gn.isPositive()) {
         const double edm = 0.5 * jtr.dot(gn.solve(jtr));
@@ -163,7 +167,7 @@ LmSummary SolveTinyLm(const Problem& problem, Eigen::Matrix<double, P, 1>* x_in,
     if (trial_cost < cost) {
       const bool small = cost - trial_cost < options.function_tolerance * cost;
       x = trial, jtj = trial_jtj, jtr = trial_jtr;
-      cost = trial_cost;
+      cost = trial_cost, fresh = true;
       lambda = std::max(lambda * 0.3, 1e-12);
       if (small) {
         s.converged = true;

@@ -261,24 +261,28 @@ TEST(LmLinearise, SolverReachesTheSameMinimumEitherWay) {
   EXPECT_NEAR(xs[5], ks, 1e-5);
 }
 
-// A Blinn–Phong texel (shape fixed: P = 6) under `lights` dome lights, Gaussian noise `sigma`.
+// A Blinn–Phong texel (shape fixed: P = 6) under `lights` lights, Gaussian noise `sigma`, and
+// a fraction `outliers` of its samples 0.3 too bright (a cast highlight, say).
 struct NoisyBlinnPhong {
   using Problem = lobe::TexelProblem<lobe::BlinnPhongLobe, true>;
   static constexpr int P = Problem::kParams;
   Samples smp;
   double shape[1] = {std::log(35.0)};
   Problem prob;
-  NoisyBlinnPhong(int lights, double sigma, std::mt19937* rng) {
+  NoisyBlinnPhong(int lights, double sigma, double outliers, std::mt19937* rng) {
     smp = MakeSamples(lights, 3, rng);
     std::normal_distribution<double> noise(0, sigma);
+    std::uniform_real_distribution<double> u(0, 1);
     const Vec3 n = Normalize(Vec3(0.2, -0.1, 1));
     const double rho[3] = {0.5, 0.3, 0.2};
     for (size_t i = 0; i < smp.lights.size(); ++i) {
       smp.use[i] = 1;
       const double lobe =
           shading::BlinnPhongSpecularHalf(0.4, 35.0, n, smp.lights[i], smp.halves[i]);
+      const double outlier = u(*rng) < outliers ? 0.3 : 0.0;
       for (int c = 0; c < 3; ++c)
-        smp.obs[i * 3 + c] = shading::Lambert(rho[c], n, smp.lights[i]) + lobe + noise(*rng);
+        smp.obs[i * 3 + c] =
+            shading::Lambert(rho[c], n, smp.lights[i]) + lobe + outlier + noise(*rng);
     }
     prob.n = lights, prob.lights = smp.lights.data(), prob.halves = smp.halves.data();
     prob.obs = smp.obs.data(), prob.use = smp.use.data(), prob.shape = shape;
@@ -292,45 +296,47 @@ struct NoisyBlinnPhong {
   }
 };
 
-// The EDM rule (LmOptions::residuals): with m residuals a solve stops once a step would move the
-// parameters by less than √edm standard errors. Against the same texel solved to a tolerance of
-// 1e-14, the result must lie within a few hundredths of a standard error (Mahalanobis distance,
-// covariance σ̂² (JᵀJ)⁻¹, σ̂² = Σ r² / (m − P)), after fewer trials; on noise-free data the rule
-// must not stop early.
+// The EDM rule (LmOptions::residuals): with m residuals a solve stops once the minimum is within
+// √edm = 0.01 standard errors. Against the same texel solved to a tolerance of 1e-14, the result
+// must lie within 0.02 standard errors (Mahalanobis distance, covariance σ̂² (JᵀJ)⁻¹, σ̂² =
+// Σ r² / (m − P); with the Cauchy loss and outliers the reweighted JᵀWJ and robust cost), after
+// fewer trials than the same solve without the rule; on noise-free data it must not stop early.
 TEST(TinyLm, TheEdmRuleStopsWithinAHundredthOfAStandardError) {
   using T = NoisyBlinnPhong;
   constexpr int P = T::P;
   std::mt19937 rng(11);
-  int fewer = 0;
-  for (int trial = 0; trial < 20; ++trial) {
-    SCOPED_TRACE(testing::Message() << "trial " << trial);
-    const int lights = trial % 2 ? 240 : 24;
-    const T t(lights, 0.01, &rng);
-    const int m = lights * 3;
-    LmOptions tight;
-    tight.function_tolerance = 1e-14;
-    Eigen::Matrix<double, P, 1> x_ref = t.Start(), x = t.Start();
-    const LmSummary ref = SolveTinyLm<P>(t.prob, &x_ref, tight);
-    LmOptions edm;
-    edm.residuals = m;
-    const LmSummary s = SolveTinyLm<P>(t.prob, &x, edm);
-    ASSERT_TRUE(ref.converged && s.converged);
-    EXPECT_GE(s.final_cost, ref.final_cost * (1 - 1e-12));
-    Eigen::Matrix<double, P, P> jtj;
-    Eigen::Matrix<double, P, 1> jtr;
-    const double cost = t.prob.Linearise<P>(x_ref.data(), 0.0, &jtj, &jtr);
-    const double var = 2 * cost / (m - P);
-    const Eigen::Matrix<double, P, 1> d = x - x_ref;
-    const double distance = std::sqrt(d.dot(jtj * d) / var);
-    EXPECT_LT(distance, 0.02);
-    // The cost it stops at is within edm / 2 · σ̂² of the minimum's (plus the rounding).
-    EXPECT_LT(s.final_cost - ref.final_cost, 1e-4 * var);
-    EXPECT_LE(s.iterations, ref.iterations);
-    fewer += s.iterations < ref.iterations;
+  for (double cauchy : {0.0, 0.05}) {
+    int fewer = 0;
+    for (int trial = 0; trial < 20; ++trial) {
+      SCOPED_TRACE(testing::Message() << "Cauchy σ " << cauchy << ", trial " << trial);
+      const int lights = trial % 2 ? 240 : 24;
+      const T t(lights, 0.01, cauchy > 0 ? 0.1 : 0.0, &rng);
+      const int m = lights * 3;
+      LmOptions tight, plain, edm;
+      tight.cauchy_scale = plain.cauchy_scale = edm.cauchy_scale = cauchy;
+      tight.function_tolerance = 1e-14;
+      edm.residuals = m;
+      Eigen::Matrix<double, P, 1> x_ref = t.Start(), x_plain = t.Start(), x = t.Start();
+      ASSERT_TRUE(SolveTinyLm<P>(t.prob, &x_ref, tight).converged);
+      const LmSummary sp = SolveTinyLm<P>(t.prob, &x_plain, plain);
+      const LmSummary s = SolveTinyLm<P>(t.prob, &x, edm);
+      ASSERT_TRUE(s.converged);
+      Eigen::Matrix<double, P, P> jtj;
+      Eigen::Matrix<double, P, 1> jtr;
+      const double cost = t.prob.Linearise<P>(x_ref.data(), cauchy * cauchy, &jtj, &jtr);
+      const double var = 2 * cost / (m - P);
+      const Eigen::Matrix<double, P, 1> d = x - x_ref;
+      EXPECT_LT(std::sqrt(d.dot(jtj * d) / var), 0.02);
+      EXPECT_GE(s.final_cost, cost * (1 - 1e-12));
+      // The cost it stops at is within edm / 2 · σ̂² of the minimum's (plus the rounding).
+      EXPECT_LT(s.final_cost - cost, 1e-4 * var);
+      EXPECT_LE(s.iterations, sp.iterations);
+      fewer += s.iterations < sp.iterations;
+    }
+    EXPECT_GE(fewer, 8) << "Cauchy σ " << cauchy;  // 9 and 15 of 20; 0 without the rule
   }
-  EXPECT_GE(fewer, 15);
   // Noise-free: every step removes most of the cost left, so the rule never fires.
-  const T exact(240, 0.0, &rng);
+  const T exact(240, 0.0, 0.0, &rng);
   Eigen::Matrix<double, P, 1> x = exact.Start();
   LmOptions edm;
   edm.residuals = 240 * 3;
@@ -345,6 +351,53 @@ TEST(TinyLm, TheEdmRuleStopsWithinAHundredthOfAStandardError) {
   EXPECT_EQ(EdmLimit<P>(few), 0.0);
   few.residuals = P + 100;
   EXPECT_DOUBLE_EQ(EdmLimit<P>(few), 1e-6);
+}
+
+// A straight line through noisy points: linear, so EDM is exactly the cost above the minimum
+// and the rule's threshold exact — a start 0.009 standard errors from the minimum is converged
+// (no step taken), one 0.011 away is not.
+struct NoisyLine {
+  static constexpr int kParams = 2;
+  std::vector<double> t, y;
+  template <typename T, typename Add>
+  void Residuals(const T* x, Add&& add) const {
+    for (size_t i = 0; i < t.size(); ++i) add(x[0] + x[1] * t[i] - y[i]);
+  }
+  void Project(double*) const {}
+};
+
+TEST(TinyLm, TheEdmRuleFiresExactlyWithinItsDistance) {
+  std::mt19937 rng(5);
+  std::normal_distribution<double> noise(0, 0.02);
+  NoisyLine line;
+  for (int i = 0; i < 50; ++i)
+    line.t.push_back(i / 49.0), line.y.push_back(0.3 + 0.5 * i / 49.0 + noise(rng));
+  const int m = 50;
+  Eigen::Matrix<double, 2, 1> best(0, 0);
+  ASSERT_TRUE(SolveTinyLm<2>(line, &best).converged);
+  Eigen::Matrix<double, 2, 2> jtj;
+  Eigen::Matrix<double, 2, 1> jtr;
+  const double var = 2 * LineariseByJets<2>(line, best.data(), 0.0, &jtj, &jtr) / (m - 2);
+  for (Eigen::Matrix<double, 2, 1> u :
+       {Eigen::Matrix<double, 2, 1>(1, 0), Eigen::Matrix<double, 2, 1>(0.3, -1)}) {
+    u /= std::sqrt(u.dot(jtj * u) / var);  // one standard error along u
+    for (double at : {0.009, 0.011}) {
+      SCOPED_TRACE(testing::Message() << at << " standard errors along " << u.transpose());
+      Eigen::Matrix<double, 2, 1> x = best + at * u;
+      const Eigen::Matrix<double, 2, 1> start = x;
+      LmOptions edm;
+      edm.residuals = m;
+      const LmSummary s = SolveTinyLm<2>(line, &x, edm);
+      EXPECT_TRUE(s.converged);
+      if (at < 0.01) {
+        EXPECT_EQ(s.iterations, 0);
+        EXPECT_EQ(x, start);
+      } else {
+        EXPECT_GE(s.iterations, 1);
+        EXPECT_LT((x - best).norm(), 0.1 * (start - best).norm());
+      }
+    }
+  }
 }
 
 }  // namespace
