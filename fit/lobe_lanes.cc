@@ -39,10 +39,13 @@ struct LaneCost {
     Fold();  // as LmCost: before the next residual can overflow the product
     return L8(1.0) / (L8(1.0) + e);
   }
+  // On lanes, without a call (which would keep q in memory across the loop): for q ≥ 1e100,
+  // ln(1 + q) = ln q to rounding.
   void Fold() {
-    if (!lanes::Any(!(q < L8(1e100)))) return;
-    for (int k = 0; k < 8; ++k)
-      if (!(q.v[k] < 1e100)) sum.v[k] += std::log1p(q.v[k]), q.v[k] = 0;
+    const Mask big = !(q < L8(1e100));
+    if (!lanes::Any(big)) return;
+    sum = sum + Select(big, lanes::Log(q), L8(0.0));
+    q = Select(big, L8(0.0), q);
   }
   double Value() const {
     if (!cauchy) return lanes::Sum(sum);
@@ -72,7 +75,14 @@ template <typename Lobe, bool kShared, int P>
   LaneCost cost(s2);
   for (int i = 0; i < L.padded; i += 8) {
     Mask use;
-    for (int k = 0; k < 8; ++k) use.m[k] = i + k < pr.n && pr.use[i + k] ? -1 : 0;
+    if (i + 8 <= pr.n) {  // eight use flags widened at once
+      typedef char C8 __attribute__((vector_size(8)));
+      C8 u;
+      __builtin_memcpy(&u, pr.use + i, sizeof u);
+      use.m = __builtin_convertvector(u, lanes::I8) != 0;
+    } else {
+      for (int k = 0; k < 8; ++k) use.m[k] = i + k < pr.n && pr.use[i + k] ? -1 : 0;
+    }
     if (!lanes::Any(use)) continue;
     const Vec3T<L8> l(lanes::Load(&L.lx[i]), lanes::Load(&L.ly[i]), lanes::Load(&L.lz[i]));
     const Vec3T<L8> h(lanes::Load(&L.hx[i]), lanes::Load(&L.hy[i]), lanes::Load(&L.hz[i]));

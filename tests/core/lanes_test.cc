@@ -98,6 +98,19 @@ TEST(Lanes, LogIsWithinOneUlpOfLibm) {
   EXPECT_LE(Ulps(l[7], std::log(1e-320)), 1);
 }
 
+// Any is true exactly when some lane of the mask is set: each lane alone, none, all.
+TEST(Lanes, AnySeesEveryLane) {
+  lanes::Mask m{};
+  EXPECT_FALSE(lanes::Any(m));
+  for (int k = 0; k < 8; ++k) {
+    lanes::Mask one{};
+    one.m[k] = -1;
+    EXPECT_TRUE(lanes::Any(one)) << "lane " << k;
+    m.m[k] = -1;
+  }
+  EXPECT_TRUE(lanes::Any(m));
+}
+
 // The lobes on lanes and on Jets: eight lights per call (some below the horizon of the tilted
 // normal, some past the lobe's cut-off), derivatives in (p, q, amplitude, shape).
 TEST(Lanes, ShadingFunctionsOnLanesEqualThemOnJets) {

@@ -131,9 +131,12 @@ TEST(LmLinearise, StructuredNormalEquationsMatchAutodiff) {
 
 // The lane linearisation (eight lights at a time, fit/lobe_lanes.cc) against the structured one
 // on doubles: the same sums in another order. 43 lights (a partial last group of eight),
-// unused samples with NaN observations, normals toward and away from the lights.
+// unused samples with NaN observations, normals toward and away from the lights. With
+// `outliers`, every used observation is ±1e3 (10⁸ times σ² in e = r²/σ²): each lane's Cauchy
+// product passes 1e100 and is folded into its sum several times.
 template <typename Lobe, bool kShared>
-void ExpectLanesAgree(int channels, double s2, bool per_sample_views = false) {
+void ExpectLanesAgree(int channels, double s2, bool per_sample_views = false,
+                      bool outliers = false) {
   using Problem = lobe::TexelProblem<Lobe, kShared>;
   constexpr int P = Problem::kParams;
   std::mt19937 rng(17 + channels);
@@ -142,6 +145,9 @@ void ExpectLanesAgree(int channels, double s2, bool per_sample_views = false) {
     Samples smp = MakeSamples(43, channels, &rng);
     for (size_t i = 0; i < smp.use.size(); ++i)
       if (!smp.use[i]) smp.obs[i * channels] = std::nan("");
+    for (size_t i = 0; outliers && i < smp.use.size(); ++i)
+      for (int c = 0; c < channels && smp.use[i]; ++c)
+        smp.obs[i * channels + c] = (i + c) % 2 ? 1e3 : -1e3;
     std::vector<Vec3> views;  // a multi-view stack's: each sample seen from its own direction
     for (int i = 0; per_sample_views && i < 43; ++i) {
       views.push_back(Normalize(Vec3(0.5 * u(rng), 0.5 * u(rng), 1)));
@@ -176,6 +182,15 @@ TEST(LmLinearise, EightLightsAtATimeMatchTheStructuredSums) {
     ExpectLanesAgree<lobe::CookTorranceLobe, false>(channels, s2, true);  // svbrdf's
     ExpectLanesAgree<lobe::BlinnPhongLobe, false>(channels, s2, true);
   });
+}
+
+TEST(LmLinearise, EightLightsAtATimeFoldTheCauchyProductLikeTheScalarCost) {
+  for (int channels : {1, 3}) {
+    SCOPED_TRACE(testing::Message() << "channels " << channels);
+    ForEachProblem([&]<typename Lobe, bool kShared>() {
+      ExpectLanesAgree<Lobe, kShared>(channels, 0.05 * 0.05, false, true);
+    });
+  }
 }
 
 TEST(LmLinearise, CauchyCostAsALogOfProductsMatchesTheSumOfLogs) {
