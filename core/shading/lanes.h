@@ -93,8 +93,8 @@ struct L8 {
                             1.0 / 479001600,
                             1.0 / 6227020800.0};
   // The terms from r³ on by Estrin's scheme (pairs, then quads, then octets in r², r⁴, r⁸),
-  // the last three by Horner's, whose final steps keep the result within 1 ulp of Horner's
-  // alone: a chain of 12 operations after r⁸ instead of 26 (this loop's latency, not its work).
+  // the last three by Horner's, whose final steps keep the result as accurate as Horner's
+  // alone: a dependency chain of 12 operations from r instead of Horner's 26.
   const D8 r2 = r * r, r4 = r2 * r2, r8 = r4 * r4;
   D8 q[6];  // c₃ + c₄ r, c₅ + c₆ r, …, c₁₃ (pair j: c_{2j+3} + c_{2j+4} r)
   for (int j = 0; j < 5; ++j) q[j] = c[2 * j + 3] + c[2 * j + 4] * r;

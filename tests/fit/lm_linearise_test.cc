@@ -132,8 +132,9 @@ TEST(LmLinearise, StructuredNormalEquationsMatchAutodiff) {
 // The lane linearisation (eight lights at a time, fit/lobe_lanes.cc) against the structured one
 // on doubles: the same sums in another order. 43 lights (a partial last group of eight),
 // unused samples with NaN observations, normals toward and away from the lights. With
-// `outliers`, every used observation is ±1e3 (10⁸ times σ² in e = r²/σ²): each lane's Cauchy
-// product passes 1e100 and is folded into its sum several times.
+// `outliers`, every used observation is ±1e30 (e = r²/σ² ≈ 4e62 with σ = 0.05): each lane's
+// Cauchy product passes 1e100 at every second residual and is folded into its sum (2–3 times
+// even with one channel); unfolded, it would overflow within five residuals.
 template <typename Lobe, bool kShared>
 void ExpectLanesAgree(int channels, double s2, bool per_sample_views = false,
                       bool outliers = false) {
@@ -147,7 +148,7 @@ void ExpectLanesAgree(int channels, double s2, bool per_sample_views = false,
       if (!smp.use[i]) smp.obs[i * channels] = std::nan("");
     for (size_t i = 0; outliers && i < smp.use.size(); ++i)
       for (int c = 0; c < channels && smp.use[i]; ++c)
-        smp.obs[i * channels + c] = (i + c) % 2 ? 1e3 : -1e3;
+        smp.obs[i * channels + c] = (i + c) % 2 ? 1e30 : -1e30;
     std::vector<Vec3> views;  // a multi-view stack's: each sample seen from its own direction
     for (int i = 0; per_sample_views && i < 43; ++i) {
       views.push_back(Normalize(Vec3(0.5 * u(rng), 0.5 * u(rng), 1)));
