@@ -9,6 +9,7 @@
 #include <Eigen/Cholesky>
 #include <Eigen/Core>
 #include <algorithm>
+#include <array>
 #include <cmath>
 
 namespace matfit::fit {
@@ -40,6 +41,8 @@ struct LmOptions {
   // the solve.
   int residuals = 0;
   double edm = 1e-4;
+  // Steps kept within the problem's box by active sets (ConfineStep) rather than clamped.
+  bool confine_steps = true;
 };
 
 // The EDM rule's limit on EDM / cost: edm / (m − P), 0 (off) with m ≤ P residuals.
@@ -101,11 +104,48 @@ double LineariseByJets(const Problem& problem, const double* x, double s2,
   return cost.Value();
 }
 
+// Keeps a step within the problem's box (Project clamps each parameter to an interval). Given δ
+// solving a δ = −g, when Project would change x + δ it replaces δ by the minimiser of the
+// quadratic model g·δ + ½ δᵀ a δ over the parameters Project left alone, by active sets: each
+// parameter that x + δ carries out of the box is fixed where Project puts it (δ_k = clamp(x_k +
+// δ_k) − x_k: 0 for a parameter already on its bound and pushed outward) and the others are
+// re-solved given those, a_ff δ_f = −g_f − a_fk δ_k, until no further parameter leaves the box.
+// Returns whether δ changed. Clamping alone would keep the other components solved as if the
+// parameter had moved on: a worse point that the damping then undoes, so a fit whose minimum lies
+// on a bound (a lobe amplitude at 0) crawled to it over strings of rejected steps.
+template <int P, typename Problem>
+bool ConfineStep(const Problem& problem, const Eigen::Matrix<double, P, 1>& x,
+                 const Eigen::Matrix<double, P, P>& a, const Eigen::Matrix<double, P, 1>& g,
+                 Eigen::Matrix<double, P, 1>* delta) {
+  using Vec = Eigen::Matrix<double, P, 1>;
+  using Mat = Eigen::Matrix<double, P, P>;
+  std::array<bool, P> fixed{};
+  Vec fixed_step = Vec::Zero();  // δ_k of the fixed parameters, 0 elsewhere
+  bool changed = false;
+  for (int round = 0; round < P && delta->allFinite(); ++round) {
+    Vec t = x + *delta;
+    problem.Project(t.data());
+    bool more = false;
+    for (int k = 0; k < P; ++k)
+      if (!fixed[k] && t[k] != x[k] + (*delta)[k])
+        fixed[k] = more = true, fixed_step[k] = t[k] - x[k];
+    if (!more) break;
+    changed = true;
+    Mat m = a;
+    Vec b = -g - a * fixed_step;
+    for (int k = 0; k < P; ++k)
+      if (fixed[k]) m.row(k).setZero(), m.col(k).setZero(), m(k, k) = 1, b[k] = 0;
+    *delta = m.ldlt().solve(b) + fixed_step;
+  }
+  return changed;
+}
+
 // Problem concept: `static constexpr int kParams = P;`,
 //   template <typename T> void Residuals(const T* x, Add&& add) const
-// calling add(r) once per residual, and `void Project(double* x) const` clamping to the valid
-// domain. Optionally `double Linearise(const double* x, double s2, Mat* jtj, Vec* jtr) const`
-// with LineariseByJets' contract, exploiting the problem's sparsity.
+// calling add(r) once per residual, and `void Project(double* x) const` clamping each parameter
+// to its interval of the valid domain (a box: ConfineStep relies on it). Optionally `double
+// Linearise(const double* x, double s2, Mat* jtj, Vec* jtr) const` with LineariseByJets' contract,
+// exploiting the problem's sparsity.
 //
 // Every trial point is linearised at once (the residuals come with it, so the cost is the
 // same pass): accepted steps — most of them from a lambert-robust start — cost one pass.
@@ -137,9 +177,15 @@ LmSummary SolveTinyLm(const Problem& problem, Eigen::Matrix<double, P, 1>* x_in,
     }
     if (edm_limit > 0 && fresh) {  // once per point: a rejected step leaves JᵀJ, Jᵀr as they were
       fresh = false;
+      // The decrease the undamped Gauss–Newton step predicts within the box: ½ gᵀ (JᵀJ)⁻¹ g
+      // when no bound is in its way.
       const Eigen::LDLT<Mat> gn(jtj);
       if (gn.info() == Eigen::Success && gn.isPositive()) {
-        const double edm = 0.5 * jtr.dot(gn.solve(jtr));
+        const Vec h = gn.solve(jtr);
+        Vec step = -h;
+        const double edm = options.confine_steps && ConfineStep<P>(problem, x, jtj, jtr, &step)
+                               ? -step.dot(jtr) - 0.5 * step.dot(jtj * step)
+                               : 0.5 * jtr.dot(h);
         if (edm >= 0 && edm < edm_limit * cost) {
           s.converged = true;
           break;
@@ -148,7 +194,8 @@ LmSummary SolveTinyLm(const Problem& problem, Eigen::Matrix<double, P, 1>* x_in,
     }
     Mat a = jtj;
     for (int k = 0; k < P; ++k) a(k, k) += lambda * (jtj(k, k) + 1e-12);
-    const Vec delta = a.ldlt().solve(-jtr);
+    Vec delta = a.ldlt().solve(-jtr);
+    if (options.confine_steps) ConfineStep<P>(problem, x, a, jtr, &delta);
     if (!delta.allFinite()) break;
     if (delta.norm() < options.step_tolerance * (x.norm() + options.step_tolerance)) {
       s.converged = true;
