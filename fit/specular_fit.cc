@@ -196,11 +196,12 @@ StatusOr<FitResult> FitLobe(const LightStack& s, const FitOptions& o, const std:
           LmOptions lm;
           lm.cauchy_scale = o.robust_scale;
           lm.residuals = residuals;
-          // Stage 1 only feeds the median shape when stage 2 follows: a rough solve will do, and
-          // one from clamped steps, whose 20 iterations stop short of the box's bounds. Confined
-          // steps reach them: on 12 lights (psm gray) most texels' free exponent then runs to
-          // its bound of 2000, where a lobe fits one highlight sample, and so does the median
-          // (blinn-phong held-out RMSE 0.0255 → 0.0789, docs/benchmarks.md session 40).
+          // Stage 1 only feeds the median shape when stage 2 follows: a rough solve will do. It
+          // keeps clamped steps, whose crawl along a bound stops its 20 iterations short of the
+          // box's corners: an early stop the median has relied on. With steps confined to the
+          // box, the median exponent over psm gray's 12-light texels went to its bound (2000: a
+          // lobe fitting one highlight sample; blinn-phong held-out RMSE 0.0255 → 0.0789,
+          // docs/benchmarks.md, session 40).
           if (!kShared && !o.per_texel_lobe) lm.max_iterations = 20, lm.confine_steps = false;
           iterations[p] += SolveTinyLm<P>(prob, &x, lm).iterations;
           if (!x.allFinite()) {

@@ -31,7 +31,8 @@ struct LmOptions {
   double cauchy_scale = 0;
   // Statistical convergence (MINUIT's EDM rule; used when residuals > P): also stop when the
   // estimated distance to the minimum — the decrease the undamped Gauss–Newton step predicts,
-  // ½ gᵀ (JᵀJ)⁻¹ g with g = Jᵀr, whatever λ is — is below `edm` in χ² units. With m residuals
+  // ½ gᵀ (JᵀJ)⁻¹ g with g = Jᵀr, whatever λ is (with confine_steps, that step kept in the box:
+  // −δ·g − ½ δᵀ JᵀJ δ) — is below `edm` in χ² units. With m residuals
   // the noise variance is σ̂² = 2 cost / (m − P) (cost = ½ Σ r²) and a decrease Δ is 2Δ / σ̂² in
   // χ², so the rule is EDM < edm · cost / (m − P): the minimum lies less than √edm standard
   // errors of the parameters away (Mahalanobis, covariance σ̂² (JᵀJ)⁻¹) — 0.01 at the default,
@@ -41,7 +42,7 @@ struct LmOptions {
   // the solve.
   int residuals = 0;
   double edm = 1e-4;
-  // Steps kept within the problem's box by active sets (ConfineStep) rather than clamped.
+  // Steps (and the EDM rule's) kept within the problem's box by ConfineStep rather than clamped.
   bool confine_steps = true;
 };
 
@@ -105,39 +106,66 @@ double LineariseByJets(const Problem& problem, const double* x, double s2,
 }
 
 // Keeps a step within the problem's box (Project clamps each parameter to an interval). Given δ
-// solving a δ = −g, when Project would change x + δ it replaces δ by the minimiser of the
-// quadratic model g·δ + ½ δᵀ a δ over the parameters Project left alone, by active sets: each
-// parameter that x + δ carries out of the box is fixed where Project puts it (δ_k = clamp(x_k +
-// δ_k) − x_k: 0 for a parameter already on its bound and pushed outward) and the others are
-// re-solved given those, a_ff δ_f = −g_f − a_fk δ_k, until no further parameter leaves the box.
-// Returns whether δ changed. Clamping alone would keep the other components solved as if the
-// parameter had moved on: a worse point that the damping then undoes, so a fit whose minimum lies
-// on a bound (a lobe amplitude at 0) crawled to it over strings of rejected steps.
+// minimising the model q(δ) = g·δ + ½ δᵀ a δ (a positive definite), when Project would change
+// x + δ it replaces δ by q's minimiser over the box, by a primal active-set method from δ = 0
+// (x is in the box): step towards the minimiser on the current face — the held parameters
+// fixed, the others solving a_ff δ_f = −g_f − a_fh δ_h — stopping where a parameter meets its
+// bound, which is then held; at a face's minimiser, release the held parameter whose multiplier
+// (a δ + g)_k says q decreases into the box; stop when none does (the box's KKT point). Returns
+// whether δ changed. Clamping alone kept the other components solved as if the parameter had
+// moved on: a worse point the damping then undid, so a fit whose minimum lies on a bound (a lobe
+// amplitude at 0) crawled to it over strings of rejected steps.
 template <int P, typename Problem>
 bool ConfineStep(const Problem& problem, const Eigen::Matrix<double, P, 1>& x,
                  const Eigen::Matrix<double, P, P>& a, const Eigen::Matrix<double, P, 1>& g,
                  Eigen::Matrix<double, P, 1>* delta) {
   using Vec = Eigen::Matrix<double, P, 1>;
   using Mat = Eigen::Matrix<double, P, P>;
-  std::array<bool, P> fixed{};
-  Vec fixed_step = Vec::Zero();  // δ_k of the fixed parameters, 0 elsewhere
-  bool changed = false;
-  for (int round = 0; round < P && delta->allFinite(); ++round) {
-    Vec t = x + *delta;
-    problem.Project(t.data());
-    bool more = false;
+  auto leaves = [&](const Vec& step, Vec* clamped) {  // Project(x + step) ≠ x + step
+    *clamped = x + step;
+    problem.Project(clamped->data());
+    return *clamped != x + step;
+  };
+  Vec clamped;
+  if (!delta->allFinite() || !leaves(*delta, &clamped)) return false;
+  std::array<int, P> held{};  // 0: free; ±1: held on the bound it was moving towards (its sign)
+  Vec d = Vec::Zero(), target = *delta;
+  // Each pass holds or releases one parameter; 4P + 4 passes bound any cycling of ties.
+  for (int pass = 0; pass < 4 * P + 4; ++pass) {
+    leaves(target, &clamped);
+    double alpha = 1;
+    int block = -1;
     for (int k = 0; k < P; ++k)
-      if (!fixed[k] && t[k] != x[k] + (*delta)[k])
-        fixed[k] = more = true, fixed_step[k] = t[k] - x[k];
-    if (!more) break;
-    changed = true;
+      if (!held[k] && clamped[k] != x[k] + target[k]) {
+        const double ak = std::max(0.0, (clamped[k] - x[k] - d[k]) / (target[k] - d[k]));
+        if (ak < alpha) alpha = ak, block = k;
+      }
+    if (block >= 0) {
+      held[block] = target[block] > d[block] ? 1 : -1;
+      d += alpha * (target - d);
+      d[block] = clamped[block] - x[block];
+    } else {
+      d = target;
+      const Vec mu = a * d + g;  // ∂q/∂δ: held k is right while −μ_k points out of the box
+      int release = -1;
+      double worst = 0;
+      for (int k = 0; k < P; ++k)
+        if (held[k] && mu[k] * held[k] > worst) worst = mu[k] * held[k], release = k;
+      if (release < 0) break;
+      held[release] = 0;
+    }
     Mat m = a;
-    Vec b = -g - a * fixed_step;
+    Vec fixed = Vec::Zero();
     for (int k = 0; k < P; ++k)
-      if (fixed[k]) m.row(k).setZero(), m.col(k).setZero(), m(k, k) = 1, b[k] = 0;
-    *delta = m.ldlt().solve(b) + fixed_step;
+      if (held[k]) fixed[k] = d[k];
+    Vec b = -g - a * fixed;
+    for (int k = 0; k < P; ++k)
+      if (held[k]) m.row(k).setZero(), m.col(k).setZero(), m(k, k) = 1, b[k] = 0;
+    target = m.ldlt().solve(b) + fixed;
+    if (!target.allFinite()) break;
   }
-  return changed;
+  *delta = d;
+  return true;
 }
 
 // Problem concept: `static constexpr int kParams = P;`,

@@ -443,12 +443,12 @@ TEST(TinyLm, StepsConfinedToTheBoxReachAMinimumOnItsBound) {
     f1y += TwoDecays::F1(t) * p.y.back(), f1f1 += TwoDecays::F1(t) * TwoDecays::F1(t);
   }
   // The unconstrained least-squares b is negative (else the bound would not matter).
-  Eigen::Matrix<double, 2, 1> free(0.5, 0.5);
+  Eigen::Matrix<double, 2, 1> unconstrained(0.5, 0.5);
   struct Unbounded : TwoDecays {
     void Project(double*) const {}
   } unbounded{p};
-  ASSERT_TRUE(SolveTinyLm<2>(unbounded, &free).converged);
-  ASSERT_LT(free[1], -0.1);
+  ASSERT_TRUE(SolveTinyLm<2>(unbounded, &unconstrained).converged);
+  ASSERT_LT(unconstrained[1], -0.1);
   const double a_star = f1y / f1f1;
   for (bool edm : {false, true}) {
     SCOPED_TRACE(edm ? "with the EDM rule" : "without the EDM rule");
@@ -467,6 +467,84 @@ TEST(TinyLm, StepsConfinedToTheBoxReachAMinimumOnItsBound) {
     const LmSummary c = SolveTinyLm<2>(p, &clamped, o);
     EXPECT_GT(c.iterations, 2 * s.iterations) << s.iterations << " vs " << c.iterations;
   }
+}
+
+// A box for ConfineStep: each parameter clamped to [lo_k, hi_k].
+template <int P>
+struct Box {
+  static constexpr int kParams = P;
+  Eigen::Matrix<double, P, 1> lo, hi;
+  void Project(double* x) const {
+    for (int k = 0; k < P; ++k) x[k] = std::clamp(x[k], lo[k], hi[k]);
+  }
+};
+
+// ConfineStep against the box-constrained minimum of q(δ) = g·δ + ½ δᵀAδ found by enumerating
+// every face (each parameter free, on its lower or on its upper bound: 3⁴ faces), on random
+// strongly correlated positive definite A, gradients and points inside the box, including points
+// on a bound. Also the two-bound case where fixing every parameter a step leaves the box by is
+// wrong: A = [[1, −0.9], [−0.9, 1]], g = (−0.1, 1) at a corner x = (0, 0) of [0, 1]²: the
+// unconstrained step leaves through both lower bounds, yet the minimum is (0.1, 0).
+TEST(TinyLm, ConfinedStepsAreTheBoxesMinimumOfTheModel) {
+  {
+    Box<2> box{{0, 0}, {1, 1}};
+    Eigen::Matrix2d a;
+    a << 1, -0.9, -0.9, 1;
+    const Eigen::Vector2d g(-0.1, 1), x(0, 0);
+    Eigen::Vector2d d = a.ldlt().solve(-g);
+    ASSERT_TRUE(ConfineStep<2>(box, x, a, g, &d));
+    EXPECT_NEAR(d[0], 0.1, 1e-15);
+    EXPECT_EQ(d[1], 0.0);
+  }
+  constexpr int P = 4;
+  using Vec = Eigen::Matrix<double, P, 1>;
+  using Mat = Eigen::Matrix<double, P, P>;
+  std::mt19937 rng(17);
+  std::uniform_real_distribution<double> u(-1, 1);
+  const Box<P> box{Vec::Constant(0), Vec::Constant(1)};
+  int confined = 0;
+  for (int trial = 0; trial < 2000; ++trial) {
+    Mat j;
+    for (int r = 0; r < P; ++r)
+      for (int c = 0; c < P; ++c) j(r, c) = u(rng) + (r == c ? 0.2 : 0.0) + 0.8 * (c == 0);
+    const Mat a = j.transpose() * j + 1e-3 * Mat::Identity();
+    Vec g, x;
+    for (int k = 0; k < P; ++k) {
+      g[k] = 2 * u(rng);
+      const double v = u(rng);
+      x[k] = v < -0.6 ? 0.0 : v > 0.6 ? 1.0 : 0.5 + 0.5 * v;  // some on a bound
+    }
+    auto q = [&](const Vec& d) { return g.dot(d) + 0.5 * d.dot(a * d); };
+    double best = 0;  // δ = 0 is feasible
+    for (int face = 0; face < 81; ++face) {
+      int code[P], f = face;
+      for (int k = 0; k < P; ++k) code[k] = f % 3, f /= 3;  // 0 free, 1 lower, 2 upper
+      Mat m = a;
+      Vec fixed = Vec::Zero();
+      for (int k = 0; k < P; ++k)
+        if (code[k]) fixed[k] = (code[k] == 1 ? 0.0 : 1.0) - x[k];
+      Vec b = -g - a * fixed;
+      for (int k = 0; k < P; ++k)
+        if (code[k]) m.row(k).setZero(), m.col(k).setZero(), m(k, k) = 1, b[k] = 0;
+      const Vec d = m.ldlt().solve(b) + fixed;
+      Vec t = x + d;
+      box.Project(t.data());
+      if ((t - (x + d)).norm() < 1e-12) best = std::min(best, q(d));
+    }
+    Vec d = a.ldlt().solve(-g);
+    const Vec free_step = d;
+    if (ConfineStep<P>(box, x, a, g, &d)) {
+      ++confined;
+      Vec t = x + d;
+      box.Project(t.data());
+      EXPECT_LT((t - (x + d)).norm(), 1e-14) << "trial " << trial;
+      EXPECT_NEAR(q(d), best, 1e-12 * (1 + std::abs(best))) << "trial " << trial;
+    } else {
+      EXPECT_EQ(d, free_step);
+      EXPECT_NEAR(q(d), best, 1e-12 * (1 + std::abs(best))) << "trial " << trial;
+    }
+  }
+  EXPECT_GT(confined, 1000);  // most trials meet a bound
 }
 
 }  // namespace
