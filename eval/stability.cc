@@ -133,7 +133,8 @@ void ScoreFit(const std::string& method_name, const CaseData& d, StabilityCell* 
     for (const Vec3& l : dome) lights.push_back(LightFromDirection(l));
     err = fit::RelightingError(fit->maps, synth::RenderMicroStack(*d.micro, lights));
   } else {
-    err = fit::RelightingError(fit->maps, d.truth, dome, d.stack.view_direction);
+    err = fit::RelightingError(fit->maps, d.truth, dome, d.stack.view_direction,
+                               a.confidence.recorded_limit);
   }
   std::vector<double> errs, bounds, angles;
   int64_t flagged = 0;

@@ -41,7 +41,9 @@ FitAssessment AssessFit(const LightStack& stack, const FitMethod& method, FitRes
         ++a.confidence.unverifiable;
       }
   }
+  if (a.diagnostics.looks_gamma_encoded || !cover.empty()) a.confidence.saturated = 0;  // no bound
   SumOverBands(stack, &a.confidence.unverifiable, 1);  // the whole stack's count
+  SumOverBands(stack, &a.confidence.saturated, 1);
   if (a.confidence.unverifiable > 0) {
     char why[400];
     std::snprintf(why, sizeof why,

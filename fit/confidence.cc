@@ -132,6 +132,14 @@ Confidence ComputeConfidence(const LightStack& s, const MaterialMaps& maps, Mode
   MATFIT_CHECK(residuals->rss.size() == size_t(T), "ComputeConfidence: residuals of another stack");
   const std::vector<double>&rss = residuals->rss, &level = residuals->level;
   const std::vector<int>&samples = residuals->samples, &used_lights = residuals->used_lights;
+  const std::vector<int>& clipped_lights = residuals->clipped_lights;
+  if (StackMayBeClipped(s)) {
+    // The largest value any light could have recorded, per unit light: 1 / I of the weakest.
+    double limit = 0;
+    for (float v : InverseIntensities(s))
+      if (std::isfinite(v)) limit = std::max(limit, double(v));
+    out.recorded_limit = limit > 0 ? limit : inf;
+  }
   // Pooled noise over texels with residual degrees of freedom.
   double pooled_rss = 0, pooled_dof = 0;
   for (int64_t p = 0; p < T; ++p)
@@ -146,7 +154,7 @@ Confidence ComputeConfidence(const LightStack& s, const MaterialMaps& maps, Mode
   // Per texel, independent: in parallel, the unverifiable texels counted per chunk.
   constexpr int64_t kChunk = 1 << 14;
   const int64_t chunks = (T + kChunk - 1) / kChunk;
-  std::vector<int64_t> unverifiable(size_t(chunks), 0);
+  std::vector<int64_t> unverifiable(size_t(chunks), 0), saturated(size_t(chunks), 0);
   ParallelFor(0, chunks, [&](int64_t c0, int64_t c1) {
     for (int64_t p = c0 * kChunk; p < std::min(T, c1 * kChunk); ++p) {
       if (!ok(p)) continue;
@@ -163,9 +171,11 @@ Confidence ComputeConfidence(const LightStack& s, const MaterialMaps& maps, Mode
       const double extra = (out.extrapolation - 1) * level[p];
       out.bound[p] = float(std::sqrt(
           o.kappa * o.kappa * s2 * out.extrapolation * (1.0 + P / samples[p]) + extra * extra));
+      saturated[size_t(p / kChunk)] += clipped_lights[size_t(p)] > 0;
     }
   });
   for (int64_t u : unverifiable) out.unverifiable += u;
+  for (int64_t u : saturated) out.saturated += u;
   return out;
 }
 

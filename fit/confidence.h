@@ -21,11 +21,17 @@
 // dome down to 10° within max_extrapolation, or lights that all miss the frontal cone (no light
 // within max_frontal_gap_deg of the sample's +z axis, checked once per stack: the appearance
 // under the most common light is never seen, e.g. grazing-only rigs) are kTexelUnverifiable.
-// Samples at the file's maximum code count only when the stack may be clipped (integer files).
+// Samples at the file's maximum code count only when the stack may be clipped (integer files),
+// and then only where the prediction undershoots them (fit/score.h): a clipped sample records
+// that the value reached the clip, not how far above it the appearance went. So on such a stack
+// the bound is on the error within the recorded range — prediction and truth each taken up to
+// the clip level per unit light, Confidence::recorded_limit; above it a saturated texel's
+// appearance (a highlight's peak) is the model's extrapolation, which no sample can check.
 #pragma once
 
 #include <cmath>
 #include <cstdint>
+#include <limits>
 #include <string>
 #include <vector>
 
@@ -60,6 +66,11 @@ struct Confidence {
   Vec3 supported_axis{0, 0, 1};     // of this axis (the lights' mean direction)
   bool frontal_covered = true;      // some light within max_frontal_gap_deg of the normal
   int64_t unverifiable = 0;         // texels newly marked kTexelUnverifiable
+  // The bound covers values up to this (linear radiance per unit light: the clip level over the
+  // weakest light's intensity); +inf when the stack cannot be clipped (float files, no sample at
+  // the maximum code).
+  double recorded_limit = std::numeric_limits<double>::infinity();
+  int64_t saturated = 0;  // texels with a bound and a clipped sample (their peak is extrapolated)
 };
 
 // status: the fit's status plane (may be empty = all ok); texels found unverifiable are marked

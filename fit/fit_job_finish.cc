@@ -88,15 +88,16 @@ Status FinishJob(const FitJobOptions& o, const LightStack& stack, const FitMetho
     auto truth = TruthOfRegion(synth::ReadTruth(truth_dir, o.read.confine_to), stack);
     if (truth.ok() && truth->width == stack.width() && truth->height == stack.full_height()) {
       r.truth = CompareToTruth(fit.maps, *truth, fitted_status);
-      // The bound claims the supported cone: scored there, as the stability matrix does. Only
-      // where relighting the truth maps gives the true appearance (not micro-geometry truth).
+      // The bound claims the supported cone within the recorded range: scored there, as the
+      // stability matrix does. Only where relighting the truth maps gives the true appearance
+      // (not micro-geometry truth).
       const Confidence& c = r.assessment.confidence;
       if (!c.bound.empty() && synth::TruthMapsAreTheAppearance(truth_dir, o.read.confine_to))
         r.bound_ratio_truth = BoundToActualRatio(
             c.bound,
             RelightingError(fit.maps, *truth,
                             DomeDirections(48, c.supported_theta_deg, c.supported_axis),
-                            stack.view_direction),
+                            stack.view_direction, c.recorded_limit),
             fit.status);
     } else
       fit.warnings.push_back(

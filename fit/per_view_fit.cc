@@ -123,7 +123,7 @@ StackScore ScoreFit(const LightStack& s, const std::vector<int>& images, const F
   if (parts.residuals) {
     TexelResiduals& r = out.residuals;
     r.rss.assign(T, 0.0), r.level.assign(T, 0.0), r.samples.assign(T, 0),
-        r.used_lights.assign(T, 0);
+        r.used_lights.assign(T, 0), r.clipped_lights.assign(T, 0);
   }
   ReconstructionSums sums, sums_common;
   int64_t done = 0;
@@ -147,6 +147,7 @@ StackScore ScoreFit(const LightStack& s, const std::vector<int>& images, const F
       for (size_t t = 0; t < T; ++t) {
         r.rss[t] += p.rss[t], r.level[t] += p.level[t] * p.samples[t];
         r.samples[t] += p.samples[t], r.used_lights[t] += p.used_lights[t];
+        r.clipped_lights[t] += p.clipped_lights[t];
       }
     }
   }

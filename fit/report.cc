@@ -125,7 +125,9 @@ std::string MakeReportJson(const FitReportInputs& in) {
         {"supported_theta_deg", c.supported_theta_deg},
         {"supported_axis", {c.supported_axis.x, c.supported_axis.y, c.supported_axis.z}},
         {"bound_median", Finite(median)},
-        {"unverifiable_texels", c.unverifiable}};
+        {"unverifiable_texels", c.unverifiable},
+        {"recorded_limit", Finite(c.recorded_limit)},
+        {"saturated_texels", c.saturated}};
     const auto ratio = [](const std::optional<BoundRatio>& tight) {
       return tight ? json{{"median", Finite(tight->median)},
                           {"p90", Finite(tight->p90)},

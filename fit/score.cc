@@ -42,19 +42,23 @@ struct LightChannels {
 
 // Both scores of one light in one sweep of its samples, eight texels at a time:
 // - residuals (per texel t, over the lights): q = raw / I, r = q − pred for the samples that are
-//   finite and below the clip level with a finite prediction; Σ r² (acc), Σ |q| (sum), the sample
-//   count (k), and the lights with at least one such sample (m). q and r in double, each texel's
-//   sums in light then channel order: the same as one sample at a time. The validity test runs
-//   on the floats (finite raw, pred and 1 / I make q, r finite in double: |q| < 2^256), and an
-//   invalid sample enters as raw = pred = 0, adding +0.
+//   finite and below the clip level with a finite prediction, and for the clipped ones (finite,
+//   at or above the clip level) that the prediction undershoots, float(raw · (1 / I)) > pred: a
+//   clipped sample records only that the value reached the clip, so in the recorded range its
+//   error is max(0, q − pred), counted where it is positive (docs/stability.md); Σ r² (acc),
+//   Σ |q| (sum), the sample count (k), the lights with at least one unclipped such sample (m) and
+//   the lights with a clipped sample (sat). q and r in double, each texel's sums in light then
+//   channel order: the same as one sample at a time. The tests run on the floats (finite raw,
+//   pred and 1 / I make q, r finite in double: |q| < 2^256), and a sample not counted enters as
+//   raw = pred = 0, adding +0.
 // - reconstruction: Σ_t,c [ok_t] (raw − I · pred)², the difference in float (its rounding is
 //   relative to each sample) squared and summed in double in eight-lane chains reduced in a
 //   fixed order, so the sum does not depend on the ISA clone or the thread count. `ok` is 1.0f for
 //   texels to score, 0 elsewhere: a select, so NaN outside scored texels never enters the sum.
-template <int C, bool kResiduals, bool kReconstruction>
+template <int C, bool kResiduals, bool kReconstruction, bool kClipped>
 MATFIT_CLONES_V4 double ScoreLight(const LightChannels& l, float clip_level, const float* ok, int n,
                                    double* __restrict acc, double* __restrict sum,
-                                   int* __restrict k, int* __restrict m) {
+                                   int* __restrict k, int* __restrict m, int* __restrict sat) {
   const float inf = std::numeric_limits<float>::infinity();
   V8d rec = {};
   // 1 / I = ∞ (I = 0) makes every q of the channel non-finite: none is valid, and its scale is 0
@@ -69,11 +73,12 @@ MATFIT_CLONES_V4 double ScoreLight(const LightChannels& l, float clip_level, con
   int t = 0;
   for (; t + 8 <= n; t += 8) {
     V8d a, b;
-    V8i kt, mt, used = {};
+    V8i kt, mt, st = {}, used = {}, clipped = {};
     V8f w;
     if constexpr (kResiduals) {
       std::memcpy(&a, acc + t, sizeof a), std::memcpy(&b, sum + t, sizeof b);
       std::memcpy(&kt, k + t, sizeof kt), std::memcpy(&mt, m + t, sizeof mt);
+      if constexpr (kClipped) std::memcpy(&st, sat + t, sizeof st);
     }
     if constexpr (kReconstruction) std::memcpy(&w, ok + t, sizeof w);
     for (int c = 0; c < C; ++c) {
@@ -81,11 +86,16 @@ MATFIT_CLONES_V4 double ScoreLight(const LightChannels& l, float clip_level, con
       std::memcpy(&rf, l.raw[c] + t, sizeof rf), std::memcpy(&pf, l.pred[c] + t, sizeof pf);
       if constexpr (kResiduals) {
         const V8f ap = pf < 0 ? -pf : pf;
-        const V8i valid = (rf > -inf) & (rf < clip_level) & (ap < inf) & channel_ok[c];  // −1, 0
-        const V8d q = __builtin_convertvector(valid ? rf : V8f{}, V8d) * scale[c];
-        const V8d r = q - __builtin_convertvector(valid ? pf : V8f{}, V8d);
+        const V8i fine = (rf > -inf) & (rf < inf) & (ap < inf) & channel_ok[c];  // −1, 0
+        // A stack that cannot clip (clip level +∞) has no clipped sample: one mask.
+        const V8i valid = kClipped ? fine & (rf < clip_level) : fine;
+        const V8i clip = kClipped ? fine & (rf >= clip_level) : V8i{};
+        const V8i use = kClipped ? valid | (clip & (rf * l.inv[c] > pf)) : valid;
+        const V8d q = __builtin_convertvector(use ? rf : V8f{}, V8d) * scale[c];
+        const V8d r = q - __builtin_convertvector(use ? pf : V8f{}, V8d);
         a += r * r, b += Abs(q);
-        kt -= valid, used |= valid & 1;
+        kt -= use, used |= valid & 1;
+        if constexpr (kClipped) clipped |= clip & 1;
       }
       if constexpr (kReconstruction) {
         const V8f d = w != 0 ? rf - l.intensity[c] * pf : V8f{};
@@ -95,28 +105,32 @@ MATFIT_CLONES_V4 double ScoreLight(const LightChannels& l, float clip_level, con
     }
     if constexpr (kResiduals) {
       mt += used;
+      if constexpr (kClipped) st += clipped;
       std::memcpy(acc + t, &a, sizeof a), std::memcpy(sum + t, &b, sizeof b);
       std::memcpy(k + t, &kt, sizeof kt), std::memcpy(m + t, &mt, sizeof mt);
+      if constexpr (kClipped) std::memcpy(sat + t, &st, sizeof st);
     }
   }
   double tail = 0;
   for (; t < n; ++t) {
-    int used = 0;
+    int used = 0, clipped = 0;
     for (int c = 0; c < C; ++c) {
       const float raw = l.raw[c][t], pred = l.pred[c][t];
       if constexpr (kResiduals) {
-        const bool valid = raw > -inf && raw < clip_level && std::abs(pred) < inf && finite[c];
-        const double q = double(valid ? raw : 0.0f) * scale[c];
-        const double r = q - double(valid ? pred : 0.0f);
+        const bool fine = raw > -inf && raw < inf && std::abs(pred) < inf && finite[c];
+        const bool valid = fine && raw < clip_level, clip = fine && raw >= clip_level;
+        const bool use = valid || (clip && raw * l.inv[c] > pred);
+        const double q = double(use ? raw : 0.0f) * scale[c];
+        const double r = q - double(use ? pred : 0.0f);
         acc[t] += r * r, sum[t] += std::abs(q);
-        k[t] += valid, used |= valid;
+        k[t] += use, used |= valid, clipped |= clip;
       }
       if constexpr (kReconstruction) {
         const double d = ok[t] != 0 ? double(raw - l.intensity[c] * pred) : 0.0;
         tail += d * d;
       }
     }
-    if constexpr (kResiduals) m[t] += used;
+    if constexpr (kResiduals) m[t] += used, sat[t] += clipped;
   }
   const double r4[4] = {rec[0] + rec[4], rec[1] + rec[5], rec[2] + rec[6], rec[3] + rec[7]};
   return ((r4[0] + r4[2]) + (r4[1] + r4[3])) + tail;
@@ -126,11 +140,15 @@ MATFIT_CLONES_V4 double ScoreLight(const LightChannels& l, float clip_level, con
 template <int C>
 double ScoreLightParts(bool residuals, bool reconstruction, const LightChannels& l,
                        float clip_level, const float* ok, int n, double* acc, double* sum, int* k,
-                       int* m) {
+                       int* m, int* sat) {
+  const bool clipped = clip_level < std::numeric_limits<float>::infinity();
   if (residuals && reconstruction)
-    return ScoreLight<C, true, true>(l, clip_level, ok, n, acc, sum, k, m);
-  if (residuals) return ScoreLight<C, true, false>(l, clip_level, ok, n, acc, sum, k, m);
-  return ScoreLight<C, false, true>(l, clip_level, ok, n, acc, sum, k, m);
+    return clipped ? ScoreLight<C, true, true, true>(l, clip_level, ok, n, acc, sum, k, m, sat)
+                   : ScoreLight<C, true, true, false>(l, clip_level, ok, n, acc, sum, k, m, sat);
+  if (residuals)
+    return clipped ? ScoreLight<C, true, false, true>(l, clip_level, ok, n, acc, sum, k, m, sat)
+                   : ScoreLight<C, true, false, false>(l, clip_level, ok, n, acc, sum, k, m, sat);
+  return ScoreLight<C, false, true, false>(l, clip_level, ok, n, acc, sum, k, m, sat);
 }
 
 // The 8-bit sRGB code of every stored code of an integer stack: LinearToSrgb8Batch of its
@@ -241,6 +259,7 @@ StackScore ScoreStack(const LightStack& s, const std::vector<int>& images, const
   if (residuals) {
     res.rss.assign(size_t(T), 0.0), res.level.assign(size_t(T), 0.0);
     res.samples.assign(size_t(T), 0), res.used_lights.assign(size_t(T), 0);
+    res.clipped_lights.assign(size_t(T), 0);
   }
   std::vector<Vec3f> dirs, views;  // each image's own view (multi-view stacks)
   for (int i : images) dirs.emplace_back(s.lights()[size_t(i)].direction);
@@ -269,7 +288,7 @@ StackScore ScoreStack(const LightStack& s, const std::vector<int>& images, const
         std::vector<float> pred(size_t(eval.group()) * 3 * kEvalRun),
             scratch(size_t(kMaxChannels) * kEvalRun);
         std::vector<double> acc(kEvalRun), sum(kEvalRun);
-        std::vector<int> k(kEvalRun), m(kEvalRun);
+        std::vector<int> k(kEvalRun), m(kEvalRun), sat(kEvalRun);
         std::unique_ptr<NearRun> near_run(near ? new NearRun : nullptr);
         std::unique_ptr<NearLightEvaluator> near_eval(
             near ? new NearLightEvaluator(maps, Vec3f(s.view_direction)) : nullptr);
@@ -287,6 +306,7 @@ StackScore ScoreStack(const LightStack& s, const std::vector<int>& images, const
           if (residuals) {
             std::fill_n(acc.begin(), len, 0.0), std::fill_n(sum.begin(), len, 0.0);
             std::fill_n(k.begin(), len, 0), std::fill_n(m.begin(), len, 0);
+            std::fill_n(sat.begin(), len, 0);
           }
           if (near) near_run->Set(s, p0, len);
           for (int j = 0; j < n; ++j) {
@@ -307,18 +327,19 @@ StackScore ScoreStack(const LightStack& s, const std::vector<int>& images, const
             }
             const double d2 =
                 C == 1 ? ScoreLightParts<1>(residuals, reconstruction, l, clip_level, ok, len,
-                                            acc.data(), sum.data(), k.data(), m.data())
+                                            acc.data(), sum.data(), k.data(), m.data(), sat.data())
                        : ScoreLightParts<3>(residuals, reconstruction, l, clip_level, ok, len,
-                                            acc.data(), sum.data(), k.data(), m.data());
+                                            acc.data(), sum.data(), k.data(), m.data(), sat.data());
             const size_t at = size_t(r * n + j);
             if (reconstruction) run_sum[at] = d2, run_count[at] = int64_t(ok_count) * C;
             if (common) {
               // The reconstruction part alone with the common weights: the pass a common status
               // would make.
-              run_sum_c[at] = C == 1 ? ScoreLightParts<1>(false, true, l, clip_level, ok_common,
-                                                          len, nullptr, nullptr, nullptr, nullptr)
-                                     : ScoreLightParts<3>(false, true, l, clip_level, ok_common,
-                                                          len, nullptr, nullptr, nullptr, nullptr);
+              run_sum_c[at] = C == 1
+                                  ? ScoreLightParts<1>(false, true, l, clip_level, ok_common, len,
+                                                       nullptr, nullptr, nullptr, nullptr, nullptr)
+                                  : ScoreLightParts<3>(false, true, l, clip_level, ok_common, len,
+                                                       nullptr, nullptr, nullptr, nullptr, nullptr);
               run_count_c[at] = int64_t(common_count) * C;
             }
             if (srgb8)
@@ -329,7 +350,7 @@ StackScore ScoreStack(const LightStack& s, const std::vector<int>& images, const
             if (ok[t] == 0) continue;
             const size_t p = size_t(p0 + t);
             res.rss[p] = acc[size_t(t)], res.samples[p] = k[size_t(t)];
-            res.used_lights[p] = m[size_t(t)];
+            res.used_lights[p] = m[size_t(t)], res.clipped_lights[p] = sat[size_t(t)];
             res.level[p] = k[size_t(t)] ? sum[size_t(t)] / k[size_t(t)] : 0;
           }
         }

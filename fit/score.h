@@ -14,12 +14,15 @@
 
 namespace matfit::fit {
 
-// Per texel x over the lights: Σ r² of q = raw / I − pred over finite unclipped samples (rss),
-// the mean |q| (level), the sample count n_x and the lights with at least one such sample m_x.
-// Zero for texels whose status is not ok.
+// Per texel x over the lights: Σ r² of r = q − pred, q = raw / I, over finite unclipped samples
+// and over the clipped samples (at the file's maximum code) that the prediction undershoots — in
+// the range the camera recorded, a clipped sample's error is max(0, q − pred) — (rss), the mean
+// |q| of those samples (level), their count n_x, the lights with at least one finite unclipped
+// sample m_x, and the lights with a clipped sample (clipped_lights: the texel's appearance
+// reached the clip level there). Zero for texels whose status is not ok.
 struct TexelResiduals {
   std::vector<double> rss, level;
-  std::vector<int> samples, used_lights;
+  std::vector<int> samples, used_lights, clipped_lights;
 };
 
 struct StackScore {

@@ -246,44 +246,75 @@ TEST(BatchedMetrics, CommonSetFromTheSamePassEqualsItsOwnPass) {
 }
 
 // The residual sums of the error bound against their definition, sample by sample: q = raw / I,
-// r = q − pred over samples that are finite, below the clip level, with a finite q and r. The
-// stack holds NaN and ±∞ samples and a light of zero intensity (1 / I = ∞: none of its samples
-// count), on 1 and 3 channels.
+// r = q − pred over samples that are finite, below the clip level, with a finite q and r, and
+// over the clipped ones (finite, at or above the clip level, which counts when the stack may be
+// clipped) whose prediction is below q: in the recorded range their error is q − pred, else 0
+// and they are left out. The stack holds NaN and ±∞ samples and a light of zero intensity
+// (1 / I = ∞: none of its samples count), on 1 and 3 channels; the clipped variant saturates
+// samples of a light of unit-ish intensity (predictions below q) and of a bright one (I = 4,
+// q = 0.25: predictions mostly above).
 TEST(BatchedMetrics, ResidualSumsEqualTheLiteralDefinition) {
-  for (int channels : {1, 3}) {
-    const MaterialMaps m = testing::RandomModelMaps(ModelId("lambert"), 29, 23, 6, channels == 1);
-    LightStack s = NoisyStack(m, channels, 5);
-    s.lights()[3].intensity = Vec3(0, 0, 0);
-    const float nan = std::numeric_limits<float>::quiet_NaN(),
-                inf = std::numeric_limits<float>::infinity();
-    s.Plane(1, 0)[7] = nan, s.Plane(2, 0)[8] = inf, s.Plane(4, channels - 1)[9] = -inf;
-    const StackScore score = ScoreStack(s, m, {}, {}, {.reconstruction = false, .residuals = true});
-    const std::vector<float> inv = InverseIntensities(s);
-    const float clip = StackMayBeClipped(s) ? kClipLevel : inf;
-    int64_t counted = 0;
-    for (int64_t p = 0; p < s.plane_size(); ++p) {
-      double rss = 0;
-      int samples = 0, used = 0;
-      for (int i = 0; i < s.num_images(); ++i) {
-        bool any = false;
-        for (int c = 0; c < channels; ++c) {
-          const float raw = s.Plane(i, c)[p];
-          const double q = double(raw) * double(inv[size_t(i) * channels + c]);
-          const double r = q - EvaluateTexel(m, p, c, Vec3f(s.lights()[size_t(i)].direction),
-                                             Vec3f(s.view_direction));
-          if (!(std::isfinite(raw) && raw < clip && std::isfinite(r))) continue;
-          rss += r * r, ++samples, any = true;
-        }
-        used += any;
+  for (bool clipped : {false, true})
+    for (int channels : {1, 3}) {
+      const std::string what = std::string(clipped ? "clipped, " : "") + std::to_string(channels);
+      const MaterialMaps m = testing::RandomModelMaps(ModelId("lambert"), 29, 23, 6, channels == 1);
+      LightStack s = NoisyStack(m, channels, 5);
+      s.lights()[3].intensity = Vec3(0, 0, 0);
+      const float nan = std::numeric_limits<float>::quiet_NaN(),
+                  inf = std::numeric_limits<float>::infinity();
+      s.Plane(1, 0)[7] = nan, s.Plane(2, 0)[8] = inf, s.Plane(4, channels - 1)[9] = -inf;
+      if (clipped) {
+        s.lights()[8].intensity = Vec3(4, 4, 4);
+        s.saturated_pixels.assign(size_t(s.num_images()), 0);
+        for (int i : {6, 8})
+          for (int64_t p = 0; p < s.plane_size(); p += 3) {
+            for (int c = 0; c < channels; ++c) s.Plane(i, c)[p] = 1.0f;
+            ++s.saturated_pixels[size_t(i)];
+          }
       }
-      EXPECT_EQ(score.residuals.samples[size_t(p)], samples) << "texel " << p;
-      EXPECT_EQ(score.residuals.used_lights[size_t(p)], used) << "texel " << p;
-      EXPECT_NEAR(score.residuals.rss[size_t(p)], rss, 1e-5 * rss + 1e-9) << "texel " << p;
-      counted += samples;
+      ASSERT_EQ(StackMayBeClipped(s), clipped);
+      const StackScore score =
+          ScoreStack(s, m, {}, {}, {.reconstruction = false, .residuals = true});
+      const std::vector<float> inv = InverseIntensities(s);
+      const float clip = StackMayBeClipped(s) ? kClipLevel : inf;
+      int64_t counted = 0, under = 0, over = 0;
+      for (int64_t p = 0; p < s.plane_size(); ++p) {
+        double rss = 0;
+        int samples = 0, used = 0, saturated = 0;
+        for (int i = 0; i < s.num_images(); ++i) {
+          bool any = false, sat = false;
+          for (int c = 0; c < channels; ++c) {
+            const float raw = s.Plane(i, c)[p];
+            const double q = double(raw) * double(inv[size_t(i) * channels + c]);
+            const double r = q - EvaluateTexel(m, p, c, Vec3f(s.lights()[size_t(i)].direction),
+                                               Vec3f(s.view_direction));
+            if (!(std::isfinite(raw) && std::isfinite(r))) continue;
+            if (raw >= clip) {
+              sat = true;
+              (r > 0 ? under : over)++;
+              if (r <= 0) continue;
+            } else {
+              any = true;
+            }
+            rss += r * r, ++samples;
+          }
+          used += any, saturated += sat;
+        }
+        EXPECT_EQ(score.residuals.samples[size_t(p)], samples) << what << ", texel " << p;
+        EXPECT_EQ(score.residuals.used_lights[size_t(p)], used) << what << ", texel " << p;
+        EXPECT_EQ(score.residuals.clipped_lights[size_t(p)], saturated) << what << ", texel " << p;
+        EXPECT_NEAR(score.residuals.rss[size_t(p)], rss, 1e-5 * rss + 1e-9)
+            << what << ", texel " << p;
+        counted += samples;
+      }
+      if (!clipped) {
+        // The zero-intensity light and the three non-finite samples are out, the rest in.
+        EXPECT_EQ(counted, s.plane_size() * channels * (s.num_images() - 1) - 3) << what;
+      } else {  // both kinds of clipped sample occur
+        EXPECT_GT(under, 100) << what;
+        EXPECT_GT(over, 100) << what;
+      }
     }
-    // The zero-intensity light and the three non-finite samples are out, the rest in.
-    EXPECT_EQ(counted, s.plane_size() * channels * (s.num_images() - 1) - 3) << channels;
-  }
 }
 
 }  // namespace
