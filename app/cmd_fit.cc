@@ -184,11 +184,18 @@ int RunFit(FitArgs& a) {
           "%.2f %%)\n",
           ratio->median, what, (long long)ratio->texels, ratio->p90,
           100 * ratio->exceeded_fraction);
-  if (const fit::Confidence& c = r->assessment.confidence; c.saturated > 0)
+  if (const fit::Confidence& c = r->assessment.confidence; c.saturated > 0) {
+    const Vec3& l = c.recorded_limit;
+    char limit[96];
+    if (l.x == l.y && l.y == l.z)
+      std::snprintf(limit, sizeof limit, "%.4g", l.x);
+    else
+      std::snprintf(limit, sizeof limit, "%.4g, %.4g, %.4g (r, g, b)", l.x, l.y, l.z);
     std::printf(
-        "bound       within the recorded range (up to %.4g per unit light, the clip level): "
+        "bound       within the recorded range (up to %s per unit light, the clip level): "
         "%lld texels saturated, their appearance above it is the model's extrapolation\n",
-        c.recorded_limit, (long long)c.saturated);
+        limit, (long long)c.saturated);
+  }
   if (r->truth && r->truth->has_normal)
     std::printf("vs truth    normal MAE %.3f°, p95 %.3f°\n", r->truth->normal_mae_deg,
                 r->truth->normal_p95_deg);

@@ -66,6 +66,8 @@ StatusOr<CaseData> MakeCase(const std::string& name, int size) {
     material = "plastic", p.clip = 0.9;
   else if (name == "clip-0.8")
     material = "plastic", p.clip = 0.8;
+  else if (name == "clipped-highlights")
+    material = "lacquer", p.clip = 1.0;
   else if (name == "gamma-8bit") {
   } else if (name == "misregister-0.5px")
     material = "granite", p.misregister_px = 0.5;
@@ -107,6 +109,14 @@ StatusOr<CaseData> MakeCase(const std::string& name, int size) {
   const int64_t n = int64_t(d.stack.num_images()) * d.stack.channels() * d.stack.plane_size();
   if (name == "gamma-8bit")  // 8-bit sRGB files read as linear: the classic gamma mistake
     for (int64_t i = 0; i < n; ++i) v[i] = LinearToSrgb8(std::clamp(v[i], 0.0f, 1.0f)) / 255.0f;
+  if (name == "clipped-highlights") {
+    // As an integer file records them: the saturated samples at the maximum code, which the
+    // reader counts per image (LightStack::saturated_pixels), so the fits know they clipped.
+    d.stack.saturated_pixels.assign(size_t(d.stack.num_images()), 0);
+    for (int i = 0; i < d.stack.num_images(); ++i)
+      for (int c = 0; c < d.stack.channels(); ++c)
+        for (const float x : d.stack.Plane(i, c)) d.stack.saturated_pixels[size_t(i)] += x >= 1.0f;
+  }
   if (name == "nan-pixels")  // 1 % of the samples lost (dead pixels, failed decode)
     for (int64_t i = 0; i < n; ++i)
       if (synth::HashUniform(11, uint64_t(i)) < 0.01) v[i] = NAN;
@@ -230,6 +240,10 @@ const std::vector<StabilityCase>& StabilityCases() {
       {"highlights", "glossy plastic (Blinn–Phong e 40)", false},
       {"clip-0.9", "plastic clipped at 0.9 of full scale", true},
       {"clip-0.8", "plastic clipped at 0.8", true},
+      {"clipped-highlights",
+       "lacquer (GGX, roughness 0.2–0.5) whose peaks saturate, marked as an integer file's "
+       "maximum code: the bound covers the recorded range",
+       true},
       {"gamma-8bit", "8-bit sRGB values read as linear (the gamma mistake)", true},
       {"misregister-0.5px", "granite, images shifted by up to 0.5 px", false},
       {"misregister-1px", "granite, shifted by up to 1 px", false},

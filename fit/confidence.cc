@@ -129,16 +129,22 @@ Confidence ComputeConfidence(const LightStack& s, const MaterialMaps& maps, Mode
               .residuals;
     residuals = &own;
   }
-  MATFIT_CHECK(residuals->rss.size() == size_t(T), "ComputeConfidence: residuals of another stack");
+  MATFIT_CHECK(residuals->rss.size() == size_t(T) && residuals->clipped_lights.size() == size_t(T),
+               "ComputeConfidence: residuals of another stack");
   const std::vector<double>&rss = residuals->rss, &level = residuals->level;
   const std::vector<int>&samples = residuals->samples, &used_lights = residuals->used_lights;
   const std::vector<int>& clipped_lights = residuals->clipped_lights;
   if (StackMayBeClipped(s)) {
-    // The largest value any light could have recorded, per unit light: 1 / I of the weakest.
-    double limit = 0;
-    for (float v : InverseIntensities(s))
-      if (std::isfinite(v)) limit = std::max(limit, double(v));
-    out.recorded_limit = limit > 0 ? limit : inf;
+    // Per channel, the largest value any light could have recorded, per unit light: the maximum
+    // code (1) over the weakest light's intensity, 1 / I. Grey stacks: one channel for all three.
+    const std::vector<float> inv = InverseIntensities(s);
+    double limit[3] = {0, 0, 0};
+    for (int i = 0; i < n; ++i)
+      for (int c = 0; c < 3; ++c)
+        if (const float v = inv[size_t(i) * C + (C == 1 ? 0 : c)]; std::isfinite(v))
+          limit[c] = std::max(limit[c], double(v));
+    auto or_inf = [&](double v) { return v > 0 ? v : inf; };
+    out.recorded_limit = Vec3(or_inf(limit[0]), or_inf(limit[1]), or_inf(limit[2]));
   }
   // Pooled noise over texels with residual degrees of freedom.
   double pooled_rss = 0, pooled_dof = 0;

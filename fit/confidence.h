@@ -25,7 +25,9 @@
 // and then only where the prediction undershoots them (fit/score.h): a clipped sample records
 // that the value reached the clip, not how far above it the appearance went. So on such a stack
 // the bound is on the error within the recorded range — prediction and truth each taken up to
-// the clip level per unit light, Confidence::recorded_limit; above it a saturated texel's
+// the clip level per unit light and channel, Confidence::recorded_limit (a light brighter than
+// the weakest recorded less than that in its own direction: the check is conservative there);
+// above it a saturated texel's
 // appearance (a highlight's peak) is the model's extrapolation, which no sample can check.
 #pragma once
 
@@ -66,10 +68,10 @@ struct Confidence {
   Vec3 supported_axis{0, 0, 1};     // of this axis (the lights' mean direction)
   bool frontal_covered = true;      // some light within max_frontal_gap_deg of the normal
   int64_t unverifiable = 0;         // texels newly marked kTexelUnverifiable
-  // The bound covers values up to this (linear radiance per unit light: the clip level over the
-  // weakest light's intensity); +inf when the stack cannot be clipped (float files, no sample at
-  // the maximum code).
-  double recorded_limit = std::numeric_limits<double>::infinity();
+  // Per channel (r, g, b), the bound covers values up to this (linear radiance per unit light:
+  // the maximum code over the weakest light's intensity in that channel); +inf when the stack
+  // cannot be clipped (float files, no sample at the maximum code).
+  Vec3 recorded_limit = Vec3(1, 1, 1) * std::numeric_limits<double>::infinity();
   int64_t saturated = 0;  // texels with a bound and a clipped sample (their peak is extrapolated)
 };
 

@@ -65,20 +65,22 @@ std::vector<float> PerTexelRms(int64_t T, int lights, int channels, const Add& a
 
 std::vector<float> RelightingError(const MaterialMaps& f, const MaterialMaps& t,
                                    const std::vector<Vec3>& lights, const Vec3& view,
-                                   double recorded_limit) {
+                                   const Vec3& recorded_limit) {
   std::vector<Vec3f> dirs(lights.begin(), lights.end());
   const BatchEvaluator fe(f, dirs, Vec3f(view)), te(t, dirs, Vec3f(view));
-  const bool limited = std::isfinite(recorded_limit);
-  const float limit = float(recorded_limit);
+  const bool limited = std::min({recorded_limit.x, recorded_limit.y, recorded_limit.z}) < INFINITY;
+  const float limit[3] = {float(recorded_limit.x), float(recorded_limit.y),
+                          float(recorded_limit.z)};
   return PerTexelRms(
       int64_t(t.width) * t.height, int(dirs.size()), 3,
       [&](int i, int64_t p0, int n, float* scratch, double* acc) {
         float *a = scratch, *b = scratch + size_t(3) * kEvalRun;
         fe.Evaluate(i, p0, n, 3, a);
         te.Evaluate(i, p0, n, 3, b);
-        if (limited)  // std::min keeps a NaN first argument
-          for (int k = 0; k < 3 * n; ++k)
-            a[k] = std::min(a[k], limit), b[k] = std::min(b[k], limit);
+        if (limited)  // channel-major (c · n + k); std::min keeps a NaN first argument
+          for (int c = 0; c < 3; ++c)
+            for (int k = c * n; k < (c + 1) * n; ++k)
+              a[k] = std::min(a[k], limit[c]), b[k] = std::min(b[k], limit[c]);
         for (int c = 0; c < 3; ++c)
           for (int k = 0; k < n; ++k) {
             const double d = double(a[size_t(c * n + k)]) - double(b[size_t(c * n + k)]);

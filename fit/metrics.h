@@ -80,12 +80,12 @@ struct TruthMetrics {
 
 // Per texel: RMS over `lights` (unit directions) and channels of the fitted maps' forward
 // evaluation minus the truth's (local shading, no cast shadows): the relighting error a
-// renderer would show, in linear radiance per unit light. NaN outside the truth mask. With a
-// finite `recorded_limit` both are taken up to it, min(v, limit): the error within a camera's
-// recorded range (fit/confidence.h Confidence::recorded_limit).
+// renderer would show, in linear radiance per unit light. NaN outside the truth mask. Both are
+// taken up to `recorded_limit` per channel (r, g, b), min(v, limit): the error within a camera's
+// recorded range (fit/confidence.h Confidence::recorded_limit); +inf: unlimited.
 std::vector<float> RelightingError(const MaterialMaps& fitted, const MaterialMaps& truth,
                                    const std::vector<Vec3>& lights, const Vec3& view,
-                                   double recorded_limit = INFINITY);
+                                   const Vec3& recorded_limit = Vec3(INFINITY, INFINITY, INFINITY));
 // The same against truth images instead of truth maps (a material whose appearance is no model's,
 // e.g. synth::RenderMicroStack over the directions): per texel, RMS over the stack's lights and
 // channels of the fitted evaluation minus sample / intensity. NaN outside the stack's mask.

@@ -126,7 +126,9 @@ std::string MakeReportJson(const FitReportInputs& in) {
         {"supported_axis", {c.supported_axis.x, c.supported_axis.y, c.supported_axis.z}},
         {"bound_median", Finite(median)},
         {"unverifiable_texels", c.unverifiable},
-        {"recorded_limit", Finite(c.recorded_limit)},
+        {"recorded_limit", IsFinite(c.recorded_limit)
+                               ? json{c.recorded_limit.x, c.recorded_limit.y, c.recorded_limit.z}
+                               : json()},
         {"saturated_texels", c.saturated}};
     const auto ratio = [](const std::optional<BoundRatio>& tight) {
       return tight ? json{{"median", Finite(tight->median)},

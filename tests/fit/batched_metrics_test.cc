@@ -273,13 +273,20 @@ TEST(BatchedMetrics, ResidualSumsEqualTheLiteralDefinition) {
           }
       }
       ASSERT_EQ(StackMayBeClipped(s), clipped);
+      // Alone and fused with the reconstruction (the pass `matfit fit` makes): the same sums.
       const StackScore score =
           ScoreStack(s, m, {}, {}, {.reconstruction = false, .residuals = true});
+      const StackScore fused =
+          ScoreStack(s, m, {}, {}, {.reconstruction = true, .residuals = true});
+      EXPECT_EQ(fused.residuals.rss, score.residuals.rss) << what;
+      EXPECT_EQ(fused.residuals.level, score.residuals.level) << what;
+      EXPECT_EQ(fused.residuals.samples, score.residuals.samples) << what;
+      EXPECT_EQ(fused.residuals.clipped_lights, score.residuals.clipped_lights) << what;
       const std::vector<float> inv = InverseIntensities(s);
       const float clip = StackMayBeClipped(s) ? kClipLevel : inf;
       int64_t counted = 0, under = 0, over = 0;
       for (int64_t p = 0; p < s.plane_size(); ++p) {
-        double rss = 0;
+        double rss = 0, level = 0;
         int samples = 0, used = 0, saturated = 0;
         for (int i = 0; i < s.num_images(); ++i) {
           bool any = false, sat = false;
@@ -296,7 +303,7 @@ TEST(BatchedMetrics, ResidualSumsEqualTheLiteralDefinition) {
             } else {
               any = true;
             }
-            rss += r * r, ++samples;
+            rss += r * r, level += std::abs(q), ++samples;
           }
           used += any, saturated += sat;
         }
@@ -305,6 +312,10 @@ TEST(BatchedMetrics, ResidualSumsEqualTheLiteralDefinition) {
         EXPECT_EQ(score.residuals.clipped_lights[size_t(p)], saturated) << what << ", texel " << p;
         EXPECT_NEAR(score.residuals.rss[size_t(p)], rss, 1e-5 * rss + 1e-9)
             << what << ", texel " << p;
+        if (samples > 0) {
+          EXPECT_NEAR(score.residuals.level[size_t(p)], level / samples, 1e-6)
+              << what << ", texel " << p;
+        }
         counted += samples;
       }
       if (!clipped) {

@@ -218,14 +218,14 @@ TEST(FitJob, OnClippedHighlightsTheBoundHoldsWithinTheRecordedRange) {
     auto r = RunFitJob(o);
     ASSERT_TRUE(r.ok()) << model << ": " << r.status().ToString();
     const Confidence& c = r->assessment.confidence;
-    EXPECT_EQ(c.recorded_limit, 1.0) << model;  // unit intensities: the clip level, 1
-    EXPECT_GT(c.saturated, 1000) << model;      // of 3072 texels
+    EXPECT_EQ(c.recorded_limit, Vec3(1, 1, 1)) << model;  // unit intensities: the clip level
+    EXPECT_GT(c.saturated, 1000) << model;                // of 3072 texels
     ASSERT_TRUE(r->bound_ratio_truth) << model;
     EXPECT_GT(r->bound_ratio_truth->texels, 3000) << model;
     EXPECT_EQ(r->bound_ratio_truth->exceeded_fraction, 0.0) << model;
     const auto report = ReadJson(tmp / (model + "/report.json"));
     EXPECT_EQ(report["confidence"]["saturated_texels"].get<int64_t>(), c.saturated) << model;
-    EXPECT_EQ(report["confidence"]["recorded_limit"].get<double>(), 1.0) << model;
+    EXPECT_EQ(report["confidence"]["recorded_limit"], nlohmann::json({1.0, 1.0, 1.0})) << model;
     // The error above the clip level is not what the bound covers: unclamped it exceeds the
     // bound, and only on saturated texels' peaks.
     const std::vector<float> hdr = RelightingError(
