@@ -125,26 +125,36 @@ TEST(BatchedMetrics, ReconstructionOfAnImageSubsetEqualsThatOfACopy) {
   EXPECT_EQ(got.deviation_percent_by_theta, want.deviation_percent_by_theta);
 }
 
+// Unlimited, and within a recorded range whose limit differs per channel (both sides taken up to
+// it: min(v, limit_c)).
 TEST(BatchedMetrics, RelightingErrorEqualsTheLiteralRms) {
   const MaterialMaps f = testing::RandomModelMaps(ModelId("cook-torrance"), 40, 30, 1);
   MaterialMaps t = testing::RandomModelMaps(ModelId("blinn-phong"), 40, 30, 2);
   for (int64_t p = 0; p < 40; ++p) t.mask.data()[size_t(p)] = 0;  // first row outside
   const std::vector<Vec3> lights = {Vec3(0, 0, 1), Normalize(Vec3(0.4, 0.3, 0.8)),
                                     Normalize(Vec3(-0.7, 0.1, 0.3))};
-  const auto err = RelightingError(f, t, lights, Vec3(0, 0, 1));
-  for (int64_t p = 0; p < 40 * 30; ++p) {
-    if (p < 40) {
-      EXPECT_TRUE(std::isnan(err[size_t(p)]));
-      continue;
-    }
-    double acc = 0;
-    for (const Vec3& l : lights)
-      for (int c = 0; c < 3; ++c) {
-        const double d = EvaluateTexel(f, p, c, Vec3f(l), Vec3f(0, 0, 1)) -
-                         EvaluateTexel(t, p, c, Vec3f(l), Vec3f(0, 0, 1));
-        acc += d * d;
+  const double inf = std::numeric_limits<double>::infinity();
+  for (const Vec3& limit : {Vec3(inf, inf, inf), Vec3(0.2, inf, 0.35)}) {
+    const auto err = RelightingError(f, t, lights, Vec3(0, 0, 1), limit);
+    int64_t limited = 0;
+    for (int64_t p = 0; p < 40 * 30; ++p) {
+      if (p < 40) {
+        EXPECT_TRUE(std::isnan(err[size_t(p)]));
+        continue;
       }
-    EXPECT_NEAR(err[size_t(p)], std::sqrt(acc / 9), 1e-5);
+      double acc = 0;
+      for (const Vec3& l : lights)
+        for (int c = 0; c < 3; ++c) {
+          const double a = EvaluateTexel(f, p, c, Vec3f(l), Vec3f(0, 0, 1)),
+                       b = EvaluateTexel(t, p, c, Vec3f(l), Vec3f(0, 0, 1));
+          const double d = std::min(a, limit[c]) - std::min(b, limit[c]);
+          acc += d * d, limited += a > limit[c] || b > limit[c];
+        }
+      EXPECT_NEAR(err[size_t(p)], std::sqrt(acc / 9), 1e-5);
+    }
+    if (std::isfinite(limit.x)) {
+      EXPECT_GT(limited, 500);  // the limit is met
+    }
   }
 }
 
@@ -324,6 +334,17 @@ TEST(BatchedMetrics, ResidualSumsEqualTheLiteralDefinition) {
       } else {  // both kinds of clipped sample occur
         EXPECT_GT(under, 100) << what;
         EXPECT_GT(over, 100) << what;
+        // The recorded range per channel: 1 / I of the weakest light in that channel (light 0's
+        // I = 0.9, 1, 1.1 — every light's but light 8's 4 and light 3's 0); a grey stack's one
+        // channel for all three.
+        const Confidence conf = ComputeConfidence(s, m, {5, 1, 3}, nullptr);
+        const auto lim = [&](int c) { return double(inv[size_t(channels == 3 ? c : 0)]); };
+        const Vec3 want(lim(0), lim(1), lim(2));
+        if (channels == 3) {
+          EXPECT_GT(want.x, want.z) << what;
+        }
+        EXPECT_EQ(conf.recorded_limit, want) << what;
+        EXPECT_GT(conf.saturated, 0) << what;
       }
     }
 }
